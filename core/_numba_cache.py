@@ -1,0 +1,46 @@
+"""Keep numba's on-disk cache apart for each package name the core is imported under.
+
+The same files load as ``core`` (tests/core, benchmarks), ``photon_map.core`` (tests/blender,
+the CLI) and ``bl_ext.user_default.photon_map.core`` (installed in Blender). numba's default
+in-tree cache is keyed by file, not by module name, and a cached kernel re-imports the
+module it was compiled in by name, so a cache written under one name breaks loading
+under another ("No module named 'photon_map'"). This locator puts each package's cache
+in ``core/__pycache__/numba_<package>/``.
+
+Import this module before any ``@njit(cache=True)`` in the core is decorated
+(``core/__init__.py`` does; every kernel module also imports it, which is harmless).
+"""
+
+from __future__ import annotations
+
+import os
+
+from numba.core import caching
+
+_CORE_DIR = os.path.dirname(os.path.abspath(__file__))
+
+
+class PackageCacheLocator(caching.InTreeCacheLocator):
+    """In-tree cache under ``__pycache__/numba_<package>`` for functions defined in core/."""
+
+    def __init__(self, py_func, py_file):
+        super().__init__(py_func, py_file)
+        package = (py_func.__module__ or "unknown").rpartition(".")[0] or "top"
+        self._cache_path = os.path.join(os.path.dirname(py_file), "__pycache__",
+                                        "numba_" + package.replace(".", "_"))
+
+    @classmethod
+    def from_function(cls, py_func, py_file):
+        if os.path.dirname(os.path.abspath(py_file)) != _CORE_DIR:
+            return None
+        return super().from_function(py_func, py_file)
+
+
+def install() -> None:
+    """Put the locator first in numba's list (idempotent)."""
+    classes = caching.CacheImpl._locator_classes
+    if PackageCacheLocator not in classes:
+        classes.insert(0, PackageCacheLocator)
+
+
+install()

@@ -1,0 +1,520 @@
+"""The camera pass: what the camera sees directly and through mirrors and glass.
+
+Wavefront: a tile of pixels x samples becomes one batch of camera rays; each bounce
+intersects the whole batch in Embree, shades it in numba kernels (emission, one shadow ray
+per light per light sample), and spawns at most one specular ray per path.
+
+Passes (each (H, W, 3) float32, radiance W/(m^2 sr), row 0 at the top):
+- emission: emitters seen by camera rays (emissive triangles, visible lights);
+- environment: the world background seen by camera rays;
+- direct: light reflected towards the camera at the first hit (shadow rays);
+- specular: everything seen after at least one mirror/glass bounce (emission, lights,
+  background and direct light at the surface reached);
+- combined: their sum (summed in float64 from the float32 passes, then cast), so
+  combined == sum of the other passes exactly. "caustics" and "indirect" come later.
+
+Specular rays: one delta lobe is picked per hit (``bsdf.sample_delta``: mirror vs glass by
+tint, reflection vs refraction with probability clamp(F, 1/8, 7/8) like Cycles' camera
+paths) and the path weight is lobe / probability, so paths never split.
+
+Sampling: pixel jitter, light samples and lobe choices are stratified over each pixel's
+samples (``sampling.stratified2``, scrambled Sobol). Determinism: every random number is a
+hash of (seed, pixel, sample, dimension), and a pixel's samples are always traced in one
+tile and summed in sample order, so the image does not depend on tile sizes or threads.
+
+Ray offsets: ``geometry`` (eps proportional to the hit's coordinates plus the scene size).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numba
+import numpy as np
+from numba import njit, prange
+
+from . import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
+from . import bsdf, camera, geometry, light_kernels, lights, sampling
+from .accel import Accelerator, default_threads
+from .passes import BLENDER_PASS_NAMES, PASSES  # noqa: F401  (re-exported)
+from .scene import Scene
+from .settings import RenderSettings
+
+# A tile holds about this many camera samples (all samples of its pixels); tiles grow
+# while they take less than TILE_SECONDS and shrink when longer, so that progress() (and
+# cancelling) is never far away.
+TARGET_SAMPLES_PER_TILE = 1 << 16
+TILE_SECONDS = 0.25
+
+ProgressFn = Callable[[float, str], bool]
+
+
+@dataclass
+class RenderOutput:
+    """passes: name -> (H, W, 3) float32; stats: counters and timings; cancelled: stopped early."""
+
+    passes: dict[str, np.ndarray]
+    stats: dict = field(default_factory=dict)
+    cancelled: bool = False
+
+
+@dataclass
+class _Context:
+    """Everything built once per render and read by every tile."""
+
+    scene: Scene
+    settings: RenderSettings
+    accel: Accelerator
+    tri_vertices: np.ndarray
+    tri_normals: np.ndarray
+    tri_material: np.ndarray
+    materials: dict
+    nondelta: np.ndarray
+    has_delta: np.ndarray
+    light_set: lights.LightSet
+    emissive: lights.EmissiveTriangles
+    world: np.ndarray
+    extent: float
+    stats: dict
+    light_shows: np.ndarray     # (L,) the light has a surface a ray can see
+    no_light: np.ndarray        # a dummy parameter row for non-analytic sources
+
+
+def _prepare(scene: Scene, settings: RenderSettings) -> _Context:
+    mesh = scene.mesh
+    mats = bsdf.material_table(scene.materials)
+    singular = mats["alpha"] <= np.sqrt(bsdf.SINGULAR_ALPHA2)
+    nondelta = np.any(mats["diffuse"] > 0, axis=1) | (np.any(mats["specular"] > 0, axis=1) & ~singular)
+    has_delta = np.any(mats["transmission"] > 0, axis=1) | (np.any(mats["specular"] > 0, axis=1) & singular)
+    lo, hi = scene.bounds()
+    light_set = lights.LightSet.from_lights(scene.lights)
+    threads = default_threads(settings.threads)
+    numba.set_num_threads(max(1, min(threads, numba.config.NUMBA_NUM_THREADS)))
+    tri_vertices = np.ascontiguousarray(mesh.triangle_vertices(), np.float32)
+    return _Context(
+        scene=scene, settings=settings, accel=Accelerator(tri_vertices, threads=threads),
+        tri_vertices=tri_vertices,
+        tri_normals=np.ascontiguousarray(mesh.normals, np.float32),
+        tri_material=np.ascontiguousarray(mesh.material_index, np.int32),
+        materials=mats, nondelta=nondelta, has_delta=has_delta,
+        light_set=light_set,
+        emissive=lights.EmissiveTriangles.from_mesh(mesh, scene.materials),
+        world=np.asarray(scene.world.radiance, np.float64).reshape(3),
+        extent=geometry.scene_extent(lo, hi),
+        stats={"rays_camera": 0, "rays_specular": 0, "rays_shadow": 0,
+               "time_intersect": 0.0, "time_shadow": 0.0, "time_shading": 0.0},
+        light_shows=np.any(light_set.radiance > 0, axis=1),
+        no_light=np.zeros(light_kernels.P_COUNT),
+    )
+
+
+# --- kernels --------------------------------------------------------------------------------
+
+SOURCE_LIGHT, SOURCE_TRIANGLES, SOURCE_WORLD = 0, 1, 2
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def _hit_kernel(tri_v, tri_n, tri_mat, prim, u, v, d, extent, rows, thr, emission, emit_acc,
+                pos, ngf, nsf, mat, eps, front):
+    """Surface points of the hits, normals flipped to face the ray, and the emission seen
+    (two-sided, like Cycles' emission closure) added to emit_acc[rows]."""
+    for i in prange(prim.shape[0]):
+        t = prim[i]
+        dx, dy, dz = d[i, 0], d[i, 1], d[i, 2]
+        px, py, pz, gx, gy, gz, sx, sy, sz = geometry.surface_point(
+            tri_v, tri_n, t, np.float64(u[i]), np.float64(v[i]), dx, dy, dz)
+        f = dx * gx + dy * gy + dz * gz < 0.0
+        sgn = 1.0 if f else -1.0
+        pos[i, 0], pos[i, 1], pos[i, 2] = px, py, pz
+        ngf[i, 0], ngf[i, 1], ngf[i, 2] = sgn * gx, sgn * gy, sgn * gz
+        nsf[i, 0], nsf[i, 1], nsf[i, 2] = sgn * sx, sgn * sy, sgn * sz
+        m = tri_mat[t]
+        mat[i] = m
+        eps[i] = geometry.offset_eps(px, py, pz, extent)
+        front[i] = f
+        r = rows[i]
+        for k in range(3):
+            emit_acc[r, k] += thr[i, k] * emission[m, k]
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def _shade_kernel(source, q, tris_cdf, tris_prob, tris_v0, tris_e1, tris_e2, tris_n, tris_area,
+                  tris_rad, world, pos, ngf, nsf, d, mat, eps, thr, pixel, sample, seed, dim,
+                  pick_dim, k, k_count, bits, diffuse, specular, alpha, use_diffuse,
+                  use_glossy, extent, contrib, sh_o, sh_d, sh_t, need):
+    """One light sample per point: unshadowed contribution f |cos| L / pdf / k_count and
+    the shadow ray that decides it (need[i]). Light samples are stratified over the
+    pixel's samples x light samples (index sample * k_count + k)."""
+    fmax = 3.0e38
+    scale = 1.0 / k_count
+    for i in prange(pos.shape[0]):
+        need[i] = False
+        contrib[i, 0] = 0.0
+        contrib[i, 1] = 0.0
+        contrib[i, 2] = 0.0
+        u1, u2 = sampling.sobol2(sample[i] * k_count + k, bits, sampling.pattern(seed, pixel[i], dim))
+        px, py, pz = pos[i, 0], pos[i, 1], pos[i, 2]
+        if source == SOURCE_LIGHT:
+            wx, wy, wz, dist, l0, l1, l2, cl, ok = light_kernels.sample_light(q, px, py, pz, u1, u2)
+        elif source == SOURCE_TRIANGLES:
+            u0 = sampling.hash_uniform(seed, pixel[i], sample[i], pick_dim)
+            wx, wy, wz, dist, l0, l1, l2, cl, ok = light_kernels.sample_triangles(
+                tris_cdf, tris_prob, tris_v0, tris_e1, tris_e2, tris_n, tris_area, tris_rad,
+                px, py, pz, u0, u1, u2)
+        else:
+            wx, wy, wz, dist, l0, l1, l2, cl, ok = light_kernels.sample_world(
+                world[0], world[1], world[2], nsf[i, 0], nsf[i, 1], nsf[i, 2], u1, u2)
+        if not ok:
+            continue
+        # Reflection only: the light must be on the viewer's side of the surface.
+        if ngf[i, 0] * wx + ngf[i, 1] * wy + ngf[i, 2] * wz <= 0.0:
+            continue
+        m = mat[i]
+        kd, ks = bsdf.eval_reflection(0.0, 0.0, alpha[m], nsf[i, 0], nsf[i, 1], nsf[i, 2],
+                                      -d[i, 0], -d[i, 1], -d[i, 2], wx, wy, wz)
+        cos = nsf[i, 0] * wx + nsf[i, 1] * wy + nsf[i, 2] * wz
+        if cos <= 0.0:
+            continue
+        kd *= use_diffuse * cos * scale
+        ks *= use_glossy * cos * scale
+        c0 = (diffuse[m, 0] * kd + specular[m, 0] * ks) * l0 * thr[i, 0]
+        c1 = (diffuse[m, 1] * kd + specular[m, 1] * ks) * l1 * thr[i, 1]
+        c2 = (diffuse[m, 2] * kd + specular[m, 2] * ks) * l2 * thr[i, 2]
+        if c0 <= 0.0 and c1 <= 0.0 and c2 <= 0.0:
+            continue
+        contrib[i, 0] = c0
+        contrib[i, 1] = c1
+        contrib[i, 2] = c2
+        e = eps[i]
+        if np.isinf(dist):
+            tf = fmax
+        else:
+            qx, qy, qz = px + wx * dist, py + wy * dist, pz + wz * dist
+            tf = dist - e - geometry.offset_eps(qx, qy, qz, extent) / max(cl, 1e-3)
+            if tf <= 0.0:
+                continue  # the light touches the surface: nothing can come in between
+        sh_o[i, 0] = px + e * ngf[i, 0]
+        sh_o[i, 1] = py + e * ngf[i, 1]
+        sh_o[i, 2] = pz + e * ngf[i, 2]
+        sh_d[i, 0] = wx
+        sh_d[i, 1] = wy
+        sh_d[i, 2] = wz
+        sh_t[i] = min(tf, fmax)
+        need[i] = True
+
+
+@njit(cache=True, error_model="numpy")
+def _compact_kernel(need, sh_o, sh_d, sh_t, idx, o, d, t):
+    """Pack the shadow rays that are needed (one sequential pass); returns their count."""
+    c = 0
+    for i in range(need.shape[0]):
+        if need[i]:
+            idx[c] = i
+            for k in range(3):
+                o[c, k] = sh_o[i, k]
+                d[c, k] = sh_d[i, k]
+            t[c] = sh_t[i]
+            c += 1
+    return c
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def _gather_kernel(target, rows, contrib, need_idx, occluded):
+    """target[rows] += contrib, except the points whose shadow ray was blocked."""
+    for j in prange(need_idx.shape[0]):
+        if occluded[j]:
+            i = need_idx[j]
+            contrib[i, 0] = 0.0
+            contrib[i, 1] = 0.0
+            contrib[i, 2] = 0.0
+    for i in prange(rows.shape[0]):
+        r = rows[i]
+        target[r, 0] += contrib[i, 0]
+        target[r, 1] += contrib[i, 1]
+        target[r, 2] += contrib[i, 2]
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def _continue_kernel(pos, ngf, nsf, d, front, mat, eps, specular, alpha, transmission, ior,
+                     u_lobe, u_pick, thr, new_o, new_d, new_thr, transmitted, ok):
+    """Pick a delta lobe per hit and write the next ray and throughput."""
+    for i in prange(pos.shape[0]):
+        m = mat[i]
+        ox, oy, oz, w0, w1, w2, tr, good = bsdf.sample_delta(
+            specular[m, 0], specular[m, 1], specular[m, 2], alpha[m],
+            transmission[m, 0], transmission[m, 1], transmission[m, 2], ior[m],
+            d[i, 0], d[i, 1], d[i, 2], nsf[i, 0], nsf[i, 1], nsf[i, 2],
+            ngf[i, 0], ngf[i, 1], ngf[i, 2], front[i], u_lobe[i], u_pick[i])
+        t0, t1, t2 = thr[i, 0] * w0, thr[i, 1] * w1, thr[i, 2] * w2
+        ok[i] = good and (t0 > 0.0 or t1 > 0.0 or t2 > 0.0)
+        side = -eps[i] if tr else eps[i]
+        new_o[i, 0] = pos[i, 0] + side * ngf[i, 0]
+        new_o[i, 1] = pos[i, 1] + side * ngf[i, 1]
+        new_o[i, 2] = pos[i, 2] + side * ngf[i, 2]
+        new_d[i, 0] = ox
+        new_d[i, 1] = oy
+        new_d[i, 2] = oz
+        new_thr[i, 0] = t0
+        new_thr[i, 1] = t1
+        new_thr[i, 2] = t2
+        transmitted[i] = tr
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def _pixel_mean_kernel(per_sample, samples, out):
+    """Mean over each pixel's consecutive samples, summed in sample order (deterministic)."""
+    for p in prange(out.shape[0]):
+        a0 = 0.0
+        a1 = 0.0
+        a2 = 0.0
+        base = p * samples
+        for s in range(samples):
+            a0 += per_sample[base + s, 0]
+            a1 += per_sample[base + s, 1]
+            a2 += per_sample[base + s, 2]
+        out[p, 0] = a0 / samples
+        out[p, 1] = a1 / samples
+        out[p, 2] = a2 / samples
+
+
+# --- one tile -------------------------------------------------------------------------------
+
+def _add(acc, rows, values):
+    """acc[rows] += values for unique rows (one path per camera sample)."""
+    if rows.shape[0]:
+        acc[rows] += values
+
+
+def _direct_light(ctx: _Context, hit: dict, pixel, sample, depth, target):
+    """Shadow-ray direct lighting at the hits from every light, the emissive triangles and
+    the world; adds f |cos| L / pdf where the shadow ray is clear to target[rows]."""
+    ls, tris, m = ctx.light_set, ctx.emissive, ctx.materials
+    k_count = ctx.settings.light_samples
+    bits = sampling.index_bits(ctx.settings.samples * k_count)
+    n = hit["pos"].shape[0]
+    contrib = np.empty((n, 3))
+    sh_o = np.empty((n, 3), np.float32)
+    sh_d = np.empty((n, 3), np.float32)
+    sh_t = np.empty(n, np.float32)
+    need = np.empty(n, bool)
+    idx = np.empty(n, np.int64)
+    pk_o, pk_d, pk_t = np.empty_like(sh_o), np.empty_like(sh_d), np.empty_like(sh_t)
+    sources = [(SOURCE_LIGHT, i) for i in range(ls.count) if ls.emits(i)]
+    if tris.count:
+        sources.append((SOURCE_TRIANGLES, ls.count))
+    if np.any(ctx.world > 0):
+        sources.append((SOURCE_WORLD, -1))
+    for source, i in sources:
+        q = ls.params[i] if source == SOURCE_LIGHT else ctx.no_light
+        use_d = float(ls.visible_diffuse[i]) if source == SOURCE_LIGHT else 1.0
+        use_g = float(ls.visible_glossy[i]) if source == SOURCE_LIGHT else 1.0
+        shadows = bool(ls.cast_shadow[i]) if source == SOURCE_LIGHT else True
+        dim = sampling.stream(sampling.LIGHT_SAMPLE, depth, i + 1)
+        for k in range(k_count):
+            t0 = time.perf_counter()
+            _shade_kernel(source, q, tris.cdf, tris.probability, tris.v0, tris.e1, tris.e2,
+                          tris.normal, tris.area, tris.radiance, ctx.world, hit["pos"], hit["ngf"],
+                          hit["nsf"], hit["d"], hit["mat"], hit["eps"], hit["thr"], pixel, sample,
+                          ctx.settings.seed, dim, sampling.stream(sampling.LIGHT_PICK, depth, k),
+                          k, k_count, bits, m["diffuse"], m["specular"], m["alpha"], use_d, use_g,
+                          ctx.extent, contrib, sh_o, sh_d, sh_t, need)
+            t1 = time.perf_counter()
+            c = _compact_kernel(need, sh_o, sh_d, sh_t, idx, pk_o, pk_d, pk_t) if shadows else 0
+            occ = np.zeros(0, bool)
+            if c:
+                occ = ctx.accel.occluded(pk_o[:c], pk_d[:c], pk_t[:c])
+                ctx.stats["rays_shadow"] += c
+            t2 = time.perf_counter()
+            _gather_kernel(target, hit["rows"], contrib, idx[:c], occ)
+            ctx.stats["time_shading"] += t1 - t0 + time.perf_counter() - t2
+            ctx.stats["time_shadow"] += t2 - t1
+
+
+def _render_tile(ctx: _Context, pix: np.ndarray) -> dict[str, np.ndarray]:
+    """Per-pixel means (P, 3) float64 of every pass for the pixels ``pix`` (P,) int64."""
+    st = ctx.settings
+    s_count = st.samples
+    pixel = np.repeat(pix.astype(np.int64), s_count)
+    sample = np.tile(np.arange(s_count, dtype=np.int64), pix.shape[0])
+    n = pixel.shape[0]
+    acc = {name: np.zeros((n, 3)) for name in PASSES}
+    ls = ctx.light_set
+    mats = ctx.materials
+    t0 = time.perf_counter()
+
+    # Generate camera rays
+    jitter = np.stack(sampling.stratified2(st.seed, pixel, sample, s_count,
+                                           sampling.stream(sampling.PIXEL_JITTER)), axis=1)
+    rays = camera.generate_rays(ctx.scene.camera, pixel, jitter)
+    origins, dirs, tmax = rays.origins, rays.directions, rays.tmax
+    rows = np.arange(n)
+    thr = np.ones((n, 3))
+    transmitted = np.zeros(n, bool)
+    ctx.stats["rays_camera"] += n
+    ctx.stats["time_shading"] += time.perf_counter() - t0
+
+    for depth in range(st.max_specular_depth + 1):
+        if rows.shape[0] == 0:
+            break
+        first = depth == 0
+        # Intersect the batch
+        t0 = time.perf_counter()
+        hits = ctx.accel.intersect(origins, dirs, tmax)
+        t1 = time.perf_counter()
+        ctx.stats["time_intersect"] += t1 - t0
+        if not first:
+            ctx.stats["rays_specular"] += rows.shape[0]
+        emit_target = acc["emission"] if first else acc["specular"]
+        hit = hits.prim >= 0
+
+        # Lights seen along the rays (in front of the geometry)
+        visible = ls.visible_camera if first else ls.visible_glossy | ls.visible_transmission
+        if np.any(visible & ctx.light_shows):
+            geo_t = np.where(hit, hits.t.astype(np.float64), np.inf)
+            light_t = np.full(rows.shape[0], np.inf)
+            light_l = np.zeros((rows.shape[0], 3))
+            groups = [(slice(None), ls.visible_camera)] if first else [
+                (np.flatnonzero(transmitted), ls.visible_transmission),
+                (np.flatnonzero(~transmitted), ls.visible_glossy)]
+            for sel, vis in groups:
+                light_t[sel], light_l[sel] = lights.intersect_lights(ls, vis, origins[sel], dirs[sel],
+                                                                     geo_t[sel])
+            seen = light_t < geo_t
+            miss = ~seen & ~hit
+            # Surfaces in front of the geometry, and sun discs on rays that escape (t = inf).
+            shown = seen | miss
+            _add(emit_target, rows[shown], thr[shown] * light_l[shown])
+            hit &= ~seen
+        else:
+            miss = ~hit
+
+        # Rays that escape see the world
+        if np.any(ctx.world > 0) and np.any(miss):
+            if not first:
+                _add(acc["specular"], rows[miss], thr[miss] * ctx.world)
+            elif ctx.scene.world.visible_to_camera:
+                _add(acc["environment"], rows[miss], thr[miss] * ctx.world)
+        if not np.any(hit):
+            ctx.stats["time_shading"] += time.perf_counter() - t1
+            break
+
+        # Shade the hits: geometry, emission seen
+        h = np.flatnonzero(hit) if not hit.all() else slice(None)
+        rows, thr, d, transmitted = rows[h], thr[h], dirs[h], transmitted[h]
+        k = rows.shape[0]
+        pos, ngf, nsf = np.empty((k, 3)), np.empty((k, 3)), np.empty((k, 3))
+        mat, eps, front = np.empty(k, np.int32), np.empty(k), np.empty(k, bool)
+        _hit_kernel(ctx.tri_vertices, ctx.tri_normals, ctx.tri_material, hits.prim[h], hits.u[h],
+                    hits.v[h], d, ctx.extent, rows, thr, mats["emission"], emit_target,
+                    pos, ngf, nsf, mat, eps, front)
+        ctx.stats["time_shading"] += time.perf_counter() - t1
+
+        # Direct light at the hits' non-delta lobes
+        nd = ctx.nondelta[mat]
+        sel = slice(None) if nd.all() else np.flatnonzero(nd)
+        if isinstance(sel, slice) or sel.size:
+            r = rows[sel]
+            hit_data = {"pos": pos[sel], "ngf": ngf[sel], "nsf": nsf[sel], "d": d[sel], "mat": mat[sel],
+                        "eps": eps[sel], "thr": thr[sel], "rows": r}
+            _direct_light(ctx, hit_data, pixel[r], sample[r], depth,
+                          acc["direct"] if first else acc["specular"])
+
+        # Spawn the specular rays
+        if depth == st.max_specular_depth:
+            break
+        t0 = time.perf_counter()
+        sd = np.flatnonzero(ctx.has_delta[mat])
+        if sd.size == 0:
+            break
+        rs = rows[sd]
+        u_lobe, u_pick = sampling.stratified2(st.seed, pixel[rs], sample[rs], s_count,
+                                              sampling.stream(sampling.SPECULAR_CHOICE, depth))
+        k = sd.shape[0]
+        new_o, new_d, new_thr = np.empty((k, 3)), np.empty((k, 3)), np.empty((k, 3))
+        new_tr, ok = np.empty(k, bool), np.empty(k, bool)
+        _continue_kernel(pos[sd], ngf[sd], nsf[sd], d[sd], front[sd], mat[sd], eps[sd],
+                         mats["specular"], mats["alpha"], mats["transmission"], mats["ior"],
+                         u_lobe, u_pick, thr[sd], new_o, new_d, new_thr, new_tr, ok)
+        keep = np.flatnonzero(ok)
+        rows, origins, dirs = rs[keep], new_o[keep], new_d[keep]
+        thr, transmitted = new_thr[keep], new_tr[keep]
+        tmax = None
+        ctx.stats["time_shading"] += time.perf_counter() - t0
+
+    t0 = time.perf_counter()
+    out = {}
+    for name, per_sample in acc.items():
+        mean = np.empty((pix.shape[0], 3))
+        _pixel_mean_kernel(per_sample, s_count, mean)
+        out[name] = mean
+    ctx.stats["time_shading"] += time.perf_counter() - t0
+    return out
+
+
+# --- the render -----------------------------------------------------------------------------
+
+def render(scene: Scene, settings: RenderSettings | None = None,
+           progress: ProgressFn | None = None) -> RenderOutput:
+    """Render the camera pass of ``scene``.
+
+    progress(fraction in [0, 1], message) is called between tiles (at least every ~0.3 s
+    of rendering); returning True stops the render: unrendered pixels stay 0 and
+    ``cancelled`` is True. Raises SceneError / SettingsError on bad input.
+    """
+    t_start = time.perf_counter()
+    scene.validate()
+    settings = (settings or RenderSettings()).validated()
+    ctx = _prepare(scene, settings)
+    t_prepared = time.perf_counter()
+    cam = scene.camera
+    w, h = int(cam.width), int(cam.height)
+    n_pix = w * h
+    images = {name: np.zeros((n_pix, 3)) for name in PASSES}
+    cancelled = False
+    done = 0
+    # Start small (the first tile also pays for loading the kernels), then adapt.
+    per_tile = max(1, TARGET_SAMPLES_PER_TILE // 8 // settings.samples)
+    max_tile = max(1, 4 * TARGET_SAMPLES_PER_TILE // settings.samples)
+    tiles = 0
+    try:
+        while done < n_pix:
+            t0 = time.perf_counter()
+            pix = np.arange(done, min(n_pix, done + per_tile), dtype=np.int64)
+            result = _render_tile(ctx, pix)
+            for name in PASSES:
+                images[name][pix] = result[name]
+            done += pix.shape[0]
+            tiles += 1
+            took = time.perf_counter() - t0
+            # Keep tiles short enough for a responsive progress bar and Esc.
+            if took > TILE_SECONDS and per_tile > 1:
+                per_tile = max(1, int(per_tile * TILE_SECONDS / took))
+            elif took < TILE_SECONDS / 2:
+                per_tile = min(per_tile * 2, max_tile)
+            if progress is not None and done < n_pix:
+                if progress(done / n_pix, f"Rendered {done}/{n_pix} pixels"):
+                    cancelled = True
+                    break
+    finally:
+        ctx.accel.close()
+    if progress is not None and not cancelled:
+        progress(1.0, "Done")
+    passes = {name: images[name].reshape(h, w, 3).astype(np.float32) for name in PASSES}
+    combined = np.zeros((h, w, 3))
+    for name in PASSES:
+        combined += passes[name].astype(np.float64)
+    passes = {"combined": combined.astype(np.float32), **passes}
+    t_end = time.perf_counter()
+    stats = dict(ctx.stats)
+    rays = stats["rays_camera"] + stats["rays_specular"] + stats["rays_shadow"]
+    stats.update({
+        "pixels": done, "samples": settings.samples, "tiles": tiles,
+        "rays_total": rays, "time_prepare": t_prepared - t_start,
+        "time_render": t_end - t_prepared, "time_total": t_end - t_start,
+        "rays_per_second": rays / max(t_end - t_prepared, 1e-12),  # over the tracing phase
+        "triangles": scene.mesh.triangle_count, "lights": scene.lights.count,
+        "emissive_triangles": ctx.emissive.count,
+    })
+    return RenderOutput(passes=passes, stats=stats, cancelled=cancelled)

@@ -1,0 +1,285 @@
+"""Scalar numba kernels of the lights: sample one direction, intersect one ray.
+
+Each analytic light is a row of ``LightSet.params`` (float64, layout below) so that one
+compiled function serves every light kind, and the integrator's fused shading kernels
+can call the same code as ``lights.sample_direct``. Units and conventions: see lights.py.
+
+A sample returns (dx, dy, dz, distance, w0, w1, w2, cos_light, ok): the unit direction
+from the shading point to the light, the distance to the sampled point (inf for the sun),
+weight = incident radiance / pdf (solid angle), the cosine at the light surface and
+whether the sample carries light.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from . import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
+from . import sampling
+from .scene import LIGHT_AREA, LIGHT_POINT, LIGHT_SPOT, LIGHT_SUN
+
+# Layout of one row of LightSet.params.
+P_POS = 0          # 3: position, metres
+P_AX = 3           # 3: unit local X
+P_AY = 6           # 3: unit local Y
+P_AZ = 9           # 3: unit local Z (emission along -Z)
+P_STRENGTH = 12    # 3: colour x power
+P_RADIANCE = 15    # 3: surface radiance of area / sphere / disk / sun disc
+P_RADIUS = 18
+P_SPHERE = 19      # 1 = sphere, 0 = facing disk ("soft falloff")
+P_SPOT = 20        # 1 = spot cone
+P_COS_HALF = 21
+P_SMOOTH = 22      # 1 / ((1 - cos_half) blend), inf = hard edge
+P_SUN_OMC = 23     # 1 - cos(half angle)
+P_SIZE_X = 24
+P_SIZE_Y = 25
+P_ELLIPSE = 26
+P_AREA = 27
+P_KIND = 28
+P_COUNT = 29
+
+
+@njit(cache=True, error_model="numpy")
+def smoothstep(x):
+    if x <= 0.0:
+        return 0.0
+    if x >= 1.0:
+        return 1.0
+    return x * x * (3.0 - 2.0 * x)
+
+
+@njit(cache=True, error_model="numpy")
+def spot_attenuation(cos_angle, cos_half, smooth):
+    """Cycles' spot falloff for the cosine between -Z and the emitted direction."""
+    if np.isinf(smooth):
+        return 1.0 if cos_angle > cos_half else 0.0
+    return smoothstep((cos_angle - cos_half) * smooth)
+
+
+@njit(cache=True, error_model="numpy")
+def sin_sqr_to_one_minus_cos(s2):
+    """1 - sqrt(1 - s2) without cancellation for small s2."""
+    return s2 / (1.0 + np.sqrt(max(0.0, 1.0 - s2)))
+
+
+@njit(cache=True, error_model="numpy")
+def _sample_local(q, px, py, pz, u1, u2):
+    """Point and spot lights (radius 0, facing disk or sphere)."""
+    cx, cy, cz = q[P_POS], q[P_POS + 1], q[P_POS + 2]
+    radius = q[P_RADIUS]
+    r2 = radius * radius
+    lx, ly, lz = px - cx, py - cy, pz - cz
+    d2 = lx * lx + ly * ly + lz * lz
+    d = np.sqrt(d2)
+    if d == 0.0:
+        return 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, False
+    nx, ny, nz = lx / d, ly / d, lz / d  # from the light towards the point
+    sphere = q[P_SPHERE] > 0.0 and radius > 0.0
+    cl = 1.0
+    if sphere:
+        if d2 > r2:
+            omc = sin_sqr_to_one_minus_cos(r2 / d2)
+            x, y, z = sampling.uniform_cone(u1, u2, omc)
+            dx, dy, dz = sampling.to_world(x, y, z, -nx, -ny, -nz)
+            t = d * z - np.sqrt(max(0.0, r2 - d2 + d2 * z * z))
+            fac = 2.0 * np.pi * omc
+        else:
+            # Inside the emitter every direction sees it: uniform sphere, pdf 1 / (4 pi).
+            dx, dy, dz = sampling.uniform_sphere(u1, u2)
+            b = lx * dx + ly * dy + lz * dz
+            t = -b + np.sqrt(max(0.0, b * b - (d2 - r2)))
+            fac = 4.0 * np.pi
+        w0, w1, w2 = q[P_RADIANCE] * fac, q[P_RADIANCE + 1] * fac, q[P_RADIANCE + 2] * fac
+    elif radius > 0.0:
+        # Cycles' "soft falloff": a disk of radius r facing the point, sampled by area.
+        x, y = sampling.concentric_disk(u1, u2)
+        tx, ty, tz, bx, by, bz = sampling.basis(nx, ny, nz)
+        dx = cx + radius * (x * tx + y * bx) - px
+        dy = cy + radius * (x * ty + y * by) - py
+        dz = cz + radius * (x * tz + y * bz) - pz
+        t = np.sqrt(dx * dx + dy * dy + dz * dz)
+        if t == 0.0:
+            return 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, False
+        dx /= t
+        dy /= t
+        dz /= t
+        cl = -(nx * dx + ny * dy + nz * dz)
+        if cl <= 0.0:
+            return dx, dy, dz, t, 0.0, 0.0, 0.0, 0.0, False
+        fac = cl * np.pi * r2 / (t * t)
+        w0, w1, w2 = q[P_RADIANCE] * fac, q[P_RADIANCE + 1] * fac, q[P_RADIANCE + 2] * fac
+    else:
+        dx, dy, dz = -nx, -ny, -nz
+        t = d
+        inv = 1.0 / (4.0 * np.pi * d2)
+        w0, w1, w2 = q[P_STRENGTH] * inv, q[P_STRENGTH + 1] * inv, q[P_STRENGTH + 2] * inv
+    if q[P_SPOT] > 0.0 and (not sphere or d2 > r2):
+        # Cosine between the emission axis (-Z) and the direction light -> point.
+        cos_a = dx * q[P_AZ] + dy * q[P_AZ + 1] + dz * q[P_AZ + 2]
+        att = spot_attenuation(cos_a, q[P_COS_HALF], q[P_SMOOTH])
+        w0 *= att
+        w1 *= att
+        w2 *= att
+        if att == 0.0:
+            return dx, dy, dz, t, 0.0, 0.0, 0.0, cl, False
+    return dx, dy, dz, t, w0, w1, w2, cl, t > 0.0
+
+
+@njit(cache=True, error_model="numpy")
+def _sample_sun(q, u1, u2):
+    omc = q[P_SUN_OMC]
+    ax, ay, az = q[P_AZ], q[P_AZ + 1], q[P_AZ + 2]
+    if omc > 0.0:
+        x, y, z = sampling.uniform_cone(u1, u2, omc)
+        dx, dy, dz = sampling.to_world(x, y, z, ax, ay, az)
+        fac = 2.0 * np.pi * omc
+        l0, l1, l2 = q[P_RADIANCE] * fac, q[P_RADIANCE + 1] * fac, q[P_RADIANCE + 2] * fac
+        return dx, dy, dz, np.inf, l0, l1, l2, 1.0, True
+    return ax, ay, az, np.inf, q[P_STRENGTH], q[P_STRENGTH + 1], q[P_STRENGTH + 2], 1.0, True
+
+
+@njit(cache=True, error_model="numpy")
+def _sample_area(q, px, py, pz, u1, u2):
+    sx, sy = q[P_SIZE_X], q[P_SIZE_Y]
+    if q[P_ELLIPSE] > 0.0:
+        x, y = sampling.concentric_disk(u1, u2)
+        x *= 0.5 * sx
+        y *= 0.5 * sy
+    else:
+        x = (u1 - 0.5) * sx
+        y = (u2 - 0.5) * sy
+    dx = q[P_POS] + x * q[P_AX] + y * q[P_AY] - px
+    dy = q[P_POS + 1] + x * q[P_AX + 1] + y * q[P_AY + 1] - py
+    dz = q[P_POS + 2] + x * q[P_AX + 2] + y * q[P_AY + 2] - pz
+    t = np.sqrt(dx * dx + dy * dy + dz * dz)
+    if t == 0.0:
+        return 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, False
+    dx /= t
+    dy /= t
+    dz /= t
+    # One-sided: the point must lie in front (-Z side); then -D . (-Z) = D . Z > 0.
+    cl = dx * q[P_AZ] + dy * q[P_AZ + 1] + dz * q[P_AZ + 2]
+    if cl <= 0.0:
+        return dx, dy, dz, t, 0.0, 0.0, 0.0, 0.0, False
+    fac = cl * q[P_AREA] / (t * t)
+    return dx, dy, dz, t, q[P_RADIANCE] * fac, q[P_RADIANCE + 1] * fac, q[P_RADIANCE + 2] * fac, cl, True
+
+
+@njit(cache=True, error_model="numpy")
+def sample_light(q, px, py, pz, u1, u2):
+    """Sample the analytic light with parameter row q from point p (see module doc)."""
+    kind = int(q[P_KIND])
+    if kind == LIGHT_POINT or kind == LIGHT_SPOT:
+        return _sample_local(q, px, py, pz, u1, u2)
+    if kind == LIGHT_SUN:
+        return _sample_sun(q, u1, u2)
+    if kind == LIGHT_AREA:
+        return _sample_area(q, px, py, pz, u1, u2)
+    return 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, False
+
+
+@njit(cache=True, error_model="numpy")
+def sample_triangles(cdf, prob, v0, e1, e2, nrm, area, radiance, px, py, pz, u0, u1, u2):
+    """Sample the emissive triangles (picked by cdf, uniform on the triangle) from p."""
+    k = cdf.shape[0]
+    j = np.searchsorted(cdf, u0, side="right")
+    if j >= k:
+        j = k - 1
+    b1, b2 = sampling.uniform_triangle(u1, u2)
+    dx = v0[j, 0] + b1 * e1[j, 0] + b2 * e2[j, 0] - px
+    dy = v0[j, 1] + b1 * e1[j, 1] + b2 * e2[j, 1] - py
+    dz = v0[j, 2] + b1 * e1[j, 2] + b2 * e2[j, 2] - pz
+    t = np.sqrt(dx * dx + dy * dy + dz * dz)
+    if t == 0.0 or prob[j] <= 0.0:
+        return 0.0, 0.0, 1.0, t, 0.0, 0.0, 0.0, 0.0, False
+    dx /= t
+    dy /= t
+    dz /= t
+    cl = abs(dx * nrm[j, 0] + dy * nrm[j, 1] + dz * nrm[j, 2])
+    if cl <= 0.0:
+        return dx, dy, dz, t, 0.0, 0.0, 0.0, 0.0, False
+    # radiance / pdf_solid_angle with pdf_area = prob / area and dA -> dw = cos / t^2.
+    fac = cl * area[j] / (prob[j] * t * t)
+    return dx, dy, dz, t, radiance[j, 0] * fac, radiance[j, 1] * fac, radiance[j, 2] * fac, cl, True
+
+
+@njit(cache=True, error_model="numpy")
+def sample_world(l0, l1, l2, nx, ny, nz, u1, u2):
+    """Cosine-weighted direction about unit normal n towards a uniform background."""
+    x, y, z = sampling.cosine_hemisphere(u1, u2)
+    dx, dy, dz = sampling.to_world(x, y, z, nx, ny, nz)
+    if z <= 0.0:
+        return dx, dy, dz, np.inf, 0.0, 0.0, 0.0, 1.0, False
+    fac = np.pi / z
+    return dx, dy, dz, np.inf, l0 * fac, l1 * fac, l2 * fac, 1.0, True
+
+
+@njit(cache=True, error_model="numpy")
+def intersect_light(q, ox, oy, oz, dx, dy, dz):
+    """Distance along the ray to light q's surface and the radiance seen, or (inf, 0, 0, 0).
+
+    Area lights: front face only. Point/spot: the sphere, or the disk facing the ray
+    origin; radius 0 is never hit. The sun is handled by the caller (at infinity)."""
+    kind = int(q[P_KIND])
+    wx, wy, wz = ox - q[P_POS], oy - q[P_POS + 1], oz - q[P_POS + 2]
+    azx, azy, azz = q[P_AZ], q[P_AZ + 1], q[P_AZ + 2]
+    att = 1.0
+    if kind == LIGHT_AREA:
+        den = dx * azx + dy * azy + dz * azz
+        if den <= 0.0:
+            return np.inf, 0.0, 0.0, 0.0
+        t = -(wx * azx + wy * azy + wz * azz) / den
+        if t <= 0.0:
+            return np.inf, 0.0, 0.0, 0.0
+        hx, hy, hz = wx + t * dx, wy + t * dy, wz + t * dz
+        lx = hx * q[P_AX] + hy * q[P_AX + 1] + hz * q[P_AX + 2]
+        ly = hx * q[P_AY] + hy * q[P_AY + 1] + hz * q[P_AY + 2]
+        sx, sy = q[P_SIZE_X], q[P_SIZE_Y]
+        if q[P_ELLIPSE] > 0.0:
+            inside = (2.0 * lx / sx) ** 2 + (2.0 * ly / sy) ** 2 <= 1.0
+        else:
+            inside = abs(lx) <= 0.5 * sx and abs(ly) <= 0.5 * sy
+        if not inside:
+            return np.inf, 0.0, 0.0, 0.0
+    elif kind == LIGHT_POINT or kind == LIGHT_SPOT:
+        radius = q[P_RADIUS]
+        if radius <= 0.0:
+            return np.inf, 0.0, 0.0, 0.0
+        r2 = radius * radius
+        dist2 = wx * wx + wy * wy + wz * wz
+        b = wx * dx + wy * dy + wz * dz
+        is_spot = kind == LIGHT_SPOT
+        if is_spot and b >= 0.0:
+            return np.inf, 0.0, 0.0, 0.0
+        if q[P_SPHERE] > 0.0:
+            # Perpendicular offset instead of b^2 - c: no cancellation far from the light.
+            px, py, pz = wx - b * dx, wy - b * dy, wz - b * dz
+            disc = r2 - (px * px + py * py + pz * pz)
+            if disc < 0.0:
+                return np.inf, 0.0, 0.0, 0.0
+            sq = np.sqrt(disc)
+            t = -b - sq
+            if t <= 0.0:
+                t = -b + sq
+            if t <= 0.0:
+                return np.inf, 0.0, 0.0, 0.0
+            if is_spot and dist2 > r2:
+                att = spot_attenuation(dx * azx + dy * azy + dz * azz, q[P_COS_HALF], q[P_SMOOTH])
+        else:
+            dist = np.sqrt(dist2)
+            if dist == 0.0:
+                return np.inf, 0.0, 0.0, 0.0
+            nx, ny, nz = wx / dist, wy / dist, wz / dist
+            den = dx * nx + dy * ny + dz * nz
+            if den >= 0.0:
+                return np.inf, 0.0, 0.0, 0.0
+            t = -dist / den
+            hx, hy, hz = wx + t * dx, wy + t * dy, wz + t * dz
+            if hx * hx + hy * hy + hz * hz > r2:
+                return np.inf, 0.0, 0.0, 0.0
+            if is_spot:
+                att = spot_attenuation(dx * azx + dy * azy + dz * azz, q[P_COS_HALF], q[P_SMOOTH])
+    else:
+        return np.inf, 0.0, 0.0, 0.0
+    return t, q[P_RADIANCE] * att, q[P_RADIANCE + 1] * att, q[P_RADIANCE + 2] * att

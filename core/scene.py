@@ -1,0 +1,426 @@
+"""The scene contract between Blender (or any other front end) and the renderer.
+
+Everything is plain numpy: the exporter in ``photon_engine/export.py`` fills these
+dataclasses from Blender's depsgraph, and the core tests build them by hand.
+
+Conventions (the same as Blender's):
+- World space is right-handed, Z up, lengths in metres.
+- The camera looks along its local -Z with local +Y up (Blender's camera object).
+- Light units match Cycles (see README, "Units"): point/spot/area ``power`` in watts,
+  sun ``strength`` in W/m^2, emission and background as radiance in W/(m^2 sr).
+- Images are (height, width, 3) float32 with row 0 at the TOP of the picture.
+
+``Scene.validate()`` checks shapes, dtypes, finiteness and ranges and raises
+``SceneError`` naming the offending field and, where known, the object or material.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+class SceneError(ValueError):
+    """A scene that cannot be rendered; the message names the field and the value."""
+
+
+# Light kinds, stored in Lights.kind (int32). Explicit values: they cross the boundary.
+LIGHT_POINT = 0
+LIGHT_SPOT = 1
+LIGHT_SUN = 2
+LIGHT_AREA = 3
+LIGHT_KIND_NAMES = {LIGHT_POINT: "POINT", LIGHT_SPOT: "SPOT", LIGHT_SUN: "SUN", LIGHT_AREA: "AREA"}
+
+# Area light shapes, stored in Lights.shape (int32). Square/rectangle and disk/ellipse
+# differ only in whether size_y is tied to size_x, which the exporter resolves.
+AREA_RECTANGLE = 0
+AREA_ELLIPSE = 1
+
+CAMERA_PERSPECTIVE = 0
+CAMERA_ORTHOGRAPHIC = 1
+
+
+@dataclass(frozen=True)
+class Mesh:
+    """All renderable triangles of the scene, in world space.
+
+    vertices: (V, 3) float32, metres.
+    triangles: (T, 3) int32, indices into ``vertices``.
+    normals: (T, 3, 3) float32, per-corner shading normals (unit length; smooth or flat
+        as Blender computed them).
+    uvs: (T, 3, 2) float32, per-corner texture coordinates (zeros where a mesh has none).
+    material_index: (T,) int32, index into ``Materials``.
+    object_index: (T,) int32, index into ``object_names`` (for error messages and debug).
+    object_names: tuple of str, one per exported object instance.
+    """
+
+    vertices: np.ndarray
+    triangles: np.ndarray
+    normals: np.ndarray
+    uvs: np.ndarray
+    material_index: np.ndarray
+    object_index: np.ndarray
+    object_names: tuple = ()
+
+    @property
+    def triangle_count(self) -> int:
+        return int(self.triangles.shape[0])
+
+    def triangle_vertices(self) -> np.ndarray:
+        """(T, 3, 3) float32: the three corners of every triangle, metres."""
+        return self.vertices[self.triangles]
+
+    @staticmethod
+    def empty() -> "Mesh":
+        return Mesh(
+            vertices=np.zeros((0, 3), np.float32),
+            triangles=np.zeros((0, 3), np.int32),
+            normals=np.zeros((0, 3, 3), np.float32),
+            uvs=np.zeros((0, 3, 2), np.float32),
+            material_index=np.zeros(0, np.int32),
+            object_index=np.zeros(0, np.int32),
+            object_names=(),
+        )
+
+
+@dataclass(frozen=True)
+class Materials:
+    """Materials as a mixture of lobes, one row per material (struct of arrays).
+
+    Every BSDF the exporter understands maps onto these lobes:
+    diffuse: (M, 3) float32, Lambert albedo in [0, 1].
+    specular: (M, 3) float32, tint of the reflection lobe (metal / Glossy BSDF); the
+        lobe is a perfect mirror when roughness is 0, GGX otherwise.
+    transmission: (M, 3) float32, tint of the dielectric lobe (Glass BSDF, Principled
+        transmission): Fresnel-weighted reflection and refraction with ``ior``.
+    roughness: (M,) float32 in [0, 1], Blender's roughness (alpha = roughness^2).
+    ior: (M,) float32 > 0, index of refraction of the dielectric lobe.
+    emission: (M, 3) float32, emitted radiance, W/(m^2 sr) (colour x strength).
+    names: tuple of str, material names for messages.
+    """
+
+    diffuse: np.ndarray
+    specular: np.ndarray
+    transmission: np.ndarray
+    roughness: np.ndarray
+    ior: np.ndarray
+    emission: np.ndarray
+    names: tuple = ()
+
+    @property
+    def count(self) -> int:
+        return int(self.diffuse.shape[0])
+
+    @staticmethod
+    def from_list(rows: list[dict]) -> "Materials":
+        """Build from dicts with any of the keys above (missing lobes are zero).
+
+        Defaults: ior 1.5, roughness 0, name "Material.<i>".
+        """
+        m = len(rows)
+
+        def col(key, width, default):
+            out = np.full((m, width) if width else (m,), default, np.float32)
+            for i, r in enumerate(rows):
+                if key in r:
+                    out[i] = r[key]
+            return out
+
+        return Materials(
+            diffuse=col("diffuse", 3, 0.0),
+            specular=col("specular", 3, 0.0),
+            transmission=col("transmission", 3, 0.0),
+            roughness=col("roughness", 0, 0.0),
+            ior=col("ior", 0, 1.5),
+            emission=col("emission", 3, 0.0),
+            names=tuple(r.get("name", f"Material.{i}") for i, r in enumerate(rows)),
+        )
+
+
+@dataclass(frozen=True)
+class Lights:
+    """Analytic lights, one row per light (struct of arrays).
+
+    kind: (L,) int32, LIGHT_POINT / LIGHT_SPOT / LIGHT_SUN / LIGHT_AREA.
+    to_world: (L, 4, 4) float64, the light object's world matrix without scale
+        (a light emits along its local -Z; area lights lie in their local XY plane).
+    color: (L, 3) float32, linear RGB colour.
+    power: (L,) float32. Watts for point, spot and area; W/m^2 (strength) for sun.
+    radius: (L,) float32, metres; point and spot: the emitting sphere's radius (0 = point).
+    angle: (L,) float32, radians; sun: the full angular diameter of the sun disc.
+    spot_size: (L,) float32, radians; spot: full cone angle.
+    spot_blend: (L,) float32 in [0, 1]; spot: smoothstep softness of the cone edge.
+    shape: (L,) int32, AREA_RECTANGLE or AREA_ELLIPSE.
+    size: (L, 2) float32, metres; area: full extents along local X and Y (with the
+        object's scale already applied).
+    visible_to_camera: (L,) bool, the light's surface is seen by camera rays.
+    cast_shadow: (L,) bool.
+    names: tuple of str.
+
+    Optional (None means Blender's default for every light, so older callers still work):
+    soft_falloff: (L,) bool, point/spot: Blender's "Soft Falloff" (default True). Cycles
+        then models a radius > 0 as a disk facing the shading point instead of a sphere
+        (``is_sphere = !use_soft_falloff``); far away both act as the point light.
+    visible_to_diffuse, visible_to_glossy, visible_to_transmission: (L,) bool, the
+        light's ray-visibility flags (default True): whether it lights diffuse / glossy
+        lobes and is seen in mirror reflections / through refraction.
+    """
+
+    kind: np.ndarray
+    to_world: np.ndarray
+    color: np.ndarray
+    power: np.ndarray
+    radius: np.ndarray
+    angle: np.ndarray
+    spot_size: np.ndarray
+    spot_blend: np.ndarray
+    shape: np.ndarray
+    size: np.ndarray
+    visible_to_camera: np.ndarray
+    cast_shadow: np.ndarray
+    names: tuple = ()
+    soft_falloff: np.ndarray | None = None
+    visible_to_diffuse: np.ndarray | None = None
+    visible_to_glossy: np.ndarray | None = None
+    visible_to_transmission: np.ndarray | None = None
+
+    @property
+    def count(self) -> int:
+        return int(self.kind.shape[0])
+
+    def flag_mask(self, name: str) -> np.ndarray:
+        """(L,) bool of an optional flag field, True for every light when it is None."""
+        a = getattr(self, name)
+        return np.ones(self.count, bool) if a is None else np.asarray(a, bool)
+
+    def soft_falloff_mask(self) -> np.ndarray:
+        return self.flag_mask("soft_falloff")
+
+    @staticmethod
+    def from_list(rows: list[dict]) -> "Lights":
+        """Build from dicts; ``kind`` and ``to_world`` (or ``position``) are required.
+
+        Defaults: colour white, power 0, radius 0, angle 0, spot_size pi/4, spot_blend 0.15,
+        shape rectangle, size 1x1, visible_to_camera False, cast_shadow True,
+        soft_falloff True, visible_to_diffuse / _glossy / _transmission True.
+        A ``position`` (3,) without ``to_world`` gives a translation-only matrix, pointing
+        down (-Z), which is Blender's default orientation.
+        """
+        n = len(rows)
+        kind = np.array([r["kind"] for r in rows], np.int32).reshape(n)
+        to_world = np.tile(np.eye(4), (n, 1, 1))
+        for i, r in enumerate(rows):
+            if "to_world" in r:
+                to_world[i] = r["to_world"]
+            elif "position" in r:
+                to_world[i, :3, 3] = r["position"]
+
+        def col(key, width, default, dtype=np.float32):
+            out = np.full((n, width) if width else (n,), default, dtype)
+            for i, r in enumerate(rows):
+                if key in r:
+                    out[i] = r[key]
+            return out
+
+        return Lights(
+            kind=kind,
+            to_world=to_world,
+            color=col("color", 3, 1.0),
+            power=col("power", 0, 0.0),
+            radius=col("radius", 0, 0.0),
+            angle=col("angle", 0, 0.0),
+            spot_size=col("spot_size", 0, np.pi / 4),
+            spot_blend=col("spot_blend", 0, 0.15),
+            shape=col("shape", 0, AREA_RECTANGLE, np.int32),
+            size=col("size", 2, 1.0),
+            visible_to_camera=col("visible_to_camera", 0, False, bool),
+            cast_shadow=col("cast_shadow", 0, True, bool),
+            names=tuple(r.get("name", f"Light.{i}") for i, r in enumerate(rows)),
+            soft_falloff=col("soft_falloff", 0, True, bool),
+            visible_to_diffuse=col("visible_to_diffuse", 0, True, bool),
+            visible_to_glossy=col("visible_to_glossy", 0, True, bool),
+            visible_to_transmission=col("visible_to_transmission", 0, True, bool),
+        )
+
+    @staticmethod
+    def empty() -> "Lights":
+        return Lights.from_list([])
+
+
+@dataclass(frozen=True)
+class Camera:
+    """A pinhole (perspective) or orthographic camera.
+
+    to_world: (4, 4) float64, camera-to-world matrix without scale (looks along local -Z).
+    kind: CAMERA_PERSPECTIVE or CAMERA_ORTHOGRAPHIC.
+    width, height: int, the output resolution in pixels (percentage already applied).
+    film_size: (2,) float64, the image rectangle's full extents (x, y): for perspective
+        on the plane at distance 1 in front of the camera (so tan of the half field of
+        view is film_size / 2); for orthographic in metres.
+    film_shift: (2,) float64, offset of the rectangle's centre in the same units
+        (Blender's lens shift, already converted).
+    clip_start, clip_end: float, metres: depths of the near and far clipping planes along
+        the view axis (-Z). Cycles clips perspective rays at these planes too, so a ray at
+        angle theta from the axis runs from clip_start / cos(theta) to clip_end / cos(theta)
+        (kernel/camera/camera.h: ``nearclip * z_inv``).
+    """
+
+    to_world: np.ndarray
+    width: int
+    height: int
+    film_size: np.ndarray
+    film_shift: np.ndarray = field(default_factory=lambda: np.zeros(2))
+    kind: int = CAMERA_PERSPECTIVE
+    clip_start: float = 1e-3
+    clip_end: float = 1e30
+    name: str = "Camera"
+
+
+@dataclass(frozen=True)
+class World:
+    """Uniform environment: background radiance (3,) float32, W/(m^2 sr).
+
+    visible_to_camera: the background is seen by camera rays (Blender's world
+    ray-visibility "Camera" flag); it lights the scene either way.
+    """
+
+    radiance: np.ndarray = field(default_factory=lambda: np.zeros(3, np.float32))
+    visible_to_camera: bool = True
+
+
+@dataclass(frozen=True)
+class Scene:
+    mesh: Mesh
+    materials: Materials
+    lights: Lights
+    camera: Camera
+    world: World = field(default_factory=World)
+
+    def validate(self) -> "Scene":
+        """Check every array; raise SceneError naming the field, object or material."""
+        _validate_mesh(self.mesh, self.materials)
+        _validate_materials(self.materials)
+        _validate_lights(self.lights)
+        _validate_camera(self.camera)
+        _check_array("world.radiance", self.world.radiance, (3,), nonnegative=True)
+        return self
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """(lo, hi) float64 (3,) of the geometry and the positional lights, metres.
+
+        Falls back to the camera position when the scene has neither.
+        """
+        v = self.mesh.vertices
+        pts = [np.stack([v.min(axis=0), v.max(axis=0)]).astype(np.float64) if v.size else v]
+        local = self.lights.kind != LIGHT_SUN
+        pts.append(self.lights.to_world[local, :3, 3])
+        pts.append(self.camera.to_world[None, :3, 3])
+        allp = np.concatenate([p.reshape(-1, 3) for p in pts])
+        return allp.min(axis=0), allp.max(axis=0)
+
+
+def _check_array(name, a, shape, *, dtype=None, nonnegative=False, finite=True, labels=None):
+    """Validate one array: shape (None = any length), dtype kind, finite, >= 0."""
+    if not isinstance(a, np.ndarray):
+        raise SceneError(f"{name} must be a numpy array, got {type(a).__name__}")
+    if a.ndim != len(shape) or any(s is not None and s != d for s, d in zip(shape, a.shape)):
+        want = "(" + ", ".join("N" if s is None else str(s) for s in shape) + ")"
+        raise SceneError(f"{name} must have shape {want}, got {a.shape}")
+    if dtype is not None and a.dtype != dtype:
+        raise SceneError(f"{name} must be {np.dtype(dtype).name}, got {a.dtype.name}")
+    if finite and a.dtype.kind == "f" and a.size and not np.all(np.isfinite(a)):
+        bad = np.argwhere(~np.isfinite(a))[0]
+        where = _label(labels, bad[0])
+        raise SceneError(f"{name}{where} holds a non-finite value {a[tuple(bad)]} at index {tuple(bad)}")
+    if nonnegative and a.size and np.any(a < 0):
+        bad = np.argwhere(a < 0)[0]
+        where = _label(labels, bad[0])
+        raise SceneError(f"{name}{where} must be >= 0, got {a[tuple(bad)]} at index {tuple(bad)}")
+
+
+def _label(labels, i):
+    if labels is not None and 0 <= i < len(labels):
+        return f" of '{labels[i]}'"
+    return ""
+
+
+class _TriangleObjects:
+    """Object name of triangle i, looked up only when an error message needs it
+    (a list over millions of triangles would cost seconds per render)."""
+
+    def __init__(self, mesh: Mesh):
+        self._mesh = mesh
+
+    def __len__(self):
+        return self._mesh.triangle_count
+
+    def __getitem__(self, i):
+        o = int(self._mesh.object_index[i])
+        names = self._mesh.object_names
+        return names[o] if 0 <= o < len(names) else None
+
+
+def _validate_mesh(mesh: Mesh, materials: Materials) -> None:
+    t = mesh.triangle_count
+    _check_array("mesh.vertices", mesh.vertices, (None, 3), dtype=np.float32)
+    _check_array("mesh.triangles", mesh.triangles, (None, 3), dtype=np.int32)
+    _check_array("mesh.material_index", mesh.material_index, (t,), dtype=np.int32)
+    _check_array("mesh.object_index", mesh.object_index, (t,), dtype=np.int32)
+    tri_obj = _TriangleObjects(mesh)
+    _check_array("mesh.normals", mesh.normals, (t, 3, 3), dtype=np.float32, labels=tri_obj)
+    _check_array("mesh.uvs", mesh.uvs, (t, 3, 2), dtype=np.float32, labels=tri_obj)
+    if t:
+        v = mesh.vertices.shape[0]
+        if mesh.triangles.min() < 0 or mesh.triangles.max() >= v:
+            raise SceneError(f"mesh.triangles index out of range [0, {v}): "
+                             f"{mesh.triangles.min()}..{mesh.triangles.max()}")
+        if mesh.material_index.min() < 0 or mesh.material_index.max() >= materials.count:
+            raise SceneError(f"mesh.material_index out of range [0, {materials.count}): "
+                             f"{mesh.material_index.min()}..{mesh.material_index.max()}")
+
+
+def _validate_materials(m: Materials) -> None:
+    n = m.count
+    names = m.names if len(m.names) == n else None
+    for key in ("diffuse", "specular", "transmission", "emission"):
+        _check_array(f"materials.{key}", getattr(m, key), (n, 3), dtype=np.float32,
+                     nonnegative=True, labels=names)
+    _check_array("materials.roughness", m.roughness, (n,), dtype=np.float32, nonnegative=True, labels=names)
+    _check_array("materials.ior", m.ior, (n,), dtype=np.float32, labels=names)
+    if n and np.any(m.ior <= 0):
+        i = int(np.argmax(m.ior <= 0))
+        raise SceneError(f"materials.ior{_label(names, i)} must be > 0, got {m.ior[i]}")
+
+
+def _validate_lights(li: Lights) -> None:
+    n = li.count
+    names = li.names if len(li.names) == n else None
+    _check_array("lights.kind", li.kind, (n,), dtype=np.int32)
+    if n and not np.all(np.isin(li.kind, list(LIGHT_KIND_NAMES))):
+        i = int(np.argmax(~np.isin(li.kind, list(LIGHT_KIND_NAMES))))
+        raise SceneError(f"lights.kind{_label(names, i)} is {li.kind[i]}, not one of {LIGHT_KIND_NAMES}")
+    _check_array("lights.to_world", li.to_world, (n, 4, 4), labels=names)
+    _check_array("lights.color", li.color, (n, 3), nonnegative=True, labels=names)
+    for key in ("power", "radius", "angle", "spot_size", "spot_blend"):
+        _check_array(f"lights.{key}", getattr(li, key), (n,), nonnegative=True, labels=names)
+    _check_array("lights.shape", li.shape, (n,), dtype=np.int32)
+    _check_array("lights.size", li.size, (n, 2), nonnegative=True, labels=names)
+    _check_array("lights.visible_to_camera", li.visible_to_camera, (n,), dtype=bool)
+    _check_array("lights.cast_shadow", li.cast_shadow, (n,), dtype=bool)
+    for key in ("soft_falloff", "visible_to_diffuse", "visible_to_glossy", "visible_to_transmission"):
+        if getattr(li, key) is not None:
+            _check_array(f"lights.{key}", getattr(li, key), (n,), dtype=bool)
+
+
+def _validate_camera(c: Camera) -> None:
+    _check_array("camera.to_world", c.to_world, (4, 4), labels=[c.name] * 4)
+    _check_array("camera.film_size", np.asarray(c.film_size, np.float64), (2,))
+    _check_array("camera.film_shift", np.asarray(c.film_shift, np.float64), (2,))
+    if int(c.width) < 1 or int(c.height) < 1:
+        raise SceneError(f"camera '{c.name}' resolution must be at least 1x1, got {c.width}x{c.height}")
+    if np.any(np.asarray(c.film_size) <= 0):
+        raise SceneError(f"camera '{c.name}' film_size must be > 0, got {tuple(c.film_size)}")
+    if not (0 <= c.clip_start < c.clip_end):
+        raise SceneError(f"camera '{c.name}' needs 0 <= clip_start < clip_end, "
+                         f"got {c.clip_start}, {c.clip_end}")

@@ -1,0 +1,23 @@
+"""The RenderEngine Blender lists as "Photon Map". It dispatches; the work is in render.py."""
+
+import bpy
+
+from .render import register_passes, render_frame
+
+
+class PhotonMapRenderEngine(bpy.types.RenderEngine):
+    bl_idname = "PHOTON_MAP"
+    bl_label = "Photon Map"
+    bl_use_preview = False  # no material/light preview renders yet
+    bl_use_postprocess = True  # compositor and sequencer run on our result
+    # Solid and Material Preview viewport modes use EEVEE, as with Cycles.
+    bl_use_eevee_viewport = True
+    # We read Blender's own shader nodes (Principled, Diffuse, Glass, ...): keep the
+    # Shader Editor attached to materials instead of a custom node system.
+    bl_use_shading_nodes_custom = False
+
+    def render(self, depsgraph):
+        render_frame(self, depsgraph)
+
+    def update_render_passes(self, scene=None, renderlayer=None):
+        register_passes(self, scene, renderlayer)

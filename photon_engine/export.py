@@ -1,0 +1,294 @@
+"""Blender's evaluated depsgraph -> core.Scene, the only road from Blender to the renderer.
+
+``export_scene(depsgraph)`` walks ``depsgraph.object_instances`` once: real objects and
+instances alike (collection instances, geometry-nodes and particle instances), modifiers
+already applied by the depsgraph. Curves, text, surfaces and metaballs arrive there as
+evaluated mesh instances, so every mesh-like object is read the same way. Objects hidden
+from the render (``hide_render``, excluded collections) are not in a render depsgraph at
+all; objects with every ray-visibility flag off are skipped, as Cycles does.
+
+Mesh data is read with ``foreach_get`` into numpy once per distinct evaluated mesh and
+transformed for all of its instances at once (normals by the inverse transpose).
+What is exported and how shaders map to lobes: docs/export.md.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..core.scene import Lights, Materials, Mesh, Scene, World
+from .export_camera import export_camera
+from .export_errors import ExportError, NoCameraError  # noqa: F401  (re-exported)
+from .export_lights import light_row
+from .export_materials import default_row, read_material, read_world
+
+_VISIBILITY_FLAGS = ("visible_camera", "visible_diffuse", "visible_glossy",
+                     "visible_transmission", "visible_shadow")
+
+
+@dataclass
+class ExportResult:
+    """scene: the validated core.Scene; warnings: messages for the user (one per problem)."""
+
+    scene: Scene
+    warnings: list[str] = field(default_factory=list)
+
+
+def export_scene(depsgraph) -> ExportResult:
+    """Build the core scene from an evaluated depsgraph (render or viewport).
+
+    Raises NoCameraError without a scene camera and ExportError (a core SceneError) for
+    data that cannot be rendered, e.g. a NaN in an object's transform.
+    """
+    warnings: list[str] = []
+    camera = export_camera(depsgraph, warnings)  # fail fast, before reading geometry
+    materials = _MaterialTable(warnings)
+    geometry = _Geometry(warnings)
+    light_rows = []
+    flagged = set()
+    for inst in depsgraph.object_instances:
+        obj = inst.object
+        if obj.type not in ('MESH', 'LIGHT') or not inst.show_self:
+            continue
+        if not _ray_visible(inst, flagged, warnings):
+            continue
+        name = _instance_name(inst)
+        if obj.type == 'LIGHT':
+            row = light_row(obj, inst.matrix_world, name, warnings)
+            if row is not None:
+                light_rows.append(row)
+        else:
+            geometry.add(obj, inst.matrix_world, name, materials)
+
+    scene = Scene(
+        mesh=geometry.build(),
+        materials=Materials.from_list(materials.rows),
+        lights=Lights.from_list(light_rows),
+        camera=camera,
+        world=_export_world(depsgraph, warnings),
+    )
+    return ExportResult(scene=scene.validate(), warnings=warnings)
+
+
+def _instance_name(inst) -> str:
+    """"Parent/Object" for instances; a curve, text or metaball evaluated to a mesh
+    arrives as an instance of itself and keeps its own name."""
+    if inst.is_instance and inst.parent is not None and inst.parent.name != inst.object.name:
+        return f"{inst.parent.name}/{inst.object.name}"
+    return inst.object.name
+
+
+def _ray_visible(inst, flagged, warnings) -> bool:
+    """False when no ray can see the object (Cycles skips it); notes partial visibility."""
+    objs = [inst.object] + ([inst.parent] if inst.is_instance and inst.parent is not None else [])
+    flags = [all(getattr(o, f, True) for o in objs) for f in _VISIBILITY_FLAGS]
+    if not any(flags):
+        return False
+    base = inst.object.name
+    if inst.object.type == 'MESH' and not all(flags) and base not in flagged:
+        flagged.add(base)
+        off = [f.removeprefix("visible_") for f, on in zip(_VISIBILITY_FLAGS, flags) if not on]
+        warnings.append(f"Object '{base}': ray visibility ({', '.join(off)} off) is not "
+                        f"supported yet; rendering it as fully visible")
+    return True
+
+
+def _export_world(depsgraph, warnings) -> World:
+    scene = depsgraph.scene
+    world = scene.world
+    radiance = read_world(world, warnings)
+    visible = True
+    if world is not None and hasattr(world, "cycles_visibility"):
+        visible = bool(world.cycles_visibility.camera)
+    # Transparent film: Cycles leaves the background out of the colour (alpha 0).
+    visible = visible and not scene.render.film_transparent
+    return World(radiance=np.asarray(radiance, np.float32), visible_to_camera=visible)
+
+
+class _MaterialTable:
+    """The global material list, one row per distinct Blender material (None = default grey)."""
+
+    def __init__(self, warnings):
+        self.rows: list[dict] = []
+        self._index: dict = {}
+        self._warnings = warnings
+
+    def index(self, mat) -> int:
+        if mat is None:
+            key = None
+        else:
+            mat = getattr(mat, "original", mat) or mat
+            key = mat.as_pointer()
+        if key not in self._index:
+            row = default_row() if mat is None else read_material(mat, self._warnings)
+            self._index[key] = len(self.rows)
+            self.rows.append(row)
+        return self._index[key]
+
+    def slots(self, obj) -> tuple:
+        """Global material index per material slot of ``obj`` (at least one entry)."""
+        mats = [slot.material for slot in obj.material_slots]
+        if not mats:
+            mats = list(getattr(obj.data, "materials", [])) or [None]
+        return tuple(self.index(m) for m in mats)
+
+
+@dataclass
+class _LocalMesh:
+    """One evaluated mesh in its object space (before any instance transform)."""
+
+    positions: np.ndarray  # (V, 3) float64
+    triangles: np.ndarray  # (T, 3) int32
+    normals: np.ndarray  # (T, 3, 3) float32
+    uvs: np.ndarray  # (T, 3, 2) float32
+    material: np.ndarray  # (T,) int32, slot index
+
+
+def read_mesh(me) -> _LocalMesh | None:
+    """Triangles, corner normals, active-render UVs and slot indices of a mesh, in object space.
+
+    Zero-area triangles are dropped (they cannot be hit and have no normal). Returns None
+    for a mesh without triangles. Reads attributes in bulk where Blender has them (4.x+);
+    the per-item collections (``vertices``, ``loop_triangles`` fields) are many times slower.
+    """
+    nv, nl, nt = len(me.vertices), len(me.loops), len(me.loop_triangles)
+    if nt == 0:
+        return None
+    co = _read(_attribute_data(me, "position"), "vector", nv * 3, np.float32,
+               lambda out: me.vertices.foreach_get("co", out))
+    corners = np.empty(nt * 3, np.int32)
+    me.loop_triangles.foreach_get("loops", corners)
+    corner_vert = _read(_attribute_data(me, ".corner_vert"), "value", nl, np.int32,
+                        lambda out: me.loops.foreach_get("vertex_index", out))
+    tri = corner_vert[corners].reshape(-1, 3)
+    if hasattr(me, "loop_triangle_polygons"):  # 3.6+
+        tri_face = np.empty(nt, np.int32)
+        me.loop_triangle_polygons.foreach_get("value", tri_face)
+        face_mat = _read(_attribute_data(me, "material_index"), "value", len(me.polygons), np.int32,
+                         lambda out: out.fill(0))
+        mat = face_mat[tri_face]
+    else:
+        mat = np.empty(nt, np.int32)
+        me.loop_triangles.foreach_get("material_index", mat)
+    normals = np.empty(nl * 3, np.float32)
+    if hasattr(me, "corner_normals"):  # 4.1+
+        me.corner_normals.foreach_get("vector", normals)
+    else:
+        me.calc_normals_split()
+        me.loops.foreach_get("normal", normals)
+    uv_layer = next((layer for layer in me.uv_layers if layer.active_render), None)
+    if uv_layer is not None:
+        all_uvs = _read(getattr(uv_layer, "uv", None), "vector", nl * 2, np.float32,
+                        lambda out: uv_layer.data.foreach_get("uv", out))
+        uvs = all_uvs.reshape(-1, 2)[corners].reshape(-1, 3, 2)
+    else:
+        uvs = np.zeros((nt, 3, 2), np.float32)
+
+    positions = co.reshape(-1, 3)
+    p = positions[tri]
+    e1, e2 = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]
+    cross = np.cross(e1, e2)
+    area2 = np.einsum("ij,ij->i", cross, cross)
+    scale2 = np.einsum("ij,ij->i", e1, e1) + np.einsum("ij,ij->i", e2, e2)
+    # |e1 x e2| <= 1e-6 |e|^2: collinear or repeated corners (float32 noise is ~1e-7).
+    keep = area2 > 1e-12 * scale2 * scale2
+    n = normals.reshape(-1, 3)[corners].reshape(-1, 3, 3)
+    # Blender gives unit normals for valid faces; repair the odd broken one with the face's.
+    length2 = np.einsum("tcj,tcj->tc", n, n)
+    bad = ~(length2 > 0.25)  # also catches NaN
+    if np.any(bad & keep[:, None]):
+        face = cross / np.sqrt(np.maximum(area2, 1e-30))[:, None]
+        n[bad] = np.broadcast_to(face[:, None, :], n.shape)[bad]
+    if not np.all(keep):
+        tri, n, uvs, mat = tri[keep], n[keep], uvs[keep], mat[keep]
+    return _LocalMesh(positions=positions.astype(np.float64), triangles=tri, normals=n,
+                      uvs=uvs, material=mat)
+
+
+def _attribute_data(me, name):
+    attribute = me.attributes.get(name)
+    return None if attribute is None else attribute.data
+
+
+def _read(items, attr, size, dtype, fallback):
+    """(size,) array from the collection ``items`` by ``foreach_get``, or filled by
+    ``fallback(out)`` when it is missing or has another length."""
+    out = np.empty(size, dtype)
+    if items is not None and len(items) > 0 and size % len(items) == 0 \
+            and size // len(items) in (1, 2, 3):
+        items.foreach_get(attr, out)
+    else:
+        fallback(out)
+    return out
+
+
+class _Geometry:
+    """Collects mesh instances, then transforms each distinct mesh for all its instances."""
+
+    def __init__(self, warnings):
+        self._warnings = warnings
+        self._meshes: dict[int, _LocalMesh | None] = {}
+        self._batches: dict[tuple, list] = {}
+        self.names: list[str] = []
+
+    def add(self, obj, matrix, name, materials: _MaterialTable) -> None:
+        m = np.array(matrix, np.float64)
+        if not np.all(np.isfinite(m)):
+            raise ExportError(f"object '{name}' has a non-finite transform (NaN or infinity "
+                              f"in its matrix); fix its location, rotation or scale")
+        key = obj.data.as_pointer()
+        if key not in self._meshes:
+            self._meshes[key] = read_mesh(obj.data)
+        if self._meshes[key] is None:
+            return
+        det = np.linalg.det(m[:3, :3])
+        if not abs(det) > 0:
+            self._warnings.append(f"Object '{name}': zero scale on an axis; skipped")
+            return
+        self.names.append(name)
+        self._batches.setdefault((key, materials.slots(obj)), []).append((m, len(self.names) - 1))
+
+    def build(self) -> Mesh:
+        if not self._batches:
+            return Mesh.empty()
+        parts = []
+        base = 0
+        for (key, slots), instances in self._batches.items():
+            local = self._meshes[key]
+            part = _transform(local, np.stack([m for m, _ in instances]),
+                              np.array([i for _, i in instances], np.int32), slots, base)
+            base += part[0].shape[0]
+            parts.append(part)
+        verts, tris, normals, uvs, mats, objs = (np.concatenate(col) for col in zip(*parts))
+        f32, i32 = np.float32, np.int32
+        return Mesh(vertices=verts.astype(f32), triangles=tris.astype(i32, copy=False),
+                    normals=normals.astype(f32, copy=False), uvs=uvs.astype(f32, copy=False),
+                    material_index=mats.astype(i32, copy=False),
+                    object_index=objs.astype(i32, copy=False), object_names=tuple(self.names))
+
+
+def _transform(local: _LocalMesh, matrices, object_ids, slots, base):
+    """World-space arrays for K instances of one mesh: (V*K, 3) vertices, (T*K, ...) rest."""
+    k = matrices.shape[0]
+    nv, nt = local.positions.shape[0], local.triangles.shape[0]
+    lin, trans = matrices[:, :3, :3], matrices[:, :3, 3]
+    # (N, 3) @ (K, 3, 3) broadcasts to (K, N, 3): one matrix product per instance.
+    verts = local.positions @ np.transpose(lin, (0, 2, 1)) + trans[:, None, :]
+    normal_matrix = np.linalg.inv(lin).astype(np.float32)  # inverse transpose, transposed
+    normals = (local.normals.reshape(-1, 3) @ normal_matrix).reshape(k, nt, 3, 3)
+    normals /= np.sqrt(np.einsum("ktcj,ktcj->ktc", normals, normals))[..., None]
+    tris = local.triangles[None] + (base + nv * np.arange(k))[:, None, None]
+    uvs = np.broadcast_to(local.uvs, (k, nt, 3, 2)).copy()
+    # A mirroring transform flips the winding; swap two corners to keep the face
+    # orientation (and so the geometric normal) on the side of the shading normals.
+    flip = np.linalg.det(lin) < 0
+    if np.any(flip):
+        for arr in (tris, normals, uvs):
+            arr[flip, :, 1], arr[flip, :, 2] = arr[flip, :, 2].copy(), arr[flip, :, 1].copy()
+    lut = np.asarray(slots, np.int32)
+    mats = np.tile(lut[np.clip(local.material, 0, len(lut) - 1)], k)
+    objs = np.repeat(object_ids, nt)
+    return (verts.reshape(-1, 3), tris.reshape(-1, 3), normals.reshape(-1, 3, 3),
+            uvs.reshape(-1, 3, 2), mats, objs)

@@ -1,0 +1,95 @@
+"""Blender's scene camera -> core.scene.Camera, with Blender's own sensor-fit rule.
+
+Blender (BKE_camera_params_compute_viewplane) and Cycles frame the picture the same way:
+- the sensor size is ``sensor_height`` when Sensor Fit is VERTICAL, else ``sensor_width``
+  (AUTO uses the width even when it ends up fitting vertically);
+- AUTO fits horizontally when width x pixel_aspect_x >= height x pixel_aspect_y;
+- the fitted film extent at distance 1 is sensor / lens (perspective) or ``ortho_scale``
+  metres (orthographic); the other extent follows the image's aspect, pixel aspect included;
+- lens shift is in units of that fitted extent.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..core.scene import CAMERA_ORTHOGRAPHIC, CAMERA_PERSPECTIVE, Camera
+from .export_errors import ExportError, NoCameraError
+
+
+def render_size(render) -> tuple[int, int]:
+    """Output resolution in pixels, percentage applied as Blender does (integer division)."""
+    pct = int(render.resolution_percentage)
+    return int(render.resolution_x) * pct // 100, int(render.resolution_y) * pct // 100
+
+
+def film_extents(cam, width: int, height: int, pixel_aspect=(1.0, 1.0)):
+    """(film_size (2,), film_shift (2,)) float64 for camera data ``cam`` at this resolution.
+
+    Perspective: on the plane at distance 1 (tan of the half field of view is size / 2).
+    Orthographic: metres.
+    """
+    ax, ay = float(pixel_aspect[0]), float(pixel_aspect[1])
+    aspect = (width * ax) / (height * ay)
+    fit = cam.sensor_fit
+    sensor = cam.sensor_height if fit == 'VERTICAL' else cam.sensor_width
+    if fit == 'AUTO':
+        fit = 'HORIZONTAL' if width * ax >= height * ay else 'VERTICAL'
+    if cam.type == 'ORTHO':
+        fitted = float(cam.ortho_scale)
+    else:
+        fitted = float(sensor) / float(cam.lens)
+    if fit == 'HORIZONTAL':
+        size = np.array([fitted, fitted / aspect])
+    else:
+        size = np.array([fitted * aspect, fitted])
+    shift = np.array([cam.shift_x, cam.shift_y], np.float64) * fitted
+    return size, shift
+
+
+def without_scale(matrix: np.ndarray, what: str) -> np.ndarray:
+    """A (4, 4) float64 world matrix with unit-length axes; raises ExportError if degenerate."""
+    m = np.array(matrix, np.float64)
+    if not np.all(np.isfinite(m)):
+        raise ExportError(f"{what} has a non-finite transform (NaN or infinity in its matrix)")
+    norms = np.linalg.norm(m[:3, :3], axis=0)
+    if np.any(norms <= 0):
+        raise ExportError(f"{what} has a zero scale on one axis; it has no orientation")
+    m[:3, :3] /= norms
+    return m
+
+
+def export_camera(depsgraph, warnings: list[str]) -> Camera:
+    """The scene camera as seen by the renderer; NoCameraError when the scene has none."""
+    scene = depsgraph.scene
+    cam_obj = scene.camera
+    if cam_obj is None:
+        raise NoCameraError(f"scene '{scene.name}' has no active camera; add one and set it "
+                            f"as the scene camera (Scene Properties > Camera)")
+    cam_obj = cam_obj.evaluated_get(depsgraph)
+    cam = cam_obj.data
+    if cam_obj.type != 'CAMERA':
+        raise NoCameraError(f"the scene camera '{cam_obj.name}' is a {cam_obj.type} object, "
+                            f"not a camera")
+    if cam.type == 'PANO':
+        warnings.append(f"Camera '{cam_obj.name}': panoramic cameras are not supported; "
+                        f"rendering it as a perspective camera")
+    if getattr(cam, "dof", None) is not None and cam.dof.use_dof:
+        warnings.append(f"Camera '{cam_obj.name}': depth of field is not supported yet; ignored")
+    render = scene.render
+    width, height = render_size(render)
+    if width < 1 or height < 1:
+        raise ExportError(f"render resolution {width}x{height} (after "
+                          f"{render.resolution_percentage}%) is empty")
+    size, shift = film_extents(cam, width, height, (render.pixel_aspect_x, render.pixel_aspect_y))
+    return Camera(
+        to_world=without_scale(cam_obj.matrix_world, f"camera '{cam_obj.name}'"),
+        width=width,
+        height=height,
+        film_size=size,
+        film_shift=shift,
+        kind=CAMERA_ORTHOGRAPHIC if cam.type == 'ORTHO' else CAMERA_PERSPECTIVE,
+        clip_start=float(cam.clip_start),
+        clip_end=float(cam.clip_end),
+        name=cam_obj.name,
+    )

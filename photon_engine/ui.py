@@ -1,0 +1,138 @@
+"""Properties-editor panels, and Blender's own panels opened up to the engine.
+
+Panels only lay out ``scene.photon_map``; they never talk to the renderer.
+Blender shows a built-in panel only for the engines in its ``COMPAT_ENGINES``, so
+``register()`` adds "PHOTON_MAP" to the engine-neutral ones (as Cycles does) and to a few
+panels that are named for EEVEE but draw plain Blender data: the light's colour, power and
+shape, the material slots and the Surface node view. ``unregister()`` takes it out again.
+"""
+
+import bpy
+
+ENGINE = 'PHOTON_MAP'
+
+
+class PhotonMapPanel:
+    bl_space_type = 'PROPERTIES'
+    bl_region_type = 'WINDOW'
+    bl_context = "render"
+    COMPAT_ENGINES = {ENGINE}
+
+    @classmethod
+    def poll(cls, context):
+        return context.engine in cls.COMPAT_ENGINES
+
+
+class PHOTON_MAP_RENDER_PT_sampling(PhotonMapPanel, bpy.types.Panel):
+    bl_label = "Sampling"
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        settings = context.scene.photon_map
+        col = layout.column(align=True)
+        col.prop(settings, "samples")
+        col.prop(settings, "light_samples")
+        layout.prop(settings, "seed")
+
+
+class PHOTON_MAP_RENDER_PT_light_paths(PhotonMapPanel, bpy.types.Panel):
+    bl_label = "Light Paths"
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        layout.prop(context.scene.photon_map, "max_specular_depth")
+
+
+class PHOTON_MAP_RENDER_PT_performance(PhotonMapPanel, bpy.types.Panel):
+    bl_label = "Performance"
+    bl_options = {'DEFAULT_CLOSED'}
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        layout.prop(context.scene.photon_map, "threads")
+
+
+class PHOTON_MAP_OBJECT_PT_visibility(PhotonMapPanel, bpy.types.Panel):
+    """Ray visibility flags the exporter honours (Blender shows them for Cycles/EEVEE only)."""
+
+    bl_label = "Visibility"
+    bl_context = "object"
+    bl_options = {'DEFAULT_CLOSED'}
+
+    @classmethod
+    def poll(cls, context):
+        return context.object is not None and context.engine in cls.COMPAT_ENGINES
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        obj = context.object
+        col = layout.column(heading="Show In")
+        col.prop(obj, "hide_viewport", text="Viewports", toggle=False, invert_checkbox=True)
+        col.prop(obj, "hide_render", text="Renders", toggle=False, invert_checkbox=True)
+        col = layout.column(heading="Ray Visibility")
+        col.prop(obj, "visible_camera", text="Camera", toggle=False)
+        col.prop(obj, "visible_diffuse", text="Diffuse", toggle=False)
+        col.prop(obj, "visible_glossy", text="Glossy", toggle=False)
+        col.prop(obj, "visible_transmission", text="Transmission", toggle=False)
+        if obj.type != 'LIGHT':
+            col.prop(obj, "visible_shadow", text="Shadow", toggle=False)
+
+
+classes = (
+    PHOTON_MAP_RENDER_PT_sampling,
+    PHOTON_MAP_RENDER_PT_light_paths,
+    PHOTON_MAP_RENDER_PT_performance,
+    PHOTON_MAP_OBJECT_PT_visibility,
+)
+
+# Engine-neutral panels (those listing 'BLENDER_RENDER') we do not want: previews need
+# bl_use_preview; DATA_PT_light shows only the light type outside EEVEE (its EEVEE twin
+# below shows everything); the object visibility panel is replaced by ours.
+EXCLUDED_PANELS = {
+    'DATA_PT_light',
+    'NODE_DATA_PT_light',
+    'DATA_PT_preview',
+    'MATERIAL_PT_preview',
+    'OBJECT_PT_visibility',
+    'VIEWLAYER_PT_filter',
+    'VIEWLAYER_PT_layer_passes',
+}
+
+# Built-in panels tagged for EEVEE whose draw() uses only engine-independent data.
+BORROWED_PANELS = (
+    'DATA_PT_EEVEE_light',  # colour, power, radius, sun angle, area shape and size
+    'NODE_DATA_PT_EEVEE_light',  # the same in the Shader Editor's sidebar
+    'EEVEE_MATERIAL_PT_context_material',  # material slots
+    'EEVEE_MATERIAL_PT_surface',  # the Surface node view
+    'EEVEE_WORLD_PT_surface',  # the world's Background node view
+)
+
+
+def compatible_panels():
+    """The built-in panel classes that should also show for Photon Map."""
+    panels = [cls for cls in bpy.types.Panel.__subclasses__()
+              if 'BLENDER_RENDER' in getattr(cls, 'COMPAT_ENGINES', ())
+              and cls.__name__ not in EXCLUDED_PANELS]
+    panels += [getattr(bpy.types, name) for name in BORROWED_PANELS if hasattr(bpy.types, name)]
+    return panels
+
+
+def register():
+    for cls in classes:
+        bpy.utils.register_class(cls)
+    for panel in compatible_panels():
+        panel.COMPAT_ENGINES.add(ENGINE)
+
+
+def unregister():
+    for panel in compatible_panels():
+        panel.COMPAT_ENGINES.discard(ENGINE)
+    for cls in reversed(classes):
+        bpy.utils.unregister_class(cls)

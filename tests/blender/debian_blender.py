@@ -1,0 +1,92 @@
+"""Run a real Blender executable (Debian's ``blender`` package, 3.4) with Photon Map.
+
+Blender 3.4 predates extensions: it loads Photon Map as a legacy add-on from
+``$BLENDER_USER_SCRIPTS/addons/photon_map`` (``bl_info`` in the root ``__init__.py``) and
+imports third-party modules from ``$BLENDER_USER_SCRIPTS/addons/modules``, which is on
+its ``sys.path``. ``user_scripts()`` builds such a folder from symlinks: the repository
+as the add-on, and numpy, numba, llvmlite, embreex and OpenEXR from the Python running
+the tests (Debian's Blender runs the system CPython 3.11, ABI-compatible with the .venv's;
+its own Python has no numpy). Nothing is installed into the user's Blender folders.
+
+Not a test module: imported by tests/blender/test_blender_exe.py and test_animation.py.
+"""
+
+from __future__ import annotations
+
+import functools
+import importlib.util
+import os
+import pathlib
+import shutil
+import subprocess
+
+import pytest
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+DEPENDENCIES = ("numpy", "numba", "llvmlite", "embreex", "OpenEXR")
+SCENES = ROOT / "tests" / "blender" / "scenes.py"
+
+
+@functools.lru_cache(maxsize=None)
+def executable() -> str:
+    """Path of ``blender``; installs Debian's package when apt and root are available,
+    otherwise skips the calling test with the reason."""
+    found = shutil.which("blender")
+    if found is None and shutil.which("apt-get") and hasattr(os, "geteuid") and os.geteuid() == 0:
+        env = dict(os.environ, DEBIAN_FRONTEND="noninteractive")
+        for command in (["apt-get", "install", "-y", "-qq", "blender"],
+                        ["sh", "-c", "apt-get update -qq && apt-get install -y -qq blender"]):
+            if subprocess.run(command, env=env, capture_output=True, timeout=900).returncode == 0:
+                break
+        found = shutil.which("blender")
+    if found is None:
+        pytest.skip("no `blender` executable and no apt-get as root to install Debian's "
+                    "`blender` package (tools/setup.sh installs it)")
+    return found
+
+
+def user_scripts(folder: pathlib.Path) -> pathlib.Path:
+    """A BLENDER_USER_SCRIPTS folder in ``folder``: addons/photon_map -> the repository,
+    addons/modules/<dependency> -> this interpreter's copy (with its ``*.libs``)."""
+    scripts = folder / "scripts"
+    modules = scripts / "addons" / "modules"
+    modules.mkdir(parents=True, exist_ok=True)
+    link = scripts / "addons" / "photon_map"
+    if not link.exists():
+        link.symlink_to(ROOT, target_is_directory=True)
+    for name in DEPENDENCIES:
+        spec = importlib.util.find_spec(name)
+        if spec is None or spec.origin is None:
+            raise RuntimeError(f"{name} is not installed in this Python; run tools/setup.sh")
+        origin = pathlib.Path(spec.origin)
+        source = origin.parent if spec.submodule_search_locations else origin
+        # auditwheel puts a wheel's shared libraries in <name>.libs beside the package.
+        for path in [source, *source.parent.glob(f"{name}.libs")]:
+            target = modules / path.name
+            if not target.exists():
+                target.symlink_to(path)
+    return scripts
+
+
+def run(args, folder: pathlib.Path, timeout=300) -> subprocess.CompletedProcess:
+    """``blender <args>`` with Photon Map available as a legacy add-on and user folders
+    (scripts, config) isolated in ``folder``; ``cwd`` is ``folder``."""
+    env = dict(os.environ,
+               BLENDER_USER_SCRIPTS=str(user_scripts(folder)),
+               BLENDER_USER_CONFIG=str(folder / "config"))
+    env.pop("PYTHONPATH", None)
+    return subprocess.run([executable(), *map(str, args)], cwd=folder, env=env,
+                          capture_output=True, text=True, timeout=timeout)
+
+
+def check(done: subprocess.CompletedProcess) -> str:
+    """The output of a finished Blender run; fails the test with it if Blender failed.
+
+    Blender 3.4 exits 0 even when a ``--python`` script raises, so its output is
+    searched for Python errors and crashes too.
+    """
+    output = done.stdout + done.stderr
+    failed = (done.returncode != 0 or "Traceback" in output or "Error:" in output
+              or "Segmentation fault" in output or "crash" in output.lower())
+    assert not failed, f"blender exited with {done.returncode}:\n{output[-4000:]}"
+    return output

@@ -1,0 +1,102 @@
+"""The headless CLI, run as a user types it: ``python -m photon_engine render ...`` from
+the repository root, in a fresh process."""
+
+import subprocess
+import sys
+
+import bpy
+import numpy as np
+import OpenEXR
+import pytest
+
+from tests.blender import scenes
+from tests.conftest import ROOT
+
+pytestmark = pytest.mark.blender
+
+
+def cli(*args, timeout=300):
+    return subprocess.run([sys.executable, "-m", "photon_engine", *map(str, args)],
+                          cwd=ROOT, capture_output=True, text=True, timeout=timeout)
+
+
+@pytest.fixture(scope="module")
+def blend_file(tmp_path_factory):
+    """A saved .blend: lit plane, 32x24, engine left at EEVEE and a PNG output format
+    (the CLI must select Photon Map and a 32-bit EXR itself)."""
+    path = tmp_path_factory.mktemp("cli") / "plane.blend"
+    scene = scenes.plane_and_point_light(width=32, height=24)
+    scenes.photon_map()
+    scene.render.engine = 'BLENDER_EEVEE'
+    scene.render.image_settings.file_format = 'PNG'
+    scene.photon_map.samples = 2
+    bpy.ops.wm.save_as_mainfile(filepath=str(path), copy=True)
+    return path
+
+
+def test_renders_frame_to_32bit_multilayer_exr(blend_file, tmp_path):
+    done = cli("render", blend_file, "-o", tmp_path / "out_####", "-f", 1, "--set", "samples=1")
+    assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
+    written = sorted(p.name for p in tmp_path.iterdir())
+    assert written == ["out_0001.exr"], written
+    path = tmp_path / "out_0001.exr"
+    assert f"wrote {path}" in done.stdout
+
+    with OpenEXR.File(str(path), separate_channels=True) as exr:
+        channels = {name: ch for part in exr.parts for name, ch in part.channels.items()}
+        for name, channel in channels.items():
+            assert channel.pixels.dtype == np.float32, name  # 32-bit, not half
+    passes = scenes.read_multilayer_exr(path)
+    assert {"Combined", "Emission", "Direct", "Specular"} <= set(passes)
+    combined = passes["Combined"]
+    assert combined.shape == (24, 32, 4)
+    assert np.isfinite(combined).all() and combined[..., :3].min() >= 0.0
+    assert combined[..., :3].max() > 0.0
+    assert np.all(combined[..., 3] == 1.0)
+
+
+def test_png_output_and_frame_number(blend_file, tmp_path):
+    done = cli("render", blend_file, "-o", tmp_path / "frame_", "-f", 7, "-F", "PNG")
+    assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
+    # Without '#' Blender appends the frame number, as `blender -b -o ... -f 7` does.
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["frame_0007.png"]
+    image = bpy.data.images.load(str(tmp_path / "frame_0007.png"))
+    try:
+        assert tuple(image.size) == (32, 24)
+        pixels = np.array(image.pixels[:]).reshape(24, 32, 4)
+        assert pixels[..., :3].max() > 0.0
+    finally:
+        bpy.data.images.remove(image)
+
+
+@pytest.mark.parametrize("setting, message", [
+    ("nope=3", 'unknown setting "nope"; known settings: samples'),
+    ("samples=abc", 'setting "samples" expects int, got \'abc\''),
+    ("samples=0", 'setting "samples" must be in [1, '),
+    ("samples", "--set expects KEY=VALUE, got 'samples'"),
+])
+def test_bad_setting_is_named(blend_file, tmp_path, setting, message):
+    done = cli("render", blend_file, "-o", tmp_path / "x_####", "--set", setting, timeout=120)
+    assert done.returncode == 1
+    assert message in done.stderr
+    assert "Traceback" not in done.stderr
+    assert not any(tmp_path.iterdir())
+
+
+def test_missing_file(tmp_path):
+    done = cli("render", tmp_path / "missing.blend", "-o", tmp_path / "x", timeout=60)
+    assert done.returncode == 1
+    assert "no such .blend file" in done.stderr and "missing.blend" in done.stderr
+    assert "Traceback" not in done.stderr
+
+
+def test_scene_error_exits_with_the_message(tmp_path):
+    """A scene the engine refuses (NaN in a transform) ends the CLI with its message."""
+    path = tmp_path / "nan.blend"
+    scenes.plane_and_point_light(width=8, height=6)
+    bpy.data.objects["Plane"].location.x = float("nan")
+    bpy.ops.wm.save_as_mainfile(filepath=str(path), copy=True)
+    done = cli("render", path, "-o", tmp_path / "nan_####", "-f", 1, timeout=120)
+    assert done.returncode == 1, done.stdout[-2000:]
+    assert "Plane" in done.stderr and "Traceback" not in done.stderr
+    assert not list(tmp_path.glob("nan_*"))

@@ -1,0 +1,94 @@
+"""Camera rays: pixel -> direction (row 0 at the top), orthographic, lens shift, clipping."""
+
+import numpy as np
+import pytest
+
+from core import camera, integrator, shapes
+from core.scene import (CAMERA_ORTHOGRAPHIC, Camera, Lights, Materials, Scene)
+from core.settings import RenderSettings
+
+
+def identity_camera(**kw):
+    """At the origin, looking down -Z, +Y up; 4 x 2 pixels, 90 degrees horizontally."""
+    args = dict(to_world=np.eye(4), width=4, height=2, film_size=np.array([2.0, 1.0]))
+    args.update(kw)
+    return Camera(**args)
+
+
+def test_pixel_centres_map_to_the_film_top_row_first():
+    cam = identity_camera()
+    pix = np.array([0, 3, 4, 7])  # top-left, top-right, bottom-left, bottom-right
+    rays = camera.generate_rays(cam, pix, np.full((4, 2), 0.5))
+    expected = np.array([[-0.75, 0.25, -1], [0.75, 0.25, -1], [-0.75, -0.25, -1], [0.75, -0.25, -1]])
+    expected /= np.linalg.norm(expected, axis=1, keepdims=True)
+    np.testing.assert_allclose(rays.directions, expected, atol=1e-12)
+
+
+def test_jitter_spans_the_pixel():
+    cam = identity_camera()
+    rays = camera.generate_rays(cam, np.array([0, 0]), np.array([[0.0, 0.0], [1.0, 1.0]]))
+    d = rays.directions / -rays.directions[:, 2:3]
+    # Pixel 0 covers x in [-1, -0.5] and y in [0.5, 0] (top row).
+    np.testing.assert_allclose(d[:, :2], [[-1.0, 0.5], [-0.5, 0.0]], atol=1e-12)
+
+
+def test_camera_frame_rotation_and_position():
+    eye = np.array([1.0, 2.0, 3.0])
+    m = shapes.look_at(eye, [1.0, 12.0, 3.0])  # looking along +Y, Z up
+    cam = identity_camera(to_world=m, width=1, height=1, film_size=np.array([1.0, 1.0]))
+    rays = camera.generate_rays(cam, np.array([0]), np.array([[0.5, 0.5]]))
+    np.testing.assert_allclose(rays.directions[0], [0, 1, 0], atol=1e-12)
+    np.testing.assert_allclose(rays.origins[0], eye + cam.clip_start * np.array([0, 1, 0]), atol=1e-12)
+
+
+def test_blender_focal_length_convention():
+    """50 mm lens on a 36 mm sensor: the frame edge is at atan(18 / 50)."""
+    cam = identity_camera(width=2, height=2, film_size=np.array([36 / 50, 36 / 50]))
+    rays = camera.generate_rays(cam, np.array([1]), np.array([[1.0, 0.5]]))
+    assert np.arctan2(rays.directions[0, 0], -rays.directions[0, 2]) == pytest.approx(np.arctan(18 / 50))
+
+
+def test_lens_shift_moves_the_frame():
+    cam = identity_camera(width=1, height=1, film_size=np.array([1.0, 1.0]), film_shift=np.array([0.1, -0.2]))
+    d = camera.generate_rays(cam, np.array([0]), np.array([[0.5, 0.5]])).directions[0]
+    np.testing.assert_allclose(d / -d[2], [0.1, -0.2, -1.0], atol=1e-12)
+
+
+def test_orthographic_rays_are_parallel_and_spread_over_the_film():
+    cam = identity_camera(kind=CAMERA_ORTHOGRAPHIC, film_size=np.array([4.0, 2.0]), clip_start=0.5)
+    rays = camera.generate_rays(cam, np.arange(8), np.full((8, 2), 0.5))
+    np.testing.assert_allclose(rays.directions, np.tile([0, 0, -1.0], (8, 1)))
+    np.testing.assert_allclose(rays.origins[:4, 0], [-1.5, -0.5, 0.5, 1.5])
+    np.testing.assert_allclose(rays.origins[[0, 4], 1], [0.5, -0.5])
+    np.testing.assert_allclose(rays.origins[:, 2], -0.5)
+
+
+def test_clipping_planes_are_depths_like_cycles():
+    cam = identity_camera(clip_start=0.5, clip_end=10.0)
+    rays = camera.generate_rays(cam, np.arange(8), np.random.default_rng(1).random((8, 2)))
+    depth_near = -rays.origins[:, 2]
+    depth_far = -(rays.origins + rays.tmax[:, None] * rays.directions)[:, 2]
+    np.testing.assert_allclose(depth_near, 0.5, rtol=1e-12)
+    np.testing.assert_allclose(depth_far, 10.0, rtol=1e-12)
+
+
+def test_a_marker_renders_at_its_projected_pixel():
+    """End to end: a small emitter at a pixel's centre lights that pixel and no other."""
+    w, h = 24, 16
+    cam = shapes.pinhole([0.3, -4.0, 1.2], [0.0, 0.0, 0.5], w, h, np.radians(50))
+    col, row, depth = 14, 5, 4.0
+    # Independent of camera.py: local film point of the pixel centre, row 0 at the top.
+    local = np.array([((col + 0.5) / w - 0.5) * cam.film_size[0],
+                      (0.5 - (row + 0.5) / h) * cam.film_size[1], -1.0]) * depth
+    target = (cam.to_world @ np.append(local, 1.0))[:3]
+    pixel_size = depth * cam.film_size[0] / w
+    right, up = cam.to_world[:3, 0], cam.to_world[:3, 1]
+    marker = shapes.quad(target, 0.15 * pixel_size * right, 0.15 * pixel_size * up)
+    scene = Scene(shapes.assemble([(marker, 0)]), Materials.from_list([{"emission": [1, 1, 1]}]),
+                  Lights.empty(), cam)
+    img = integrator.render(scene, RenderSettings(samples=64)).passes["emission"][..., 0]
+    assert np.unravel_index(np.argmax(img), img.shape) == (row, col)
+    assert np.count_nonzero(img) == 1
+    # The marker covers 0.3 x 0.3 of the pixel.
+    assert img[row, col] == pytest.approx(0.09, abs=0.05)
+    np.testing.assert_allclose(camera.project(cam, target[None])[0], [col + 0.5, row + 0.5], atol=1e-9)

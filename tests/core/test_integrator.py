@@ -1,0 +1,338 @@
+"""The camera pass end to end: mirrors, glass, passes, scale invariance, determinism,
+cancelling and degenerate scenes."""
+
+import numpy as np
+import pytest
+
+from core import bsdf, integrator, shapes
+from core.scene import (CAMERA_ORTHOGRAPHIC, LIGHT_AREA, LIGHT_POINT, LIGHT_SPOT, Camera,
+                        Lights, Materials, Mesh, Scene, SceneError, World)
+from core.settings import RenderSettings, SettingsError
+
+
+def ortho_camera(eye, target, size, res=16, up=(0, 0, 1)):
+    return Camera(to_world=shapes.look_at(eye, target, up), width=res, height=res,
+                  film_size=np.array([size, size]), kind=CAMERA_ORTHOGRAPHIC)
+
+
+def facing(part, normal):
+    """Flip a part so its winding normal points along ``normal``."""
+    if np.dot(part.normals[0, 0], normal) >= 0:
+        return part
+    return shapes.Part(part.corners[:, ::-1], -part.normals)
+
+
+# --- mirrors ------------------------------------------------------------------------------
+
+def test_mirror_plane_shows_the_red_wall_with_its_tint():
+    # Camera looks along +Y at a mirror tilted 45 degrees; the reflection goes up (+Z) to a
+    # red emitter. The mirror fills the view.
+    mirror = shapes.quad([0, 2, 0], [1, 0, 0], [0, 1, 1])  # normal (0, -1, 1)/sqrt2
+    mirror = facing(mirror, [0, -1, 1])
+    red = facing(shapes.quad([0, 2, 3], [3, 0, 0], [0, 3, 0]), [0, 0, -1])
+    mats = Materials.from_list([{"specular": [0.9, 0.8, 0.7]}, {"emission": [2.0, 0.1, 0.0]}])
+    scene = Scene(shapes.assemble([(mirror, 0), (red, 1)]), mats, Lights.empty(),
+                  ortho_camera([0, -1, 0], [0, 2, 0], 0.5))
+    out = integrator.render(scene, RenderSettings(samples=2, max_specular_depth=1))
+    exp = np.array([0.9, 0.8, 0.7]) * [2.0, 0.1, 0.0]
+    np.testing.assert_allclose(out.passes["specular"], np.broadcast_to(exp, (16, 16, 3)), rtol=1e-6)
+    assert np.all(out.passes["direct"] == 0) and np.all(out.passes["emission"] == 0)
+    # With no specular bounces allowed the mirror is black.
+    out0 = integrator.render(scene, RenderSettings(samples=2, max_specular_depth=0))
+    assert np.all(out0.passes["combined"] == 0)
+
+
+def test_mirror_sphere_centre_reflects_what_is_behind_the_camera():
+    sphere = shapes.uv_sphere([0, 0, 0], 1.0, rings=48, segments=96)
+    behind = facing(shapes.quad([0, -6, 0], [4, 0, 0], [0, 0, 4]), [0, 1, 0])
+    mats = Materials.from_list([{"specular": [0.8, 0.8, 0.8]}, {"emission": [1.0, 0.0, 0.0]}])
+    cam = shapes.pinhole([0, -4, 0], [0, 0, 0], 9, 9, np.radians(10))
+    scene = Scene(shapes.assemble([(sphere, 0), (behind, 1)]), mats, Lights.empty(), cam)
+    img = integrator.render(scene, RenderSettings(samples=4)).passes["specular"]
+    np.testing.assert_allclose(img[4, 4], [0.8, 0.0, 0.0], rtol=1e-5)
+
+
+def test_area_light_seen_in_a_mirror_follows_its_glossy_visibility():
+    mirror = facing(shapes.quad([0, 2, 0], [1, 0, 0], [0, 1, 1]), [0, -1, 1])
+    light = {"kind": LIGHT_AREA, "position": [0, 2, 3], "power": 10.0, "size": [4.0, 4.0]}
+    cam = ortho_camera([0, -1, 0], [0, 2, 0], 0.5)
+    mats = Materials.from_list([{"specular": [0.5, 0.5, 0.5]}])
+    mesh = shapes.assemble([(mirror, 0)])
+    seen = integrator.render(Scene(mesh, mats, Lights.from_list([light]), cam), RenderSettings(samples=1))
+    np.testing.assert_allclose(seen.passes["specular"], 0.5 * 10.0 / (np.pi * 16.0), rtol=1e-6)
+    hidden = Lights.from_list([{**light, "visible_to_glossy": False}])
+    out = integrator.render(Scene(mesh, mats, hidden, cam), RenderSettings(samples=1))
+    assert np.all(out.passes["combined"] == 0)
+
+
+# --- glass --------------------------------------------------------------------------------
+
+def glass_slab_scene(ior):
+    slab = shapes.box([-2, -0.1, -2], [2, 0.1, 2])  # closed, normals outward
+    backdrop = facing(shapes.quad([0, 3, 0], [5, 0, 0], [0, 0, 5]), [0, -1, 0])
+    mats = Materials.from_list([{"transmission": [1, 1, 1], "ior": ior}, {"emission": [1, 1, 1]}])
+    return Scene(shapes.assemble([(slab, 0), (backdrop, 1)]), mats, Lights.empty(),
+                 ortho_camera([0, -2, 0], [0, 0, 0], 1.0))
+
+
+@pytest.mark.parametrize("depth", [2, 4, 20])
+def test_glass_slab_at_normal_incidence(depth):
+    """Transmitted paths bounce 2 + 2k times and carry (1 - F)^2 F^(2k): with depth 2 the
+    slab passes exactly (1 - F)^2; with many bounces (1 - F)^2 / (1 - F^2)."""
+    n = 2.4  # diamond: F = 0.17, so the internal reflections are visible in the sum
+    f = ((n - 1) / (n + 1)) ** 2
+    kmax = (depth - 2) // 2
+    exact = (1 - f) ** 2 * sum(f ** (2 * k) for k in range(kmax + 1))
+    out = integrator.render(glass_slab_scene(n), RenderSettings(samples=64, max_specular_depth=depth))
+    img = out.passes["specular"]
+    assert img.mean() == pytest.approx(exact, rel=0.005)
+    assert np.all(out.passes["direct"] == 0)
+    if depth == 2:
+        assert exact == pytest.approx((1 - f) ** 2)
+        assert not img.mean() == pytest.approx((1 - f) ** 2 / (1 - f * f), rel=0.005)
+
+
+def test_glass_sphere_total_internal_reflection_keeps_energy_bounded():
+    sphere = shapes.uv_sphere([0, 0, 0], 1.0, rings=32, segments=64)
+    mats = Materials.from_list([{"transmission": [1, 1, 1], "ior": 1.5}])
+    world = World(radiance=np.array([1.0, 1.0, 1.0], np.float32), visible_to_camera=True)
+    cam = shapes.pinhole([0, -4, 0], [0, 0, 0], 16, 16, np.radians(35))
+    out = integrator.render(Scene(shapes.assemble([(sphere, 0)]), mats, Lights.empty(), cam, world),
+                            RenderSettings(samples=16, max_specular_depth=12))
+    # A lossless dielectric in a uniform white world: every path ends in the world (or is
+    # cut by the depth limit), so the expected radiance is at most 1.
+    img = out.passes["combined"]
+    assert np.all(np.isfinite(img)) and np.all(img >= 0)
+    # (Single samples may exceed 1: refraction picked with probability 7/8 < 1 - F.)
+    assert 0.97 < img.mean() < 1.005
+
+
+# --- the passes on a small Cornell box -----------------------------------------------------
+
+def cornell(scale=1.0, offset=(0.0, 0.0, 0.0), res=24, world=0.0):
+    """A 2 m room open at the front with red and green walls, a mirror sphere, a glass sphere, a diffuse
+    cube, an area light, a sphere light, a spot light and an emissive panel."""
+    s = float(scale)
+    o = np.asarray(offset, np.float64)
+    room = shapes.box([-1, -1, 0], [1, 1, 2], inward=True)
+    c = room.corners
+    left = np.all(np.isclose(c[:, :, 0], -1), axis=1)
+    right = np.all(np.isclose(c[:, :, 0], 1), axis=1)
+    front = np.all(np.isclose(c[:, :, 1], -1), axis=1)  # open towards the camera
+    rest = ~(left | right | front)
+    white = shapes.Part(c[rest], room.normals[rest])
+    red = shapes.Part(c[left], room.normals[left])
+    green = shapes.Part(c[right], room.normals[right])
+    mirror = shapes.uv_sphere([-0.45, 0.3, 0.4], 0.4, 16, 32)
+    glass = shapes.uv_sphere([0.45, -0.2, 0.4], 0.4, 16, 32)
+    cube = shapes.box([-0.2, -0.7, 0.0], [0.2, -0.3, 0.3])
+    panel = facing(shapes.quad([0.7, 0.7, 1.99], [0.1, 0, 0], [0, 0.1, 0]), [0, 0, -1])
+    parts = [(white, 0), (red, 1), (green, 2), (mirror, 3), (glass, 4), (cube, 0), (panel, 5)]
+    parts = [(shapes.transform(p, s, o), m) for p, m in parts]
+    mats = Materials.from_list([
+        {"diffuse": [0.75, 0.75, 0.75]}, {"diffuse": [0.75, 0.1, 0.1]}, {"diffuse": [0.1, 0.75, 0.1]},
+        {"specular": [0.95, 0.95, 0.95]}, {"transmission": [1, 1, 1], "ior": 1.5},
+        {"emission": [4.0, 3.0, 2.0]}])
+    p2 = s * s  # powers scale with area to keep irradiance
+    lit = Lights.from_list([
+        {"kind": LIGHT_AREA, "position": o + s * np.array([0, 0, 1.98]), "power": 20.0 * p2, "size": [0.5 * s, 0.5 * s]},
+        {"kind": LIGHT_POINT, "position": o + s * np.array([-0.5, -0.5, 1.6]), "power": 5.0 * p2,
+         "radius": 0.15 * s, "soft_falloff": False},
+        {"kind": LIGHT_SPOT, "to_world": _spot_matrix(o + s * np.array([0.8, -0.8, 1.5]), o + s * np.array([0, 0, 0])),
+         "power": 10.0 * p2, "spot_size": np.radians(50), "radius": 0.02 * s},
+    ])
+    cam = shapes.pinhole(o + s * np.array([0, -3.4, 1.0]), o + s * np.array([0, 0, 1.0]), res, res, np.radians(40))
+    cam = Camera(to_world=cam.to_world, width=res, height=res, film_size=cam.film_size,
+                 clip_start=0.01 * s, clip_end=100.0 * s)
+    return Scene(shapes.assemble([(p, m) for p, m in parts]), mats, lit, cam,
+                 World(radiance=np.full(3, world, np.float32)))
+
+
+def _spot_matrix(pos, target):
+    return shapes.look_at(pos, target)
+
+
+@pytest.fixture(scope="module")
+def cornell_render():
+    return integrator.render(cornell(), RenderSettings(samples=8, seed=3))
+
+
+def test_passes_sum_to_combined_exactly(cornell_render):
+    p = cornell_render.passes
+    assert set(integrator.PASSES) | {"combined"} == set(p)
+    total = sum(p[k].astype(np.float64) for k in integrator.PASSES).astype(np.float32)
+    np.testing.assert_array_equal(p["combined"], total)
+    for k, v in p.items():
+        assert v.shape == (24, 24, 3) and v.dtype == np.float32, k
+        assert np.all(np.isfinite(v)) and np.all(v >= 0), k
+    # Every term shows up in this scene.
+    assert p["direct"].mean() > 0 and p["specular"].mean() > 0 and p["emission"].max() > 0
+    assert cornell_render.stats["rays_shadow"] > 0 and cornell_render.stats["rays_specular"] > 0
+    assert not cornell_render.cancelled
+
+
+def test_deterministic_for_a_seed_whatever_the_tiling_and_threads(cornell_render, monkeypatch):
+    monkeypatch.setattr(integrator, "TARGET_SAMPLES_PER_TILE", 40)
+    again = integrator.render(cornell(), RenderSettings(samples=8, seed=3, threads=1))
+    assert again.stats["tiles"] > 5
+    for k, v in cornell_render.passes.items():
+        np.testing.assert_array_equal(again.passes[k], v, err_msg=k)
+    other = integrator.render(cornell(), RenderSettings(samples=8, seed=4))
+    assert not np.array_equal(other.passes["combined"], cornell_render.passes["combined"])
+
+
+def _blocks(x):
+    h = x.shape[0] // 8 * 8
+    return x[:h, :h].reshape(h // 8, 8, h // 8, 8, 3).mean(axis=(1, 3))
+
+
+@pytest.fixture(scope="module")
+def cornell_noise(cornell_render):
+    """How much the reference differs from itself with another seed: the noise level."""
+    a = cornell_render.passes["combined"]
+    b = integrator.render(cornell(), RenderSettings(samples=8, seed=103)).passes["combined"]
+    return {"mean": np.abs(a.mean(axis=(0, 1)) - b.mean(axis=(0, 1))).max(),
+            "block": np.abs(_blocks(a) - _blocks(b)).max(),
+            "rms": np.sqrt(np.mean((a - b) ** 2))}
+
+
+def _within_noise(image, reference, noise):
+    """Differences (same seed) no larger than the seed-to-seed noise of the reference."""
+    assert np.abs(image.mean(axis=(0, 1)) - reference.mean(axis=(0, 1))).max() <= noise["mean"]
+    assert np.abs(_blocks(image) - _blocks(reference)).max() <= noise["block"]
+    assert np.sqrt(np.mean((image - reference) ** 2)) <= noise["rms"]
+
+
+@pytest.mark.parametrize("scale", [1e-3, 1e3])
+def test_scale_invariance(cornell_render, cornell_noise, scale):
+    ref = cornell_render.passes["combined"]
+    out = integrator.render(cornell(scale=scale), RenderSettings(samples=8, seed=3)).passes["combined"]
+    _within_noise(out, ref, cornell_noise)
+    # The offsets scale with the scene: the very same paths are traced.
+    np.testing.assert_allclose(out.mean(axis=(0, 1)), ref.mean(axis=(0, 1)), rtol=1e-4)
+
+
+def test_translation_invariance(cornell_render, cornell_noise):
+    # float32 resolves 1 mm at 1e4 m: the geometry itself moves by that much, so
+    # only "within noise" can hold (bright lights seen through glass shift by a pixel).
+    out = integrator.render(cornell(offset=(1e4, 1e4, 1e4)), RenderSettings(samples=8, seed=3))
+    _within_noise(out.passes["combined"], cornell_render.passes["combined"], cornell_noise)
+
+
+# --- progress and cancelling ----------------------------------------------------------------
+
+def test_progress_is_reported_and_cancel_stops_early(monkeypatch):
+    monkeypatch.setattr(integrator, "TARGET_SAMPLES_PER_TILE", 64)
+    calls = []
+
+    def progress(fraction, message):
+        calls.append(fraction)
+        return len(calls) >= 2
+
+    out = integrator.render(cornell(res=16), RenderSettings(samples=4), progress=progress)
+    assert out.cancelled and len(calls) == 2
+    assert 0 < calls[0] < calls[1] < 1
+    done = out.stats["pixels"]
+    assert 0 < done < 256
+    flat = out.passes["combined"].reshape(-1, 3)
+    assert np.all(flat[done:] == 0) and flat[:done].max() > 0
+    full = []
+    out = integrator.render(cornell(res=16), RenderSettings(samples=4),
+                            progress=lambda f, m: full.append(f) or False)
+    assert not out.cancelled and full[-1] == 1.0 and full == sorted(full)
+
+
+# --- degenerate scenes ------------------------------------------------------------------------
+
+def test_empty_scene_shows_the_background_or_black():
+    cam = ortho_camera([0, -1, 0], [0, 0, 0], 1.0, res=4)
+    empty = Scene(Mesh.empty(), Materials.from_list([]), Lights.empty(), cam)
+    out = integrator.render(empty, RenderSettings(samples=2))
+    assert all(np.all(v == 0) for v in out.passes.values())
+    sky = Scene(Mesh.empty(), Materials.from_list([]), Lights.empty(), cam,
+                World(radiance=np.array([0.1, 0.2, 0.3], np.float32)))
+    out = integrator.render(sky, RenderSettings(samples=2))
+    np.testing.assert_allclose(out.passes["environment"], np.broadcast_to([0.1, 0.2, 0.3], (4, 4, 3)), rtol=1e-6)
+    hidden = Scene(Mesh.empty(), Materials.from_list([]), Lights.empty(), cam,
+                   World(radiance=np.array([0.1, 0.2, 0.3], np.float32), visible_to_camera=False))
+    assert np.all(integrator.render(hidden, RenderSettings(samples=1)).passes["combined"] == 0)
+
+
+def test_no_lights_gives_a_black_image():
+    scene = cornell(res=8)
+    mats = Materials(**{**scene.materials.__dict__, "emission": np.zeros_like(scene.materials.emission)})
+    out = integrator.render(Scene(scene.mesh, mats, Lights.empty(), scene.camera, scene.world),
+                            RenderSettings(samples=2))
+    assert all(np.all(v == 0) for v in out.passes.values())
+    # The emissive panel alone still lights the room (emissive triangles are lights too).
+    panel_only = Scene(scene.mesh, scene.materials, Lights.empty(), scene.camera, scene.world)
+    assert integrator.render(panel_only, RenderSettings(samples=2)).passes["direct"].mean() > 0
+
+
+def test_zero_area_triangles_render_without_nan():
+    good = shapes.quad([0, 0, 0], [1, 0, 0], [0, 1, 0])
+    corners = np.concatenate([good.corners, np.zeros((3, 3, 3)), np.array([[[0, 0, 0.1], [0.5, 0.5, 0.1], [1, 1, 0.1]]])])
+    normals = np.concatenate([good.normals, np.zeros((4, 3, 3))])
+    mesh = shapes.assemble([(shapes.Part(corners, normals), 0)])
+    li = Lights.from_list([{"kind": LIGHT_POINT, "position": [0.2, 0.1, 1.0], "power": 10.0}])
+    scene = Scene(mesh, Materials.from_list([{"diffuse": [0.5, 0.5, 0.5], "specular": [0.2, 0.2, 0.2], "roughness": 0.3}]),
+                  li, ortho_camera([0, 0, 2], [0, 0, 0], 2.2, res=8, up=(0, 1, 0)))
+    out = integrator.render(scene, RenderSettings(samples=4))
+    for v in out.passes.values():
+        assert np.all(np.isfinite(v)) and np.all(v >= 0)
+    assert out.passes["direct"].max() > 0
+
+
+def test_bad_input_raises_clear_errors():
+    scene = cornell(res=4)
+    with pytest.raises(SettingsError, match='"samples"'):
+        integrator.render(scene, RenderSettings(samples=0))
+    bad = scene.lights.to_world.copy()
+    bad[1, 0, 3] = np.nan
+    lights = Lights(**{**scene.lights.__dict__, "to_world": bad})
+    with pytest.raises(SceneError, match="lights.to_world"):
+        integrator.render(Scene(scene.mesh, scene.materials, lights, scene.camera), RenderSettings(samples=1))
+
+
+# --- glossy and emissive direct light, checked by hand --------------------------------------
+
+def test_glossy_lobe_under_a_point_light():
+    """Centre pixel of a plane with a GGX lobe: f * cos * I / r^2 with f = spec * GGX."""
+    alpha = 0.3
+    plane = shapes.quad([0, 0, 0], [2, 0, 0], [0, 2, 0])
+    mats = Materials.from_list([{"specular": [0.6, 0.6, 0.6], "roughness": np.sqrt(alpha)}])
+    light = np.array([0.6, 0.0, 1.0])
+    eye = np.array([-0.6, 0.0, 1.0])
+    cam = Camera(to_world=shapes.look_at(eye, [0, 0, 0]), width=1, height=1,
+                 film_size=np.array([1e-4, 1e-4]), kind=CAMERA_ORTHOGRAPHIC)
+    scene = Scene(shapes.assemble([(plane, 0)]), mats,
+                  Lights.from_list([{"kind": LIGHT_POINT, "position": light, "power": 40.0}]), cam)
+    img = integrator.render(scene, RenderSettings(samples=1)).passes["direct"][0, 0]
+    wi = light / np.linalg.norm(light)
+    wo = eye / np.linalg.norm(eye)
+    f = bsdf.ggx_brdf(alpha, np.array([[0, 0, 1.0]]), wo[None], wi[None])[0]
+    # Mirror configuration: h = n, D = 1 / (pi alpha^2).
+    d = 1 / (np.pi * alpha ** 2)
+    lam = 0.5 * (np.sqrt(1 + alpha ** 2 * (1 - wi[2] ** 2) / wi[2] ** 2) - 1)
+    assert f == pytest.approx(d / (4 * wi[2] * wo[2] * (1 + 2 * lam)), rel=1e-9)
+    exp = 0.6 * f * wi[2] * 40.0 / (4 * np.pi) / np.dot(light, light)
+    np.testing.assert_allclose(img, exp, rtol=1e-4)
+
+
+def test_emissive_panel_is_seen_and_lights_the_floor():
+    panel = facing(shapes.quad([0, 0, 1], [0.25, 0, 0], [0, 0.25, 0]), [0, 0, -1])
+    floor = shapes.quad([0, 0, 0], [2, 0, 0], [0, 2, 0])
+    mats = Materials.from_list([{"emission": [3.0, 2.0, 1.0]}, {"diffuse": [0.5, 0.5, 0.5]}])
+    cam = Camera(to_world=shapes.look_at([0, 0, 0.5], [0, 0, 0], up=(0, 1, 0)), width=1, height=1,
+                 film_size=np.array([1e-3, 1e-3]), kind=CAMERA_ORTHOGRAPHIC)
+    scene = Scene(shapes.assemble([(panel, 0), (floor, 1)]), mats, Lights.empty(), cam)
+    out = integrator.render(scene, RenderSettings(samples=64, light_samples=4))
+    # Below the centre of a 0.5 x 0.5 square at height 1 (closed form of the form factor).
+    x = 0.25
+    ff = 4 * (x / np.sqrt(1 + x * x) * np.arctan(x / np.sqrt(1 + x * x))) * 2 / (2 * np.pi)
+    exp = 0.5 * np.array([3.0, 2.0, 1.0]) * ff  # albedo * L * pi * F / pi
+    np.testing.assert_allclose(out.passes["direct"][0, 0], exp, rtol=0.01)
+    up = Camera(to_world=shapes.look_at([0, 0, 0.5], [0, 0, 1], up=(0, 1, 0)), width=2, height=2,
+                film_size=np.array([0.1, 0.1]), kind=CAMERA_ORTHOGRAPHIC)
+    seen = integrator.render(Scene(scene.mesh, mats, Lights.empty(), up), RenderSettings(samples=1))
+    np.testing.assert_allclose(seen.passes["emission"], np.broadcast_to([3.0, 2.0, 1.0], (2, 2, 3)))
