@@ -18,6 +18,7 @@ photon. numba's compile (or cache load) time is measured separately, on tiny dat
 from __future__ import annotations
 
 import argparse
+import os
 import pathlib
 import sys
 import time
@@ -98,7 +99,8 @@ def main(argv=None):
 
     first = compile_time()
     print(f"numba: {numba.get_num_threads()} threads ({numba.threading_layer()} layer); "
-          f"compile or cache load: {first:.2f} s")
+          f"compile or cache load: {first:.2f} s; load average {os.getloadavg()[0]:.1f} "
+          f"on {os.cpu_count()} cores (other work inflates both columns)")
     print(f"queries per measurement: {m:,}; photon map: {BYTES_PER_PHOTON} bytes/photon "
           "(cKDTree holds a float64 copy and int64 indices, 32 bytes, plus its nodes)")
     print()
@@ -121,6 +123,7 @@ def main(argv=None):
                       f"| {k} | {g_ours:.2f} | {g_ckd:.2f} | {g_ours / g_ckd:.2f} | {bpp:.0f} |",
                       flush=True)
             del pm, tree
+    print(f"\nload average at the end: {os.getloadavg()[0]:.1f}")
 
 
 if __name__ == "__main__":

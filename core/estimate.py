@@ -40,10 +40,11 @@ import numpy as np
 from numba import njit, prange
 
 from . import encoding
-from .photon_map import (
-    QUERY_BLOCK, PhotonMap, check_k, check_points, heap_entry, knn_scratch,
-    knn_search_coherent, query_order, search_growth, squared_radius,
+from .kdtree import (
+    QUERY_BLOCK, heap_entry, knn_scratch, knn_search_coherent, query_order, search_growth,
+    sort_heap,
 )
+from .photon_map import PhotonMap, check_k, check_points, squared_radius
 
 FILTERS = {"none": 0, "cone": 1, "gaussian": 2}
 GAUSS_ALPHA = 0.918
@@ -108,7 +109,10 @@ def _irradiance_kernel(tree, axis, depth, flux_codes, inv_scale, direction_codes
             out[q, 2] = 0.0
             if c == 0:
                 continue
-            r2 = disc_radius2(c, k, heap_entry(heap, 0, fbuf, ubuf)[1], max_r2)
+            # Sum nearest first: a point's value then depends on that point alone, not on
+            # the search that found its photons (bit-for-bit equal whatever the batch).
+            sort_heap(heap, c)
+            r2 = disc_radius2(c, k, heap_entry(heap, c - 1, fbuf, ubuf)[1], max_r2)
             if r2 == 0.0:
                 degenerate += 1
                 continue

@@ -145,3 +145,32 @@ def offset_points(points: np.ndarray, geometric_normal: np.ndarray, eps: np.ndar
 def point_eps(points: np.ndarray, extent: float) -> np.ndarray:
     """(N,) float64 offset of the rule above for arbitrary points (N, 3), metres."""
     return OFFSET_SCALE * (np.max(np.abs(points), axis=1) + extent)
+
+
+MIN_FLOAT32_STEPS = 2 ** 13
+"""Fewest float32 steps the scene's extent must span at its farthest coordinate: the ray
+offsets are 8-16 steps (above), so at 2^13 steps they stay below 1/500 of the scene."""
+
+
+def check_float32_precision(scene) -> None:
+    """Raise SceneError when float32 (what Embree stores) cannot resolve the scene.
+
+    At distance m from the origin float32 coordinates are spaced 2^(floor(log2 m) - 23)
+    apart; when the scene's bounding box (geometry, positional lights, camera) spans fewer
+    than MIN_FLOAT32_STEPS such steps, vertices snap and the ray offsets swallow gaps
+    between objects (caustic photons are lost first), so the image would be silently wrong.
+    """
+    from .scene import SceneError
+
+    lo, hi = scene.bounds()
+    far = float(max(np.max(np.abs(lo)), np.max(np.abs(hi))))
+    extent = scene_extent(lo, hi)
+    if far == 0.0 or extent == 0.0:
+        return
+    step = float(np.spacing(np.float32(far)))
+    if extent < MIN_FLOAT32_STEPS * step:
+        raise SceneError(
+            f"float32 precision cannot hold the scene: it lies {far:.4g} m from the world "
+            f"origin, where float32 resolves {step * 1e3:.3g} mm, only 1/{extent / step:.0f} "
+            f"of its {extent:.4g} m size (at least 1/{MIN_FLOAT32_STEPS} is needed); move "
+            f"the scene (and camera) towards the origin")

@@ -1,17 +1,33 @@
-"""The camera pass: what the camera sees directly and through mirrors and glass.
+"""The camera pass: what the camera sees directly, through mirrors and glass, and the
+photon terms at the diffuse surfaces it reaches (the seed lecture's split).
 
 Wavefront: a tile of pixels x samples becomes one batch of camera rays; each bounce
 intersects the whole batch in Embree, shades it in numba kernels (emission, one shadow ray
-per light per light sample), and spawns at most one specular ray per path.
+per light per light sample, the photon estimates of core/gather.py), and spawns at most
+one specular ray per path.
 
 Passes (each (H, W, 3) float32, radiance W/(m^2 sr), row 0 at the top):
 - emission: emitters seen by camera rays (emissive triangles, visible lights);
 - environment: the world background seen by camera rays;
 - direct: light reflected towards the camera at the first hit (shadow rays);
 - specular: everything seen after at least one mirror/glass bounce (emission, lights,
-  background and direct light at the surface reached);
+  background, and direct light, caustics and indirect light at the surface reached);
+- caustics: the caustic map's radiance estimate at the first hit (diffuse lobe);
+- indirect: indirect diffuse light at the first hit: final gathering over the global
+  map, or (preview mode) the global map's estimate seen directly;
 - combined: their sum (summed in float64 from the float32 passes, then cast), so
-  combined == sum of the other passes exactly. "caustics" and "indirect" come later.
+  combined == sum of the other passes exactly.
+- photons (only with ``settings.photon_debug_pass``): (H, W, 4) float32 RGBA, a dot
+  wherever the camera sees a stored photon of ``settings.overlay_map``
+  (core/debug_overlay.py); not part of combined. With ``settings.overlay_composite`` the
+  dots are also drawn over combined, which is then no longer the sum of the light passes.
+A term evaluated at a diffuse surface seen through a mirror or glass belongs to the
+specular pass, like the direct light there: the caustics and indirect passes show what
+the camera sees directly, and every pixel's light is counted once.
+
+Photon maps: ``render`` first traces them (core/tracing.py, with the render's own
+Accelerator) unless ``photon_maps`` is given (tests pass hand-built maps); the photon
+pass takes PHOTON_SHARE of the progress bar.
 
 Specular rays: one delta lobe is picked per hit (``bsdf.sample_delta``: mirror vs glass by
 tint, reflection vs refraction with probability clamp(F, 1/8, 7/8) like Cycles' camera
@@ -36,7 +52,8 @@ import numpy as np
 from numba import njit, prange
 
 from . import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
-from . import bsdf, camera, geometry, light_kernels, lights, sampling
+from . import (bsdf, camera, debug_overlay, gather, geometry, light_kernels, lights,
+               photon_pass, sampling)
 from .accel import Accelerator, default_threads
 from .passes import BLENDER_PASS_NAMES, PASSES  # noqa: F401  (re-exported)
 from .scene import Scene
@@ -47,17 +64,30 @@ from .settings import RenderSettings
 # cancelling) is never far away.
 TARGET_SAMPLES_PER_TILE = 1 << 16
 TILE_SECONDS = 0.25
+PHOTON_SHARE = 0.2
+"""Fraction of the progress bar given to the photon pass when photons are traced."""
 
 ProgressFn = Callable[[float, str], bool]
 
 
 @dataclass
+class UsedPhotonMaps:
+    """The photon maps the camera pass read: PhotonMap or None (term skipped or not built)."""
+
+    global_map: object = None
+    caustic_map: object = None
+
+
+@dataclass
 class RenderOutput:
-    """passes: name -> (H, W, 3) float32; stats: counters and timings; cancelled: stopped early."""
+    """passes: name -> (H, W, 3) float32 ("photons": (H, W, 4)); stats: counters and
+    timings; cancelled: stopped early; photon_maps: the UsedPhotonMaps of the render, None
+    when it used no photon map (the viewport display shows them, photon_engine/overlay.py)."""
 
     passes: dict[str, np.ndarray]
     stats: dict = field(default_factory=dict)
     cancelled: bool = False
+    photon_maps: UsedPhotonMaps | None = None
 
 
 @dataclass
@@ -80,6 +110,8 @@ class _Context:
     stats: dict
     light_shows: np.ndarray     # (L,) the light has a surface a ray can see
     no_light: np.ndarray        # a dummy parameter row for non-analytic sources
+    has_diffuse: np.ndarray = None   # (M,) the material has a diffuse lobe
+    terms: "gather.PhotonTerms | None" = None
 
 
 def _prepare(scene: Scene, settings: RenderSettings) -> _Context:
@@ -107,6 +139,7 @@ def _prepare(scene: Scene, settings: RenderSettings) -> _Context:
                "time_intersect": 0.0, "time_shadow": 0.0, "time_shading": 0.0},
         light_shows=np.any(light_set.radiance > 0, axis=1),
         no_light=np.zeros(light_kernels.P_COUNT),
+        has_diffuse=np.any(mats["diffuse"] > 0, axis=1),
     )
 
 
@@ -332,6 +365,27 @@ def _direct_light(ctx: _Context, hit: dict, pixel, sample, depth, target):
             ctx.stats["time_shadow"] += t2 - t1
 
 
+def _photon_terms(ctx: _Context, rows, pos, ngf, nsf, eps, mat, thr, pixel, sample, depth,
+                  caustic_target, indirect_target):
+    """Add T * (caustics) and T * (indirect) at the hits with a diffuse lobe (core/gather.py)."""
+    terms = ctx.terms
+    sel = np.flatnonzero(ctx.has_diffuse[mat])
+    if sel.size == 0:
+        return
+    r = rows[sel]
+    albedo = ctx.materials["diffuse"][mat[sel]]
+    if terms.caustic_map is not None:
+        _add(caustic_target, r, thr[sel] * gather.caustics(terms, pos[sel], ngf[sel], albedo))
+    if terms.global_map is None:
+        return
+    if terms.mode == "final_gather":
+        incoming = gather.final_gather(terms, ctx, pos[sel], ngf[sel], nsf[sel], eps[sel],
+                                       pixel[r], sample[r], depth)
+        _add(indirect_target, r, thr[sel] * albedo * incoming)
+    elif terms.mode == "preview":
+        _add(indirect_target, r, thr[sel] * gather.preview(terms, pos[sel], ngf[sel], albedo))
+
+
 def _render_tile(ctx: _Context, pix: np.ndarray) -> dict[str, np.ndarray]:
     """Per-pixel means (P, 3) float64 of every pass for the pixels ``pix`` (P,) int64."""
     st = ctx.settings
@@ -421,6 +475,12 @@ def _render_tile(ctx: _Context, pix: np.ndarray) -> dict[str, np.ndarray]:
             _direct_light(ctx, hit_data, pixel[r], sample[r], depth,
                           acc["direct"] if first else acc["specular"])
 
+        # Caustics and indirect light at the hits' diffuse lobes
+        if ctx.terms is not None and ctx.terms.active:
+            _photon_terms(ctx, rows, pos, ngf, nsf, eps, mat, thr, pixel, sample, depth,
+                          acc["caustics"] if first else acc["specular"],
+                          acc["indirect"] if first else acc["specular"])
+
         # Spawn the specular rays
         if depth == st.max_specular_depth:
             break
@@ -456,30 +516,46 @@ def _render_tile(ctx: _Context, pix: np.ndarray) -> dict[str, np.ndarray]:
 # --- the render -----------------------------------------------------------------------------
 
 def render(scene: Scene, settings: RenderSettings | None = None,
-           progress: ProgressFn | None = None) -> RenderOutput:
-    """Render the camera pass of ``scene``.
+           progress: ProgressFn | None = None, photon_maps=None) -> RenderOutput:
+    """Render ``scene``: the photon pass, then the camera pass with every term.
 
-    progress(fraction in [0, 1], message) is called between tiles (at least every ~0.3 s
-    of rendering); returning True stops the render: unrendered pixels stay 0 and
-    ``cancelled`` is True. Raises SceneError / SettingsError on bad input.
+    progress(fraction in [0, 1], message) is called during photon tracing and between
+    tiles (at least every ~0.3 s of rendering); returning True stops the render:
+    unrendered pixels stay 0 and ``cancelled`` is True. photon_maps: a
+    ``tracing.PhotonMaps`` to use instead of tracing (tests build them by hand); its
+    global map must match the mode (with direct photons for final gathering, without
+    for the preview). Raises SceneError / SettingsError on bad input.
+
+    stats (RenderOutput.stats) holds, besides the ray counters and timings,
+    ``photon_maps`` (the tracer's stats), ``caustic_photons_stored`` /
+    ``global_photons_stored`` (0 when the map was not built), ``caustic_radius`` /
+    ``global_radius`` (metres, as used), and ``skipped``: term -> why it was not rendered.
     """
     t_start = time.perf_counter()
     scene.validate()
     settings = (settings or RenderSettings()).validated()
     ctx = _prepare(scene, settings)
     t_prepared = time.perf_counter()
+    try:
+        photon_stats, photons_cancelled = photon_pass.run(ctx, photon_maps, progress,
+                                                          PHOTON_SHARE)
+    except BaseException:
+        ctx.accel.close()
+        raise
+    t_photons = time.perf_counter()
     cam = scene.camera
     w, h = int(cam.width), int(cam.height)
     n_pix = w * h
     images = {name: np.zeros((n_pix, 3)) for name in PASSES}
-    cancelled = False
     done = 0
     # Start small (the first tile also pays for loading the kernels), then adapt.
     per_tile = max(1, TARGET_SAMPLES_PER_TILE // 8 // settings.samples)
     max_tile = max(1, 4 * TARGET_SAMPLES_PER_TILE // settings.samples)
     tiles = 0
+    share = PHOTON_SHARE if photon_stats.get("traced") else 0.0
+    cancelled = photons_cancelled
     try:
-        while done < n_pix:
+        while done < n_pix and not cancelled:
             t0 = time.perf_counter()
             pix = np.arange(done, min(n_pix, done + per_tile), dtype=np.int64)
             result = _render_tile(ctx, pix)
@@ -494,9 +570,18 @@ def render(scene: Scene, settings: RenderSettings | None = None,
             elif took < TILE_SECONDS / 2:
                 per_tile = min(per_tile * 2, max_tile)
             if progress is not None and done < n_pix:
-                if progress(done / n_pix, f"Rendered {done}/{n_pix} pixels"):
+                left = -(-(n_pix - done) // per_tile)
+                fraction = share + (1.0 - share) * done / n_pix
+                if progress(fraction, f"{'Gathering' if ctx.terms.active else 'Rendering'}: "
+                                      f"tile {tiles} of {tiles + left} ({done}/{n_pix} pixels)"):
                     cancelled = True
                     break
+        used = UsedPhotonMaps(ctx.terms.global_map, ctx.terms.caustic_map)
+        if used.global_map is None and used.caustic_map is None:
+            used = None
+        debug_dots = None
+        if settings.photon_debug_pass and not cancelled:
+            debug_dots = _photon_dots(ctx, used)
     finally:
         ctx.accel.close()
     if progress is not None and not cancelled:
@@ -506,15 +591,37 @@ def render(scene: Scene, settings: RenderSettings | None = None,
     for name in PASSES:
         combined += passes[name].astype(np.float64)
     passes = {"combined": combined.astype(np.float32), **passes}
+    if debug_dots is not None:
+        passes["photons"] = debug_dots
+        if settings.overlay_composite:
+            passes["combined"] = debug_overlay.composite_over(passes["combined"], debug_dots)
     t_end = time.perf_counter()
     stats = dict(ctx.stats)
-    rays = stats["rays_camera"] + stats["rays_specular"] + stats["rays_shadow"]
+    stats.update(ctx.terms.stats)
+    stats.update(photon_stats)
+    rays = (stats["rays_camera"] + stats["rays_specular"] + stats["rays_shadow"]
+            + stats["rays_gather"])
     stats.update({
         "pixels": done, "samples": settings.samples, "tiles": tiles,
         "rays_total": rays, "time_prepare": t_prepared - t_start,
-        "time_render": t_end - t_prepared, "time_total": t_end - t_start,
-        "rays_per_second": rays / max(t_end - t_prepared, 1e-12),  # over the tracing phase
+        "time_photons": t_photons - t_prepared,
+        "time_render": t_end - t_photons, "time_total": t_end - t_start,
+        "rays_per_second": rays / max(t_end - t_photons, 1e-12),  # over the camera pass
         "triangles": scene.mesh.triangle_count, "lights": scene.lights.count,
         "emissive_triangles": ctx.emissive.count,
     })
-    return RenderOutput(passes=passes, stats=stats, cancelled=cancelled)
+    return RenderOutput(passes=passes, stats=stats, cancelled=cancelled, photon_maps=used)
+
+
+def _photon_dots(ctx: _Context, used: UsedPhotonMaps | None) -> np.ndarray:
+    """The debug pass, (H, W, 4) float32 RGBA (all zero without photons); times it in
+    ctx.stats["time_overlay"]."""
+    t0 = time.perf_counter()
+    positions, flux = debug_overlay.select_photons(
+        used.global_map if used else None, used.caustic_map if used else None,
+        ctx.settings.overlay_map)
+    dots = debug_overlay.photon_overlay(ctx.scene.camera, ctx.accel, positions, flux,
+                                        dot_radius_px=ctx.settings.overlay_dot_radius,
+                                        extent=ctx.extent)
+    ctx.stats["time_overlay"] = time.perf_counter() - t0
+    return dots

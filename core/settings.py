@@ -14,6 +14,22 @@ class SettingsError(ValueError):
     """A setting out of range; the message names the setting and the value."""
 
 
+INDIRECT_MODES = ("final_gather", "preview", "off")
+"""``indirect_mode`` values: final gathering, direct visualisation of the global map, none."""
+
+FILTERS = ("none", "cone", "gaussian")
+"""``filter`` values: the radiance-estimate kernel (core/estimate.py)."""
+
+MAX_RADIUS = 1e9
+"""Largest explicit gather radius, metres (a bound that keeps the value finite)."""
+
+OVERLAY_MAPS = ("global", "caustic", "both")
+"""``overlay_map`` values: the photon map(s) the debug pass shows (core/debug_overlay.py)."""
+
+MAX_DOT_RADIUS_PX = 32.0
+"""Largest ``overlay_dot_radius``, pixels (debug_overlay.MAX_DOT_RADIUS_PX)."""
+
+
 @dataclass(frozen=True)
 class RenderSettings:
     samples: int = 16
@@ -27,6 +43,46 @@ class RenderSettings:
     threads: int = 0
     """Worker threads for ray tracing and shading; 0 = all cores."""
 
+    # Photon pass (core/tracing.py).
+    global_photons: int = 200_000
+    """Photons emitted for the global map (indirect diffuse light)."""
+    caustic_photons: int = 100_000
+    """Photons emitted for the caustic map (light -> specular+ -> diffuse paths)."""
+    photon_max_bounces: int = 8
+    """Maximum number of bounces a photon makes before it is dropped."""
+    projection_map: bool = True
+    """Aim caustic photons at the specular objects only (flux weighted by the aimed fraction)."""
+
+    # Radiance estimates (core/estimate.py).
+    global_k: int = 50
+    """Photons per radiance estimate in the global map."""
+    caustic_k: int = 50
+    """Photons per radiance estimate in the caustic map."""
+    global_radius: float = 0.0
+    """Maximum gather radius in the global map, metres; 0 = derived from the scene."""
+    caustic_radius: float = 0.0
+    """Maximum gather radius in the caustic map, metres; 0 = derived from the scene."""
+    filter: str = "cone"
+    """Radiance-estimate kernel: one of FILTERS."""
+
+    # Second pass.
+    caustics: bool = True
+    """Render the caustics term (builds the caustic map when a surface is specular)."""
+    indirect_mode: str = "final_gather"
+    """Indirect diffuse light: one of INDIRECT_MODES."""
+    final_gather_rays: int = 64
+    """Final-gather rays per pixel at the first diffuse hit (shared among its samples)."""
+
+    # Photon debug pass (core/debug_overlay.py).
+    photon_debug_pass: bool = False
+    """Add the "photons" pass: (H, W, 4) RGBA dots where the camera sees a stored photon."""
+    overlay_map: str = "both"
+    """The map(s) the debug pass shows: one of OVERLAY_MAPS."""
+    overlay_dot_radius: float = 1.0
+    """Radius of a photon's dot, pixels, in [0, MAX_DOT_RADIUS_PX]; 0 draws one pixel."""
+    overlay_composite: bool = False
+    """Draw the dots over "combined" too (which is then no longer the sum of the passes)."""
+
     def validated(self) -> "RenderSettings":
         checks = {
             "samples": (1, 1 << 20),
@@ -34,11 +90,38 @@ class RenderSettings:
             "seed": (0, 2**31 - 1),
             "light_samples": (1, 1024),
             "threads": (0, 1024),
+            "global_photons": (0, 1 << 30),
+            "caustic_photons": (0, 1 << 30),
+            "photon_max_bounces": (1, 1024),
+            "global_k": (1, 10_000),
+            "caustic_k": (1, 10_000),
+            "final_gather_rays": (1, 1 << 16),
         }
         for name, (lo, hi) in checks.items():
             v = getattr(self, name)
             if not isinstance(v, int) or isinstance(v, bool) or not (lo <= v <= hi):
                 raise SettingsError(f'"{name}" must be an integer in [{lo}, {hi}], got {v!r}')
+        for name in ("global_radius", "caustic_radius"):
+            v = getattr(self, name)
+            ok = isinstance(v, (int, float)) and not isinstance(v, bool)
+            if not ok or not (0.0 <= float(v) <= MAX_RADIUS):
+                raise SettingsError(f'"{name}" must be a number in [0, {MAX_RADIUS:g}] '
+                                    f'(metres; 0 = automatic), got {v!r}')
+        v = self.overlay_dot_radius
+        ok = isinstance(v, (int, float)) and not isinstance(v, bool)
+        if not ok or not (0.0 <= float(v) <= MAX_DOT_RADIUS_PX):
+            raise SettingsError(f'"overlay_dot_radius" must be a number in '
+                                f'[0, {MAX_DOT_RADIUS_PX:g}] (pixels), got {v!r}')
+        for name in ("projection_map", "caustics", "photon_debug_pass", "overlay_composite"):
+            v = getattr(self, name)
+            if not isinstance(v, bool):
+                raise SettingsError(f'"{name}" must be true or false, got {v!r}')
+        for name, allowed in (("indirect_mode", INDIRECT_MODES), ("filter", FILTERS),
+                              ("overlay_map", OVERLAY_MAPS)):
+            v = getattr(self, name)
+            if v not in allowed:
+                raise SettingsError(
+                    f'"{name}" must be one of {", ".join(allowed)}; got {v!r}')
         return self
 
     def with_values(self, **values) -> "RenderSettings":
@@ -59,7 +142,10 @@ class RenderSettings:
             typ = type(getattr(self, k))
             try:
                 if typ is bool:
-                    parsed[k] = text.lower() in ("1", "true", "yes", "on")
+                    low = text.lower()
+                    if low not in ("1", "true", "yes", "on", "0", "false", "no", "off"):
+                        raise ValueError(text)
+                    parsed[k] = low in ("1", "true", "yes", "on")
                 else:
                     parsed[k] = typ(text)
             except ValueError:

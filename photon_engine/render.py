@@ -17,14 +17,18 @@ import numpy as np
 
 # Core pass name -> Blender render pass name (Blender 5.0 names its own "Emission" and
 # "Environment"; "Combined" is written separately with alpha). Every pass the core
-# produces has an entry (tests/blender/test_engine.py checks it); the photon terms
-# ("caustics", "indirect") join when the core has them, so no pass is ever shown empty.
+# produces has an entry (tests/blender/test_engine.py checks it), so none is ever dropped.
 EXTRA_PASSES = {
     "emission": "Emission",
     "environment": "Environment",
     "direct": "Direct",
     "specular": "Specular",
+    "caustics": "Caustics",
+    "indirect": "Indirect",
 }
+# The photon debug pass (core/debug_overlay.py): RGBA, registered only when switched on,
+# so it is not in EXTRA_PASSES (which are RGB and always there).
+DEBUG_PASS = ("photons", "Photons")
 
 
 def register_passes(engine, scene, view_layer):
@@ -32,6 +36,9 @@ def register_passes(engine, scene, view_layer):
     engine.register_pass(scene, view_layer, "Combined", 4, "RGBA", 'COLOR')
     for name in EXTRA_PASSES.values():
         engine.register_pass(scene, view_layer, name, 3, "RGB", 'COLOR')
+    settings = getattr(scene, "photon_map", None)
+    if settings is not None and settings.photon_debug_pass:
+        engine.register_pass(scene, view_layer, DEBUG_PASS[1], 4, "RGBA", 'COLOR')
 
 
 def render_frame(engine, depsgraph):
@@ -66,14 +73,72 @@ def _render(engine, depsgraph):
         engine.report({'WARNING'}, warning)
 
     output = integrator.render(exported.scene, settings, progress=progress_callback(engine))
+    show_in_viewport(output.photon_maps, settings.overlay_map)
 
     # A cancelled render still delivers what it has, like Cycles.
     write_passes(engine, depsgraph.view_layer.name, output.passes)
     elapsed = time.perf_counter() - started
     state = "Cancelled" if output.cancelled else "Done"
-    engine.update_stats("", f"Photon Map | {state} in {elapsed:.2f} s")
+    summary = photon_summary(output.stats)
+    engine.update_stats("", f"Photon Map | {state} in {elapsed:.2f} s | {summary}")
+    print(f"Photon Map: {state.lower()} in {elapsed:.2f} s; {summary}")
+    for line in photon_log(output.stats):
+        print(f"Photon Map: {line}")
     if not output.cancelled:
         engine.update_progress(1.0)
+
+
+def show_in_viewport(maps, which):
+    """Hand the render's photons (``RenderOutput.photon_maps``, None = no map) of the map(s)
+    ``which`` to the viewport display; nothing in background mode, which draws nothing."""
+    import bpy
+
+    if bpy.app.background:
+        return
+    from ..core import debug_overlay
+    from . import overlay
+
+    positions, flux = debug_overlay.select_photons(
+        maps.global_map if maps else None, maps.caustic_map if maps else None, which)
+    overlay.set_photons(positions, debug_overlay.display_colors(flux))
+
+
+def photon_summary(stats) -> str:
+    """One line for the stats bar: the maps built with their photon counts, or why not.
+
+    stats: ``RenderOutput.stats`` (core/integrator.py).
+    """
+    parts = []
+    for term, key, label in (("caustics", "caustic_photons_stored", "caustic map"),
+                             ("indirect", "global_photons_stored", "global map")):
+        stored = int(stats.get(key, 0))
+        why = stats.get("skipped", {}).get(term)
+        if why:
+            parts.append(f"no {label} ({why})")
+        elif stored:
+            parts.append(f"{label} {stored:,} photons")
+    return ", ".join(parts) if parts else "no photon map"
+
+
+def photon_log(stats) -> list[str]:
+    """Lines for the render log: the tracer's decisions, the radii, the photon timings."""
+    lines = list(stats.get("photon_maps", {}).get("decisions", []))
+    for term, why in stats.get("skipped", {}).items():
+        lines.append(f"{term} not rendered: {why}")
+    for key, label in (("caustic", "caustic"), ("global", "global")):
+        if stats.get(f"{key}_photons_stored"):
+            lines.append(f"{label} map: {stats[f'{key}_photons_stored']:,} photons stored, "
+                         f"gather radius {stats.get(f'{key}_radius', 0.0):.4g} m")
+    if stats.get("gather_rays_per_sample"):
+        lines.append(f"final gathering: {stats['gather_rays_per_sample']} rays per camera "
+                     f"sample, {stats.get('rays_gather', 0):,} gather rays")
+    if "time_photons" in stats:
+        lines.append(f"photon pass {stats['time_photons']:.2f} s (radiance cache "
+                     f"{stats.get('time_cache', 0.0):.2f} s), camera pass "
+                     f"{stats.get('time_render', 0.0):.2f} s (final gathering "
+                     f"{stats.get('time_gather', 0.0):.2f} s, caustics "
+                     f"{stats.get('time_caustics', 0.0):.2f} s)")
+    return lines
 
 
 def load_embree_isolated():
@@ -121,7 +186,8 @@ def progress_callback(engine):
 def write_passes(engine, layer_name, passes):
     """Write core images into a new Render Result for ``layer_name``.
 
-    passes: name -> (H, W, 3) float32 radiance, row 0 at the TOP (core convention).
+    passes: name -> (H, W, 3) float32 radiance, row 0 at the TOP (core convention);
+    "photons" (H, W, 4) RGBA goes to the Photons pass when that is registered.
     Blender's ``RenderPass.rect`` is (H*W, channels) with row 0 at the BOTTOM.
     """
     combined = passes["combined"]
@@ -136,6 +202,9 @@ def write_passes(engine, layer_name, passes):
                 render_pass = layer.passes.get(blender_name)
                 if render_pass is not None:
                     render_pass.rect = _to_rect(passes[core_name])
+        core_name, blender_name = DEBUG_PASS
+        if core_name in passes and layer.passes.get(blender_name) is not None:
+            layer.passes[blender_name].rect = _to_rect(passes[core_name])
     finally:
         engine.end_result(result)
 

@@ -47,6 +47,46 @@ class PHOTON_MAP_RENDER_PT_light_paths(PhotonMapPanel, bpy.types.Panel):
         layout.prop(context.scene.photon_map, "max_specular_depth")
 
 
+class PHOTON_MAP_RENDER_PT_photons(PhotonMapPanel, bpy.types.Panel):
+    """The first pass: photon counts and the radiance estimate of each map."""
+
+    bl_label = "Photons"
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        settings = context.scene.photon_map
+        col = layout.column(align=True)
+        col.prop(settings, "global_photons")
+        col.prop(settings, "global_k")
+        col.prop(settings, "global_radius")
+        col = layout.column(align=True)
+        col.prop(settings, "caustics")
+        col.prop(settings, "caustic_photons")
+        col.prop(settings, "caustic_k")
+        col.prop(settings, "caustic_radius")
+        layout.prop(settings, "filter")
+        layout.prop(settings, "projection_map")
+
+
+class PHOTON_MAP_RENDER_PT_indirect(PhotonMapPanel, bpy.types.Panel):
+    """The second pass: how indirect diffuse light is rendered."""
+
+    bl_label = "Indirect"
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        settings = context.scene.photon_map
+        layout.prop(settings, "indirect_mode")
+        col = layout.column(align=True)
+        col.prop(settings, "final_gather_rays")
+        col.active = settings.indirect_mode == 'final_gather'
+        layout.prop(settings, "photon_max_bounces")
+
+
 class PHOTON_MAP_RENDER_PT_performance(PhotonMapPanel, bpy.types.Panel):
     bl_label = "Performance"
     bl_options = {'DEFAULT_CLOSED'}
@@ -56,6 +96,27 @@ class PHOTON_MAP_RENDER_PT_performance(PhotonMapPanel, bpy.types.Panel):
         layout.use_property_split = True
         layout.use_property_decorate = False
         layout.prop(context.scene.photon_map, "threads")
+
+
+class PHOTON_MAP_RENDER_PT_debug(PhotonMapPanel, bpy.types.Panel):
+    """Looking at the photon maps: the Photons render pass and the viewport points."""
+
+    bl_label = "Photon Debug"
+    bl_options = {'DEFAULT_CLOSED'}
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        settings = context.scene.photon_map
+        layout.prop(settings, "overlay_map")
+        col = layout.column(heading="Render")
+        col.prop(settings, "photon_debug_pass")
+        sub = col.column()
+        sub.active = settings.photon_debug_pass
+        sub.prop(settings, "overlay_dot_radius")
+        sub.prop(settings, "overlay_composite")
+        layout.prop(settings, "show_photons_in_viewport")
 
 
 class PHOTON_MAP_OBJECT_PT_visibility(PhotonMapPanel, bpy.types.Panel):
@@ -88,7 +149,10 @@ class PHOTON_MAP_OBJECT_PT_visibility(PhotonMapPanel, bpy.types.Panel):
 classes = (
     PHOTON_MAP_RENDER_PT_sampling,
     PHOTON_MAP_RENDER_PT_light_paths,
+    PHOTON_MAP_RENDER_PT_photons,
+    PHOTON_MAP_RENDER_PT_indirect,
     PHOTON_MAP_RENDER_PT_performance,
+    PHOTON_MAP_RENDER_PT_debug,
     PHOTON_MAP_OBJECT_PT_visibility,
 )
 

@@ -3,13 +3,14 @@
 #   - Debian packages bpy needs at run time (X/GL client libraries; no display is used),
 #   - Debian's `blender` (3.4), a real `blender -b` executable for tests/blender/test_blender_exe.py
 #     and test_animation.py (they run it with this .venv's numba/embreex, see docs/blender.md),
+#   - xvfb, a virtual X server for the viewport-overlay draw test (tests/blender/test_overlay.py),
 #   - Python 3.11 (bpy 5.0.1 is built for CPython 3.11 only),
 #   - a virtual environment at .venv in the repo root with requirements.txt.
 # Idempotent: a second run only checks. Safe without root (skips apt with a note).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-APT_PACKAGES=(libxrender1 libxxf86vm1 libxfixes3 libxi6 libxkbcommon0 libsm6 libgl1 libegl1 blender)
+APT_PACKAGES=(libxrender1 libxxf86vm1 libxfixes3 libxi6 libxkbcommon0 libsm6 libgl1 libegl1 blender xvfb xauth)
 
 missing=()
 if command -v dpkg >/dev/null 2>&1; then

@@ -74,8 +74,10 @@ def render_cycles(scene, samples, seed=0) -> np.ndarray:
 
 
 def render_photon_map(scene, samples, seed=0, max_depth=MAX_SPECULAR_DEPTH) -> dict:
-    """All passes of a Photon Map render through the engine, (H, W, C) float32 each."""
-    scenes.use_photon_map(scene, samples=samples, seed=seed, max_specular_depth=max_depth)
+    """All passes of a Photon Map render through the engine, (H, W, C) float32 each,
+    restricted like Cycles above: no photon terms (caustics, indirect diffuse)."""
+    scenes.use_photon_map(scene, samples=samples, seed=seed, max_specular_depth=max_depth,
+                          caustics=False, indirect_mode='off')
     return scenes.render_passes(scene)
 
 

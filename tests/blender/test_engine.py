@@ -33,6 +33,21 @@ def test_every_core_pass_has_a_blender_pass(pm):
     from photon_map.photon_engine.render import EXTRA_PASSES
 
     assert set(integrator.PASSES) <= set(EXTRA_PASSES)
+    # ... under the names core/passes.py gives them (what the EXR writer uses too).
+    for core_name, blender_name in EXTRA_PASSES.items():
+        assert integrator.BLENDER_PASS_NAMES[core_name] == blender_name, core_name
+
+
+def test_stats_say_which_maps_were_built_and_why_not(pm):
+    from photon_map.photon_engine.render import photon_log, photon_summary
+
+    stats = {"caustic_photons_stored": 0, "global_photons_stored": 1234,
+             "skipped": {"caustics": "no mirror, glass or glossy surface in the scene"},
+             "global_radius": 0.25, "photon_maps": {"decisions": ["caustic map skipped: x"]}}
+    line = photon_summary(stats)
+    assert "global map 1,234 photons" in line and "no caustic map (no mirror" in line
+    log = photon_log(stats)
+    assert "caustic map skipped: x" in log and any("0.25 m" in l for l in log)
 
 
 def test_render_result_holds_finite_passes(pm):
@@ -43,10 +58,11 @@ def test_render_result_holds_finite_passes(pm):
     rgb = combined[..., :3]
     assert np.isfinite(rgb).all() and rgb.min() >= 0.0 and rgb.max() > 0.0
     assert np.all(combined[..., 3] == 1.0)
-    # A grey Lambert plane under a point light: all of it is direct light, nothing else.
-    assert {"Emission", "Environment", "Direct", "Specular"} <= set(passes)
+    # A grey Lambert plane under a point light: all of it is direct light, nothing else
+    # (the plane cannot light itself: no indirect light; nothing specular: no caustics).
+    assert {"Emission", "Environment", "Direct", "Specular", "Caustics", "Indirect"} <= set(passes)
     np.testing.assert_allclose(passes["Direct"], rgb, rtol=1e-6, atol=1e-9)
-    for name in ("Emission", "Environment", "Specular"):
+    for name in ("Emission", "Environment", "Specular", "Caustics", "Indirect"):
         assert np.all(passes[name] == 0.0), name
 
 
@@ -109,10 +125,12 @@ def test_cancel_stops_early_and_keeps_the_rendered_part(pm, monkeypatch):
     reference = scenes.render_passes()["Combined"]
     full_calls = len(full.calls)
 
-    cancel = ProgressLog(monkeypatch, cancel_after=2)
+    # The photon pass reports first; cancel at the second tile of the camera pass.
+    photon_calls = next(i for i, (_, m) in enumerate(full.calls) if "tile" in m)
+    cancel = ProgressLog(monkeypatch, cancel_after=photon_calls + 2)
     partial = scenes.render_passes()["Combined"]
     # Stopped at the first answer "cancel": no further tile, never 100%.
-    assert len(cancel.calls) == 2 < full_calls
+    assert len(cancel.calls) == photon_calls + 2 < full_calls
     assert all(f < 1.0 for f, _ in cancel.calls)
     rendered = np.any(partial[..., :3] > 0, axis=2)
     assert 0 < rendered.sum() < rendered.size

@@ -78,9 +78,35 @@ def test_translator_carries_every_value(pm):
     props = bpy.context.scene.photon_map
     props.samples, props.max_specular_depth, props.light_samples = 3, 5, 2
     props.seed, props.threads = 77, 1
+    props.global_photons, props.caustic_photons, props.photon_max_bounces = 1234, 567, 3
+    props.global_k, props.caustic_k, props.final_gather_rays = 11, 13, 17
+    props.global_radius, props.caustic_radius = 0.25, 0.125
+    props.filter, props.indirect_mode = 'gaussian', 'preview'
+    props.caustics, props.projection_map = False, False
     core = to_core_settings(props)
     assert (core.samples, core.max_specular_depth, core.light_samples, core.seed, core.threads) == (
         3, 5, 2, 77, 1)
+    assert (core.global_photons, core.caustic_photons, core.photon_max_bounces) == (1234, 567, 3)
+    assert (core.global_k, core.caustic_k, core.final_gather_rays) == (11, 13, 17)
+    assert (core.global_radius, core.caustic_radius) == (0.25, 0.125)
+    assert (core.filter, core.indirect_mode, core.caustics, core.projection_map) == (
+        'gaussian', 'preview', False, False)
+
+
+def test_enum_items_are_the_core_choices(pm):
+    """Every core choice is offered, under the core's own string, and nothing else."""
+    from photon_map.core.settings import FILTERS, INDIRECT_MODES, MAX_RADIUS, RenderSettings
+    from photon_map.core.settings import SettingsError
+    from photon_map.photon_engine import properties
+
+    rna = bpy.context.scene.photon_map.bl_rna.properties
+    for name, choices in (("filter", FILTERS), ("indirect_mode", INDIRECT_MODES)):
+        assert tuple(item.identifier for item in rna[name].enum_items) == choices, name
+        with pytest.raises(SettingsError, match=name):
+            RenderSettings().with_values(**{name: "bogus"})
+    assert [i[3] for i in properties.INDIRECT_MODE_ITEMS] == [0, 1, 2]
+    assert "Preview" in rna["indirect_mode"].enum_items["preview"].name
+    assert properties.MAX_RADIUS == MAX_RADIUS
 
 
 def test_property_limits_are_the_core_limits(pm):
@@ -92,6 +118,8 @@ def test_property_limits_are_the_core_limits(pm):
 
     rna = bpy.context.scene.photon_map.bl_rna.properties
     for name in setting_names():
+        if rna[name].type not in ('INT', 'FLOAT'):
+            continue  # booleans and enums: test_enum_items_are_the_core_choices
         lo, hi = rna[name].hard_min, rna[name].hard_max
         RenderSettings().with_values(**{name: lo})
         RenderSettings().with_values(**{name: hi})
@@ -196,7 +224,7 @@ class RecordingLayout:
 
 def test_panels_draw_every_setting(pm):
     from photon_map.photon_engine import ui
-    from photon_map.photon_engine.properties import setting_names
+    from photon_map.photon_engine.properties import VIEWPORT_ONLY, setting_names
 
     scene = bpy.context.scene
     light = scenes.add_light('POINT')
@@ -205,5 +233,5 @@ def test_panels_draw_every_setting(pm):
         context = _context('PHOTON_MAP', scene=scene, object=light)
         panel.draw(types.SimpleNamespace(layout=RecordingLayout(drawn)), context)
     shown = {name for data, name in drawn if data == scene.photon_map}
-    assert shown == set(setting_names())
+    assert shown == set(setting_names()) | set(VIEWPORT_ONLY)
     assert {"visible_camera", "visible_diffuse", "visible_glossy"} <= {n for _, n in drawn}

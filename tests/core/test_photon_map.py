@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from core import encoding
-from core.photon_map import BYTES_PER_PHOTON, PhotonMap, balance
+from core.kdtree import balance
+from core.photon_map import BYTES_PER_PHOTON, PhotonMap
 
 N = 300
 
@@ -39,20 +40,24 @@ def make_map(positions, rng):
     return PhotonMap(positions, rng.random((n, 3)), rng.normal(size=(n, 3)))
 
 
-def brute_force(photons, queries, k, max_radius):
-    """The definition: float32 squared distances, sorted by (distance, index), within
-    float32(max_radius**2), padded with -1 / inf."""
+def brute_force(photons, queries):
+    """The definition, for every k and radius at once: float32 squared distances
+    ``dx*dx + dy*dy + dz*dz``, each row sorted by (distance, index)."""
     d = queries[:, None, :] - photons[None, :, :]
     d2 = d[..., 0] * d[..., 0] + d[..., 1] * d[..., 1] + d[..., 2] * d[..., 2]
-    order = np.argsort(d2, axis=1, kind="stable")[:, :k]
-    dist2 = np.take_along_axis(d2, order, axis=1)
-    r2 = np.float32(min(float(max_radius) ** 2, np.inf))
-    inside = dist2 <= r2
-    idx = np.full((queries.shape[0], k), -1, np.int64)
-    out = np.full((queries.shape[0], k), np.inf, np.float32)
+    order = np.argsort(d2, axis=1, kind="stable")
+    return order, np.take_along_axis(d2, order, axis=1)
+
+
+def expected(oracle, k, max_radius):
+    """The first k of each row within float32(max_radius**2), padded with -1 / inf."""
+    order, d2 = oracle[0][:, :k], oracle[1][:, :k]
+    inside = d2 <= np.float32(float(max_radius) ** 2)
+    idx = np.full((order.shape[0], k), -1, np.int64)
+    dist2 = np.full((order.shape[0], k), np.inf, np.float32)
     idx[:, : order.shape[1]] = np.where(inside, order, -1)
-    out[:, : order.shape[1]] = np.where(inside, dist2, np.inf)
-    return idx, out
+    dist2[:, : order.shape[1]] = np.where(inside, d2, np.inf)
+    return idx, dist2
 
 
 def queries_for(photons, rng):
@@ -70,23 +75,30 @@ def test_nearest_equals_brute_force(shape, rng):
     photons = point_set(shape, rng)
     pm = make_map(photons, rng)
     queries = queries_for(pm.positions, rng)
+    oracle = brute_force(pm.positions, queries)
     for k in (1, 8, 50, N, N + 5):
         for radius in (0.0, 0.01, 0.1, 0.5, np.inf):
             idx, dist2 = pm.nearest(queries, k, radius)
-            want_idx, want_d2 = brute_force(pm.positions, queries, k, radius)
+            want_idx, want_d2 = expected(oracle, k, radius)
             assert idx.dtype == np.int64 and dist2.dtype == np.float32
             assert idx.shape == dist2.shape == (queries.shape[0], k)
             np.testing.assert_array_equal(idx, want_idx, err_msg=f"k={k} radius={radius}")
             np.testing.assert_array_equal(dist2, want_d2, err_msg=f"k={k} radius={radius}")
 
 
-def test_query_order_does_not_change_results(rng):
-    pm = make_map(point_set("uniform", rng, 2000), rng)
-    queries = rng.random((1000, 3), dtype=np.float32)
-    sorted_ = pm.nearest(queries, 20, 0.2)
-    unsorted = pm.nearest(queries, 20, 0.2, sort_queries=False)
-    np.testing.assert_array_equal(sorted_[0], unsorted[0])
-    np.testing.assert_array_equal(sorted_[1], unsorted[1])
+@pytest.mark.parametrize("shape", ["uniform", "clustered"])
+def test_many_coherent_queries_equal_brute_force(shape, rng):
+    # Enough queries to be visited in Morton order, where each search starts from the
+    # previous query's radius (a guess, retried when it holds fewer than k photons).
+    pm = make_map(point_set(shape, rng, 2000), rng)
+    queries = np.vstack([point_set(shape, rng, 1500), rng.random((500, 3), dtype=np.float32)])
+    oracle = brute_force(pm.positions, queries)
+    for k, radius in ((1, np.inf), (20, np.inf), (20, 0.05), (64, 0.2)):
+        want = expected(oracle, k, radius)
+        for sort_queries in (True, False):
+            got = pm.nearest(queries, k, radius, sort_queries=sort_queries)
+            np.testing.assert_array_equal(got[0], want[0], err_msg=f"k={k} r={radius}")
+            np.testing.assert_array_equal(got[1], want[1], err_msg=f"k={k} r={radius}")
 
 
 def subtree_boxes(pos):

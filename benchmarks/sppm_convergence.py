@@ -1,0 +1,93 @@
+"""SPPM convergence on the caustic scene: relMSE against a reference vs passes and wall time.
+
+    .venv/bin/python benchmarks/sppm_convergence.py                  # the table (docs/sppm.md)
+    .venv/bin/python benchmarks/sppm_convergence.py --make-reference # tests/data/sppm_caustic_ref.npz
+
+The scene (also built by tests/core/test_sppm.py, keep them equal): a 4 x 4 m diffuse floor
+(albedo 0.8), a glass sphere (radius 0.5 m, ior 1.5) 0.1 m above it, a 200 W point light
+(radius 0) at (0.3, 0, 2.5) m, a 32 x 32 pinhole camera. The reference is SPPM itself with
+1024 passes of 32 000 photons and another seed (about 25 s on one core); the test's
+independent oracle is the diffuse-only check against the integrator (test_sppm.py).
+relMSE = mean((a - b)^2 / (b^2 + 0.01)) over pixels and channels.
+"""
+
+from __future__ import annotations
+
+import argparse
+import pathlib
+import sys
+import time
+
+import numpy as np
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from core import shapes, sppm  # noqa: E402
+from core.scene import LIGHT_POINT, Lights, Materials, Scene  # noqa: E402
+from core.settings import RenderSettings  # noqa: E402
+
+REFERENCE = ROOT / "tests" / "data" / "sppm_caustic_ref.npz"
+REF_PASSES, REF_PHOTONS, REF_SEED = 1024, 32_000, 99
+PHOTONS_PER_PASS = 25_000
+
+
+def caustic_scene(scale: float = 1.0, width: int = 32, height: int = 32) -> Scene:
+    s = scale
+    mesh = shapes.assemble([(shapes.quad([0, 0, 0], [2 * s, 0, 0], [0, 2 * s, 0]), 0),
+                            (shapes.uv_sphere([0, 0, 0.6 * s], 0.5 * s, 16, 32), 1)])
+    mats = Materials.from_list([{"diffuse": [0.8] * 3}, {"transmission": [1, 1, 1], "ior": 1.5}])
+    lights = Lights.from_list([{"kind": LIGHT_POINT, "position": [0.3 * s, 0, 2.5 * s],
+                                "power": 200.0 * s * s}])
+    cam = shapes.pinhole([0, -3.0 * s, 2.5 * s], [0, 0, 0.3 * s], width, height, 0.9)
+    return Scene(mesh, mats, lights, cam).validate()
+
+
+def rel_mse(a: np.ndarray, b: np.ndarray) -> float:
+    a, b = np.asarray(a, np.float64), np.asarray(b, np.float64)
+    return float(np.mean((a - b) ** 2 / (b * b + 0.01)))
+
+
+def make_reference() -> None:
+    t0 = time.perf_counter()
+    out = sppm.render_progressive(caustic_scene(), RenderSettings().with_values(
+        seed=REF_SEED, threads=1), REF_PASSES, REF_PHOTONS)
+    REFERENCE.parent.mkdir(parents=True, exist_ok=True)
+    np.savez_compressed(REFERENCE, image=out.passes["combined"],
+                        command="benchmarks/sppm_convergence.py --make-reference",
+                        passes=REF_PASSES, photons_per_pass=REF_PHOTONS, seed=REF_SEED)
+    print(f"wrote {REFERENCE} in {time.perf_counter() - t0:.1f} s")
+
+
+def table(max_passes: int, seed: int) -> None:
+    ref = np.load(REFERENCE)["image"]
+    settings = RenderSettings().with_values(seed=seed, threads=1)
+    # Load the numba kernels once so the first row does not include compilation.
+    sppm.render_progressive(caustic_scene(8, 8), settings, 1, 100)
+    print(f"| passes | photons | wall s | relMSE | mean ratio |")
+    print(f"|---:|---:|---:|---:|---:|")
+    t0 = time.perf_counter()
+    marks = {1, 4, 16, 64, 256, 1024}
+    for state in sppm.progressive_passes(caustic_scene(), settings, PHOTONS_PER_PASS,
+                                         max_passes=max_passes):
+        if state.passes in marks:
+            img = state.radiance()
+            wall = time.perf_counter() - t0
+            print(f"| {state.passes} | {state.passes * PHOTONS_PER_PASS:,} | {wall:.2f} | "
+                  f"{rel_mse(img, ref):.4f} | {img.mean() / ref.mean():.3f} |")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--make-reference", action="store_true")
+    ap.add_argument("--passes", type=int, default=256)
+    ap.add_argument("--seed", type=int, default=0)
+    args = ap.parse_args()
+    if args.make_reference:
+        make_reference()
+    else:
+        table(args.passes, args.seed)
+
+
+if __name__ == "__main__":
+    main()

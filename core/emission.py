@@ -1,0 +1,608 @@
+"""Photon emission: where photons leave the lights, in which direction, with what flux.
+
+Units are those of lights.py (Cycles'): strength S = colour x power.
+
+- Point / spot, radius r: intensity I(w) = S / (4 pi) x spot falloff(w) in every direction
+  w. Radius r > 0 is emitted as what it is seen as from direction w: the disk of radius r
+  perpendicular to w (Blender's soft falloff), or, for a sphere, the same disk lifted onto
+  the sphere's front surface; uniform points on that disk and uniform w give exactly a
+  Lambertian sphere of radiance S / (4 pi^2 r^2). Total flux S (point),
+  S / (4 pi) x integral of the falloff over the cone (spot).
+- Spot: directions uniform in the cone of half angle spot_size / 2 about -Z, each photon
+  weighted by Cycles' smoothstep falloff.
+- Sun: directions uniform in the sun's cone; for each, a point uniform on the disc of the
+  scene's bounding sphere perpendicular to it (radius R), the photon starting where that
+  ray crosses a plane beyond the sphere on the sun's side. The flux is the radiance over
+  the cone times pi R^2: S pi R^2 x 2 / (1 + cos h) (S pi R^2 for a point-like sun: the
+  irradiance S on a surface facing the sun times the disc's area).
+- Area: one-sided, uniform on the rectangle / ellipse, cosine-weighted about -Z; flux S.
+- Emissive triangles: picked by area x radiance (``lights.EmissiveTriangles``), uniform
+  on the triangle, either side with probability 1/2, cosine-weighted; flux 2 pi L A.
+- World background: uniform directions, origins on a disc of the scene's bounding
+  sphere's radius perpendicular to the direction, flux L x pi R^2 x 4 pi.
+
+Every photon carries flux (3,) watts = (emitted radiance x cosine) / (pdf x photons of
+the light), so the flux of a light's photons sums, in expectation, to the light's power.
+
+Aimed emission (the projection map, for caustic photons): the same lights emit only
+towards a set of target spheres (bounding spheres of specular objects). A target is picked
+with a fixed probability p_j, a direction uniform in the cone subtending it (sun: a point
+uniform on its cross-section perpendicular to the sampled direction), and the flux is divided by the mixture pdf
+sum_k p_k pdf_k, so overlapping targets are not counted twice and the estimate stays
+unbiased for every direction the cones cover.
+
+Random numbers: scrambled Sobol pairs (``sampling.stratified2``) over each light's photons
+for the position and direction, and counter hashes for the discrete picks; a photon's
+numbers depend only on (seed, map, light, photon index).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit, prange
+
+from . import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
+from . import geometry
+from . import light_kernels as lk
+from . import sampling
+from .lights import EmissiveTriangles, LightSet
+from .scene import LIGHT_AREA, LIGHT_POINT, LIGHT_SPOT, LIGHT_SUN
+
+LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
+# Source ids after the analytic lights (index L) for emissive triangles and the world.
+SOURCE_TRIANGLES = -1
+SOURCE_WORLD = -2
+# Bounding spheres are grown by this fraction so float rounding never clips a photon.
+_SPHERE_MARGIN = 1.02
+
+
+@dataclass(frozen=True)
+class Source:
+    """One emitter: an analytic light (index >= 0), the emissive triangles or the world.
+
+    power: (3,) float64 W, total flux it emits (aimed: the flux towards the targets,
+    an estimate used only to share photons); name: for stats.
+    """
+
+    index: int
+    power: np.ndarray
+    name: str
+
+
+@dataclass(frozen=True)
+class Targets:
+    """Spheres the aimed emission shoots at. centre (K, 3) float64, radius (K,) metres;
+    optionally the objects' boxes lo, hi (K, 3) (tighter reach tests for flat objects)."""
+
+    centre: np.ndarray
+    radius: np.ndarray
+    lo: np.ndarray | None = None
+    hi: np.ndarray | None = None
+
+    @property
+    def count(self) -> int:
+        return int(self.radius.shape[0])
+
+
+@dataclass(frozen=True)
+class Emitted:
+    """A batch of photons leaving the lights (float64).
+
+    origin: (N, 3) metres; direction: (N, 3) unit; flux: (N, 3) watts per photon.
+    """
+
+    origin: np.ndarray
+    direction: np.ndarray
+    flux: np.ndarray
+
+
+def luminance(rgb) -> np.ndarray:
+    return np.asarray(rgb, np.float64) @ LUMINANCE
+
+
+def bounding_sphere(lo, hi) -> tuple[np.ndarray, float]:
+    """Centre (3,) and radius (metres) of the sphere around an axis-aligned box."""
+    lo, hi = np.asarray(lo, np.float64), np.asarray(hi, np.float64)
+    return 0.5 * (lo + hi), float(0.5 * np.linalg.norm(hi - lo))
+
+
+def object_spheres(tri_vertices: np.ndarray, object_index: np.ndarray,
+                   n_objects: int) -> Targets:
+    """Bounding sphere of every object (centre of its box, radius to its farthest corner).
+
+    tri_vertices (T, 3, 3) float32; object_index (T,) int32. Objects without triangles get
+    radius -1.
+    """
+    tv = np.asarray(tri_vertices, np.float64).reshape(-1, 3, 3)
+    obj = np.asarray(object_index, np.int64)
+    lo = np.full((n_objects, 3), np.inf)
+    hi = np.full((n_objects, 3), -np.inf)
+    for c in range(3):
+        np.minimum.at(lo, obj, tv[:, c])
+        np.maximum.at(hi, obj, tv[:, c])
+    present = np.all(np.isfinite(lo), axis=1)
+    centre = np.where(present[:, None], 0.5 * (lo + hi), 0.0)
+    r2 = np.zeros(n_objects)
+    for c in range(3):
+        np.maximum.at(r2, obj, np.sum((tv[:, c] - centre[obj]) ** 2, axis=1))
+    radius = np.where(present, np.sqrt(r2) * _SPHERE_MARGIN, -1.0)
+    return Targets(centre, radius, np.where(present[:, None], lo, 0.0),
+                   np.where(present[:, None], hi, 0.0))
+
+
+def boxes_in_front(targets: Targets, point, normal, slack: float = 0.0) -> np.ndarray:
+    """(K,) bool: does any corner of each target's box lie strictly in front of the plane
+    through ``point`` with unit ``normal`` (by more than -slack)? When no corner does, the
+    whole box (their convex hull) is behind: nothing emitted into the front half-space
+    can reach it. Without boxes, the spheres are tested."""
+    p = np.asarray(point, np.float64)
+    n = np.asarray(normal, np.float64)
+    if targets.lo is None:
+        return (targets.centre - p) @ n + targets.radius > -slack
+    corners = np.stack([np.where(np.array([(c >> k) & 1 for k in range(3)], bool),
+                                 targets.hi, targets.lo) for c in range(8)], axis=1)
+    return np.any((corners - p) @ n > -slack, axis=1) & (targets.radius >= 0)
+
+
+# --- light power ----------------------------------------------------------------------------
+
+def spot_cone_integral(cos_half: float, smooth: float) -> float:
+    """integral over cos(angle) in [cos_half, 1] of Cycles' smoothstep falloff.
+
+    With x = (c - cos_half) smooth and X = (1 - cos_half) smooth: integral of
+    smoothstep(x) dx / smooth, = X^3 - X^4 / 2 below 1 and X - 1/2 above.
+    """
+    width = 1.0 - cos_half
+    if not np.isfinite(smooth):
+        return width
+    x = width * smooth
+    return (x ** 3 - 0.5 * x ** 4) / smooth if x < 1.0 else (x - 0.5) / smooth
+
+
+def cone_hits_sphere(apex, axis, cos_half: float, centre, radius) -> np.ndarray:
+    """(K,) bool: does the cone (apex (3,), unit axis (3,), half angle acos(cos_half))
+    reach any of the spheres (K, 3), (K,)? Conservative (may say yes when no)."""
+    v = np.asarray(centre, np.float64) - np.asarray(apex, np.float64)
+    d = np.linalg.norm(v, axis=1)
+    radius = np.asarray(radius, np.float64)
+    inside = d <= radius
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ang = np.arccos(np.clip(v @ axis / np.where(d > 0, d, 1.0), -1.0, 1.0))
+        spread = np.arcsin(np.clip(radius / np.where(d > 0, d, 1.0), 0.0, 1.0))
+    half = np.arccos(np.clip(cos_half, -1.0, 1.0))
+    return (inside | (ang - spread <= half + 1e-9)) & (radius >= 0)
+
+
+def sun_plane(light_set: LightSet, i: int, centre, radius: float) -> np.ndarray:
+    """A point of the plane, perpendicular to sun i's axis, from which its photons start:
+    just outside the sphere (centre, radius) on the sun's side, so no geometry lies
+    between the plane and the sun."""
+    return np.asarray(centre, np.float64) + light_set.axis_z[i] * (1.05 * radius + 1e-9)
+
+
+def sun_power(light_set: LightSet, i: int, radius: float) -> np.ndarray:
+    """(3,) W the sun sends through a sphere of the given radius: for each direction of
+    its cone, radiance L across the sphere's cross-section pi R^2, i.e.
+    L x 2 pi (1 - cos h) x pi R^2 = S pi R^2 x 2 / (1 + cos h) (S for a point sun)."""
+    omc = float(light_set.sun_one_minus_cos[i])
+    return light_set.strength[i] * np.pi * radius ** 2 * 2.0 / (2.0 - omc)
+
+
+def source_powers(light_set: LightSet, emissive: EmissiveTriangles, world_radiance,
+                  scene_centre, scene_radius: float, geometry_spheres: Targets | None,
+                  with_world: bool) -> list[Source]:
+    """The sources that emit photons, with their total flux (W, RGB).
+
+    Zero-power lights are left out, and so are lights that provably reach no geometry:
+    a spot whose cone misses every object's bounding sphere, an area light with every
+    object behind its plane.
+    """
+    out = []
+    for i in range(light_set.count):
+        k = int(light_set.kind[i])
+        s = light_set.strength[i]
+        if not np.any(s > 0):
+            continue
+        name = light_set.names[i] if i < len(light_set.names) else f"light {i}"
+        if k == LIGHT_POINT:
+            power = s.copy()
+        elif k == LIGHT_SPOT:
+            frac = spot_cone_integral(light_set.spot_cos_half[i], light_set.spot_smooth[i]) / 2.0
+            power = s * frac
+            if geometry_spheres is not None:
+                reach = cone_hits_sphere(
+                    light_set.position[i], -light_set.axis_z[i], light_set.spot_cos_half[i],
+                    geometry_spheres.centre, geometry_spheres.radius + light_set.radius[i])
+                if light_set.spot_cos_half[i] >= 0.0:
+                    # A cone of at most 90 degrees lies in front of the plane through
+                    # its apex: boxes wholly behind it are out of reach.
+                    reach &= boxes_in_front(geometry_spheres, light_set.position[i],
+                                            -light_set.axis_z[i], light_set.radius[i])
+                if not np.any(reach):
+                    continue
+        elif k == LIGHT_SUN:
+            power = sun_power(light_set, i, scene_radius)
+        elif k == LIGHT_AREA:
+            if light_set.area[i] <= 0:
+                continue
+            power = s.copy()
+            # One-sided: it lights only the half-space in front of its plane.
+            if geometry_spheres is not None and not np.any(boxes_in_front(
+                    geometry_spheres, light_set.position[i], -light_set.axis_z[i])):
+                continue
+        else:
+            continue
+        if np.any(power > 0):
+            out.append(Source(i, power, name))
+    if emissive.count:
+        out.append(Source(SOURCE_TRIANGLES, emissive.power, "emissive triangles"))
+    w = np.asarray(world_radiance, np.float64).reshape(3)
+    if with_world and np.any(w > 0) and scene_radius > 0:
+        out.append(Source(SOURCE_WORLD, w * 4.0 * np.pi * np.pi * scene_radius ** 2, "world"))
+    return out
+
+
+def allocate(weights: np.ndarray, total: int) -> np.ndarray:
+    """Split ``total`` photons in proportion to weights (largest remainder), int64."""
+    w = np.asarray(weights, np.float64)
+    if total <= 0 or w.size == 0 or w.sum() <= 0:
+        return np.zeros(w.size, np.int64)
+    exact = w / w.sum() * total
+    n = np.floor(exact).astype(np.int64)
+    rest = total - int(n.sum())
+    order = np.argsort(-(exact - n), kind="stable")
+    n[order[:rest]] += 1
+    return n
+
+
+# --- kernels ------------------------------------------------------------------------------
+
+@njit(cache=True, error_model="numpy")
+def _cone_pdf_mix(px, py, pz, dx, dy, dz, tc, tr, tp):
+    """Mixture pdf (1/sr) of direction d from point p over the target cones."""
+    pdf = 0.0
+    for k in range(tr.shape[0]):
+        if tp[k] <= 0.0:
+            continue
+        vx, vy, vz = tc[k, 0] - px, tc[k, 1] - py, tc[k, 2] - pz
+        d2 = vx * vx + vy * vy + vz * vz
+        r2 = tr[k] * tr[k]
+        if d2 <= r2:
+            pdf += tp[k] / (4.0 * np.pi)
+            continue
+        omc = lk.sin_sqr_to_one_minus_cos(r2 / d2)
+        dn = np.sqrt(d2)
+        c = (vx * dx + vy * dy + vz * dz) / dn
+        if 1.0 - c <= omc:
+            pdf += tp[k] / (2.0 * np.pi * omc)
+    return pdf
+
+
+@njit(cache=True, error_model="numpy")
+def _aim(px, py, pz, tc, tr, tcdf, u0, u1, u2):
+    """Pick a target by its cdf and a direction uniform in the cone it subtends from p."""
+    j = np.searchsorted(tcdf, u0, side="right")
+    if j >= tcdf.shape[0]:
+        j = tcdf.shape[0] - 1
+    vx, vy, vz = tc[j, 0] - px, tc[j, 1] - py, tc[j, 2] - pz
+    d2 = vx * vx + vy * vy + vz * vz
+    r2 = tr[j] * tr[j]
+    if d2 <= r2:
+        return sampling.uniform_sphere(u1, u2)
+    dn = np.sqrt(d2)
+    omc = lk.sin_sqr_to_one_minus_cos(r2 / d2)
+    x, y, z = sampling.uniform_cone(u1, u2, omc)
+    return sampling.to_world(x, y, z, vx / dn, vy / dn, vz / dn)
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def _emit_local(q, u0, u1, u2, u3, u4, inv_n, tc, tr, tp, tcdf, o, d, f):
+    """Point and spot lights (see module doc); aimed when there are targets."""
+    cx, cy, cz = q[lk.P_POS], q[lk.P_POS + 1], q[lk.P_POS + 2]
+    azx, azy, azz = q[lk.P_AZ], q[lk.P_AZ + 1], q[lk.P_AZ + 2]
+    radius = q[lk.P_RADIUS]
+    spot = q[lk.P_SPOT] > 0.0
+    omc_spot = 1.0 - q[lk.P_COS_HALF]
+    aimed = tr.shape[0] > 0
+    for i in prange(o.shape[0]):
+        if aimed:
+            dx, dy, dz = _aim(cx, cy, cz, tc, tr, tcdf, u0[i], u1[i], u2[i])
+            pdf = _cone_pdf_mix(cx, cy, cz, dx, dy, dz, tc, tr, tp)
+        elif spot:
+            x, y, z = sampling.uniform_cone(u1[i], u2[i], omc_spot)
+            dx, dy, dz = sampling.to_world(x, y, z, -azx, -azy, -azz)
+            pdf = 1.0 / (2.0 * np.pi * omc_spot)
+        else:
+            dx, dy, dz = sampling.uniform_sphere(u1[i], u2[i])
+            pdf = 1.0 / (4.0 * np.pi)
+        att = 1.0
+        if spot:
+            att = lk.spot_attenuation(-(dx * azx + dy * azy + dz * azz), q[lk.P_COS_HALF],
+                                      q[lk.P_SMOOTH])
+        w = 0.0 if pdf <= 0.0 else att * inv_n / (4.0 * np.pi * pdf)
+        f[i, 0] = q[lk.P_STRENGTH] * w
+        f[i, 1] = q[lk.P_STRENGTH + 1] * w
+        f[i, 2] = q[lk.P_STRENGTH + 2] * w
+        d[i, 0], d[i, 1], d[i, 2] = dx, dy, dz
+        ox, oy, oz = cx, cy, cz
+        if radius > 0.0:
+            x, y = sampling.concentric_disk(u3[i], u4[i])
+            tx, ty, tz, bx, by, bz = sampling.basis(dx, dy, dz)
+            lift = radius * np.sqrt(max(0.0, 1.0 - x * x - y * y)) if q[lk.P_SPHERE] > 0.0 else 0.0
+            ox += radius * (x * tx + y * bx) + lift * dx
+            oy += radius * (x * ty + y * by) + lift * dy
+            oz += radius * (x * tz + y * bz) + lift * dz
+        o[i, 0], o[i, 1], o[i, 2] = ox, oy, oz
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def _emit_area(q, u0, u1, u2, u3, u4, inv_n, tc, tr, tp, tcdf, o, d, f):
+    """Area light: uniform point, cosine about -Z (or aimed at the targets)."""
+    azx, azy, azz = q[lk.P_AZ], q[lk.P_AZ + 1], q[lk.P_AZ + 2]
+    sx, sy = q[lk.P_SIZE_X], q[lk.P_SIZE_Y]
+    aimed = tr.shape[0] > 0
+    for i in prange(o.shape[0]):
+        if q[lk.P_ELLIPSE] > 0.0:
+            x, y = sampling.concentric_disk(u3[i], u4[i])
+            x *= 0.5 * sx
+            y *= 0.5 * sy
+        else:
+            x = (u3[i] - 0.5) * sx
+            y = (u4[i] - 0.5) * sy
+        px = q[lk.P_POS] + x * q[lk.P_AX] + y * q[lk.P_AY]
+        py = q[lk.P_POS + 1] + x * q[lk.P_AX + 1] + y * q[lk.P_AY + 1]
+        pz = q[lk.P_POS + 2] + x * q[lk.P_AX + 2] + y * q[lk.P_AY + 2]
+        if aimed:
+            dx, dy, dz = _aim(px, py, pz, tc, tr, tcdf, u0[i], u1[i], u2[i])
+            cos = -(dx * azx + dy * azy + dz * azz)
+            pdf = _cone_pdf_mix(px, py, pz, dx, dy, dz, tc, tr, tp)
+            # L cos / (pdf_area pdf_dir) with L = S / (pi A), pdf_area = 1 / A.
+            w = cos / (np.pi * pdf) if cos > 0.0 and pdf > 0.0 else 0.0
+        else:
+            lx, ly, lz = sampling.cosine_hemisphere(u1[i], u2[i])
+            dx, dy, dz = sampling.to_world(lx, ly, lz, -azx, -azy, -azz)
+            w = 1.0 if lz > 0.0 else 0.0
+        w *= inv_n
+        f[i, 0] = q[lk.P_STRENGTH] * w
+        f[i, 1] = q[lk.P_STRENGTH + 1] * w
+        f[i, 2] = q[lk.P_STRENGTH + 2] * w
+        o[i, 0], o[i, 1], o[i, 2] = px, py, pz
+        d[i, 0], d[i, 1], d[i, 2] = dx, dy, dz
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def _emit_triangles(cdf, prob, v0, e1, e2, nrm, area, radiance, u0, u1, u2, u3, u4, u5, inv_n,
+                    tc, tr, tp, tcdf, extent, o, d, f):
+    """Emissive triangles, two-sided Lambertian (or aimed at the targets). Origins are
+    moved off the triangle by ``geometry.offset_eps`` on the side the photon leaves
+    towards: the triangle is geometry, and must not stop its own photons."""
+    k = cdf.shape[0]
+    aimed = tr.shape[0] > 0
+    for i in prange(o.shape[0]):
+        j = np.searchsorted(cdf, u5[i], side="right")
+        if j >= k:
+            j = k - 1
+        b1, b2 = sampling.uniform_triangle(u3[i], u4[i])
+        px = v0[j, 0] + b1 * e1[j, 0] + b2 * e2[j, 0]
+        py = v0[j, 1] + b1 * e1[j, 1] + b2 * e2[j, 1]
+        pz = v0[j, 2] + b1 * e1[j, 2] + b2 * e2[j, 2]
+        nx, ny, nz = nrm[j, 0], nrm[j, 1], nrm[j, 2]
+        if prob[j] <= 0.0:
+            w = 0.0
+            dx, dy, dz = nx, ny, nz
+        elif aimed:
+            dx, dy, dz = _aim(px, py, pz, tc, tr, tcdf, u0[i], u1[i], u2[i])
+            cos = abs(dx * nx + dy * ny + dz * nz)
+            pdf = _cone_pdf_mix(px, py, pz, dx, dy, dz, tc, tr, tp)
+            w = cos * area[j] / (prob[j] * pdf) if pdf > 0.0 else 0.0
+        else:
+            # u0 picks the side; both sides emit, so the side pdf 1/2 doubles the flux.
+            s = 1.0 if u0[i] < 0.5 else -1.0
+            lx, ly, lz = sampling.cosine_hemisphere(u1[i], u2[i])
+            dx, dy, dz = sampling.to_world(lx, ly, lz, s * nx, s * ny, s * nz)
+            w = 2.0 * np.pi * area[j] / prob[j] if lz > 0.0 else 0.0
+        w *= inv_n
+        f[i, 0] = radiance[j, 0] * w
+        f[i, 1] = radiance[j, 1] * w
+        f[i, 2] = radiance[j, 2] * w
+        e = geometry.offset_eps(px, py, pz, extent)
+        if dx * nx + dy * ny + dz * nz < 0.0:
+            e = -e
+        o[i, 0], o[i, 1], o[i, 2] = px + e * nx, py + e * ny, pz + e * nz
+        d[i, 0], d[i, 1], d[i, 2] = dx, dy, dz
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def _emit_sun(q, plane, u0, u1, u2, u3, u4, inv_n, tc, tr, tp, tcdf, o, d, f):
+    """Sun: a direction w uniform in the cone, then a target sphere (the scene's bounding
+    sphere when unaimed) and a point uniform on its cross-section perpendicular to w; the
+    photon starts where that ray crosses the emission plane. Flux: L dw dA_perp divided
+    by the mixture pdf of the cross-sections the ray goes through."""
+    azx, azy, azz = q[lk.P_AZ], q[lk.P_AZ + 1], q[lk.P_AZ + 2]
+    omc = q[lk.P_SUN_OMC]
+    for i in prange(o.shape[0]):
+        if omc > 0.0:
+            lx, ly, lz = sampling.uniform_cone(u1[i], u2[i], omc)
+            dx, dy, dz = sampling.to_world(lx, ly, lz, -azx, -azy, -azz)
+            # Radiance over the cone, pdf 1 / (2 pi omc).
+            w0 = q[lk.P_RADIANCE] * 2.0 * np.pi * omc
+            w1 = q[lk.P_RADIANCE + 1] * 2.0 * np.pi * omc
+            w2 = q[lk.P_RADIANCE + 2] * 2.0 * np.pi * omc
+        else:
+            dx, dy, dz = -azx, -azy, -azz
+            w0, w1, w2 = q[lk.P_STRENGTH], q[lk.P_STRENGTH + 1], q[lk.P_STRENGTH + 2]
+        j = np.searchsorted(tcdf, u0[i], side="right")
+        if j >= tcdf.shape[0]:
+            j = tcdf.shape[0] - 1
+        x, y = sampling.concentric_disk(u3[i], u4[i])
+        tx, ty, tz, bx, by, bz = sampling.basis(dx, dy, dz)
+        r = tr[j]
+        yx = tc[j, 0] + r * (x * tx + y * bx)
+        yy = tc[j, 1] + r * (x * ty + y * by)
+        yz = tc[j, 2] + r * (x * tz + y * bz)
+        pdf = 0.0
+        for k in range(tr.shape[0]):
+            ex, ey, ez = yx - tc[k, 0], yy - tc[k, 1], yz - tc[k, 2]
+            along = ex * dx + ey * dy + ez * dz
+            perp2 = ex * ex + ey * ey + ez * ez - along * along
+            if perp2 <= tr[k] * tr[k] * (1.0 + 1e-9):
+                pdf += tp[k] / (np.pi * tr[k] * tr[k])
+        # Back along the ray to the plane (d . az < 0, the point is below the plane).
+        cos_p = dx * azx + dy * azy + dz * azz
+        t = ((yx - plane[0]) * azx + (yy - plane[1]) * azy + (yz - plane[2]) * azz) / cos_p
+        s = inv_n / pdf if pdf > 0.0 and cos_p < 0.0 else 0.0
+        f[i, 0], f[i, 1], f[i, 2] = w0 * s, w1 * s, w2 * s
+        o[i, 0], o[i, 1], o[i, 2] = yx - t * dx, yy - t * dy, yz - t * dz
+        d[i, 0], d[i, 1], d[i, 2] = dx, dy, dz
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def _emit_world(radiance, centre, radius, u1, u2, u3, u4, inv_n, o, d, f):
+    """Uniform background: uniform direction, origin on the disc of the bounding sphere
+    perpendicular to it, placed on the side the light comes from."""
+    w = 4.0 * np.pi * np.pi * radius * radius * inv_n
+    for i in prange(o.shape[0]):
+        dx, dy, dz = sampling.uniform_sphere(u1[i], u2[i])
+        x, y = sampling.concentric_disk(u3[i], u4[i])
+        tx, ty, tz, bx, by, bz = sampling.basis(dx, dy, dz)
+        back = 1.05 * radius
+        o[i, 0] = centre[0] - back * dx + radius * (x * tx + y * bx)
+        o[i, 1] = centre[1] - back * dy + radius * (x * ty + y * by)
+        o[i, 2] = centre[2] - back * dz + radius * (x * tz + y * bz)
+        d[i, 0], d[i, 1], d[i, 2] = dx, dy, dz
+        f[i, 0], f[i, 1], f[i, 2] = radiance[0] * w, radiance[1] * w, radiance[2] * w
+
+
+# --- driver -------------------------------------------------------------------------------
+
+def _uniforms(seed: int, map_id: int, source_slot: int, first: int, count: int, n_total: int):
+    """Six (count,) float64 uniforms for photons [first, first + count) of one source:
+    two scrambled Sobol pairs over the source's n_total photons (direction u1, u2 and
+    position u3, u4) and two hashes for the discrete picks (u0, u5)."""
+    idx = np.arange(first, first + count, dtype=np.int64)
+    pix = np.full(count, map_id * 4096 + source_slot, np.int64)
+    u1, u2 = sampling.stratified2(seed, pix, idx, n_total, sampling.stream(sampling.PHOTON, 0, 1))
+    u3, u4 = sampling.stratified2(seed, pix, idx, n_total, sampling.stream(sampling.PHOTON, 0, 2))
+    u0 = sampling.uniform(seed, pix, idx, sampling.stream(sampling.PHOTON, 0, 3))
+    u5 = sampling.uniform(seed, pix, idx, sampling.stream(sampling.PHOTON, 0, 4))
+    return u0, u1, u2, u3, u4, u5
+
+
+def _cdf(p):
+    c = np.cumsum(p)
+    if c.size:
+        c[-1] = 1.0
+    return c
+
+
+def emit(source: Source, light_set: LightSet, emissive: EmissiveTriangles, world_radiance,
+         scene_centre, scene_radius: float, n_total: int, first: int, count: int, *,
+         seed: int, map_id: int, source_slot: int, targets: Targets | None = None,
+         target_prob: np.ndarray | None = None, extent: float = 0.0) -> Emitted:
+    """Photons [first, first + count) of the n_total photons of one source.
+
+    Each photon's flux is already divided by n_total, so the flux of all n_total photons
+    sums to the source's power (aimed: to the power it sends towards the targets).
+    targets / target_prob (K,): the projection map's spheres and pick probabilities
+    (None or empty = unaimed). source_slot (< 4096) and map_id separate random streams.
+    extent: the scene's size (metres) for the offset of photons leaving emissive
+    triangles (``geometry.offset_eps``).
+    """
+    o = np.zeros((count, 3))
+    d = np.zeros((count, 3))
+    f = np.zeros((count, 3))
+    if count == 0:
+        return Emitted(o, d, f)
+    u0, u1, u2, u3, u4, u5 = _uniforms(seed, map_id, source_slot, first, count, n_total)
+    inv_n = 1.0 / n_total
+    if targets is None or targets.count == 0:
+        tc, tr, tp = np.zeros((0, 3)), np.zeros(0), np.zeros(0)
+    else:
+        tc, tr = targets.centre.astype(np.float64), targets.radius.astype(np.float64)
+        tp = np.asarray(target_prob, np.float64)
+    tcdf = _cdf(tp)
+    if source.index == SOURCE_TRIANGLES:
+        e = emissive
+        _emit_triangles(e.cdf, e.probability, e.v0, e.e1, e.e2, e.normal, e.area, e.radiance,
+                        u0, u1, u2, u3, u4, u5, inv_n, tc, tr, tp, tcdf, float(extent), o, d, f)
+    elif source.index == SOURCE_WORLD:
+        _emit_world(np.asarray(world_radiance, np.float64).reshape(3),
+                    np.asarray(scene_centre, np.float64), float(scene_radius),
+                    u1, u2, u3, u4, inv_n, o, d, f)
+    else:
+        i = source.index
+        q = light_set.params[i]
+        k = int(light_set.kind[i])
+        if k == LIGHT_SUN:
+            plane = sun_plane(light_set, i, scene_centre, scene_radius)
+            if tr.size == 0:
+                tc = np.asarray(scene_centre, np.float64).reshape(1, 3)
+                tr = np.array([float(scene_radius)])
+                tp = np.ones(1)
+                tcdf = np.ones(1)
+            _emit_sun(q, plane, u0, u1, u2, u3, u4, inv_n, tc, tr, tp, tcdf, o, d, f)
+        elif k == LIGHT_AREA:
+            _emit_area(q, u0, u1, u2, u3, u4, inv_n, tc, tr, tp, tcdf, o, d, f)
+        else:
+            if tr.size:
+                # Origins spread over a disk of the light's radius: grow the targets by it.
+                tr = tr + light_set.radius[i]
+            _emit_local(q, u0, u1, u2, u3, u4, inv_n, tc, tr, tp, tcdf, o, d, f)
+    return Emitted(o, d, f)
+
+
+def aimed_power(source: Source, light_set: LightSet, emissive: EmissiveTriangles,
+                targets: Targets, scene_centre, scene_radius: float) -> tuple[np.ndarray, np.ndarray]:
+    """Estimated flux (3,) W a source sends towards the targets, and the targets' pick
+    probabilities (K,). Only shares photons between sources: the flux weights of the
+    photons are exact whatever these estimates are. Zero when no target is reachable."""
+    k_t = targets.count
+    if k_t == 0 or source.index == SOURCE_WORLD:
+        return np.zeros(3), np.zeros(k_t)
+    if source.index == SOURCE_TRIANGLES:
+        # From the emitters' centre: fraction of the two-sided emission within each cone.
+        w = emissive.area * emissive.radiance.sum(axis=1)
+        apex = (np.sum(emissive.v0 * w[:, None], axis=0) / max(w.sum(), 1e-300))
+        frac = _solid_fraction(apex, targets.centre, targets.radius + np.sqrt(emissive.area.sum()))
+        p = frac / frac.sum() if frac.sum() > 0 else frac
+        return source.power * min(1.0, float(frac.sum())), p
+    i = source.index
+    kind = int(light_set.kind[i])
+    if kind == LIGHT_SUN:
+        a = np.pi * np.maximum(targets.radius, 0.0) ** 2
+        p = a / a.sum() if a.sum() > 0 else a
+        cover = min(1.0, float(a.sum()) / (np.pi * max(scene_radius, 1e-300) ** 2))
+        return source.power * cover, p
+    if kind == LIGHT_AREA:
+        reach = 0.5 * np.hypot(*light_set.size[i])
+        frac = _solid_fraction(light_set.position[i], targets.centre, targets.radius + reach)
+        front = (targets.centre - light_set.position[i]) @ (-light_set.axis_z[i])
+        frac = np.where(front + targets.radius + reach > 0, frac, 0.0)
+        p = frac / frac.sum() if frac.sum() > 0 else frac
+        # The cosine-weighted hemisphere puts up to twice the uniform share in a cone.
+        return source.power * min(1.0, 2.0 * float(frac.sum())), p
+    r = targets.radius + light_set.radius[i]
+    frac = _solid_fraction(light_set.position[i], targets.centre, r)
+    if kind == LIGHT_SPOT:
+        ok = cone_hits_sphere(light_set.position[i], -light_set.axis_z[i],
+                              light_set.spot_cos_half[i], targets.centre, r)
+        frac = np.where(ok, frac, 0.0)
+        p = frac / frac.sum() if frac.sum() > 0 else frac
+        cone = spot_cone_integral(light_set.spot_cos_half[i], light_set.spot_smooth[i]) / 2.0
+        return light_set.strength[i] * min(cone, float(frac.sum())), p
+    p = frac / frac.sum() if frac.sum() > 0 else frac
+    return source.power * min(1.0, float(frac.sum())), p
+
+
+def _solid_fraction(apex, centre, radius) -> np.ndarray:
+    """(K,) fraction of the full sphere of directions each sphere subtends from apex."""
+    v = np.asarray(centre, np.float64) - np.asarray(apex, np.float64)
+    d2 = np.sum(v * v, axis=1)
+    r2 = np.asarray(radius, np.float64) ** 2
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s2 = np.where(d2 > r2, r2 / np.where(d2 > 0, d2, 1.0), 1.0)
+        omc = s2 / (1.0 + np.sqrt(np.maximum(0.0, 1.0 - s2)))
+    omc = np.where(d2 > r2, omc, 2.0)
+    return np.where(np.asarray(radius) >= 0, omc / 2.0, 0.0)

@@ -1,0 +1,507 @@
+"""The second pass's photon terms: caustics, final gathering and the preview estimate.
+
+At a diffuse hit x (a material with a diffuse lobe) seen with path throughput T:
+- caustics:  T * rho_x / pi * E_c(x), E_c from the caustic map (k = caustic_k);
+- indirect, final gather: T * rho_x * mean_j L(y_j), over ``gather_rays`` directions
+  w_j cosine-distributed about the shading normal at x (pdf cos / pi cancels the
+  cosine and the pi of rho / pi). y_j is the first diffuse hit along w_j, reached
+  through mirrors and glass if need be (so L D S D paths are kept), and
+  L(y_j) = rho_y / pi * E_g(y_j) from the global map built WITH direct photons. Light
+  sources, emission and background seen by gather rays count nothing: the direct and
+  caustics terms hold them;
+- indirect, preview: T * rho_x / pi * E_g(x) from the global map built WITHOUT direct
+  photons (the direct visualisation: fast, blotchy, labelled a preview).
+
+Glossy (rough) lobes get direct light only; photon terms use the diffuse albedo.
+
+Radiance estimates (``radiance_estimate``): the k nearest photons within the maximum
+radius, weighted with core/estimate.py's ``photon_weight`` (front-side photons only,
+the filter, and Jensen's flattened disc: photons farther than PLANE_FRACTION * r from
+the tangent plane are left out, against leaks through corners). The neighbours come
+sorted by (distance, index) from ``PhotonMap.nearest`` and are summed in that order, so
+a query's value does not depend on the other queries of its batch (bit-for-bit
+determinism whatever the tiling).
+
+Automatic radius (``auto_radius``, setting 0): the radius of a disc that holds k
+photons on average when the stored photons cover the diffuse surfaces uniformly,
+times RADIUS_FACTOR: r = RADIUS_FACTOR * sqrt(A_diffuse * k / (pi * N_stored)). It
+scales with the scene (A ~ s^2, r ~ s), so a scene in millimetres or kilometres gives
+the same image.
+
+Random numbers: gather directions are a scrambled Sobol set over the pixel's
+samples x gather rays (``sampling.stratified2``, index sample * gather_rays + j), the
+lobe choices at specular surfaces hashes of (seed, pixel, that index, bounce).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+from numba import njit, prange
+
+from . import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
+from . import bsdf, encoding, geometry, sampling
+from .estimate import FILTERS, disc_radius2, photon_weight
+from .photon_map import PhotonMap, squared_radius
+
+# Random-number purposes (sampling.stream's first argument); sampling.py's own are < 16.
+GATHER_DIRECTION = 16
+GATHER_LOBE = 17
+
+PLANE_FRACTION = 0.25
+"""Flattened-disc gather: photons farther than this fraction of r from the tangent plane
+at the query are left out (Jensen's fix for leaks through corners and thin walls)."""
+RADIUS_FACTOR = 2.0
+"""Automatic radius = this x the radius that holds k photons on average."""
+CONE_K = 1.1
+"""Jensen's cone filter constant k >= 1 (1.1 in his book)."""
+QUERY_CHUNK = 1 << 16
+"""Queries per nearest-neighbour call (bounds the (M, k) neighbour arrays)."""
+CACHE_FRACTION = 0.25
+"""Radiance-cache points per stored global photon (Christensen's precomputation)."""
+CACHE_NEIGHBOURS = 4
+"""Cache entries examined per gather hit (the nearest with a compatible normal is used)."""
+CACHE_MIN_COS = 0.5
+"""A cache entry serves a gather hit when their normals agree this well (cos)."""
+CACHE_SAMPLE = 18
+"""Random-number purpose of the cache's surface samples."""
+
+
+# --- radius -----------------------------------------------------------------------------
+
+def diffuse_area(tri_vertices: np.ndarray, tri_material: np.ndarray,
+                 diffuse: np.ndarray) -> float:
+    """Total area (m^2) of the triangles whose material has a diffuse lobe.
+
+    tri_vertices (T, 3, 3) float32 metres; tri_material (T,) int32; diffuse (M, 3).
+    """
+    if tri_vertices.shape[0] == 0:
+        return 0.0
+    has = np.any(diffuse > 0, axis=1)[tri_material]
+    v = tri_vertices[has].astype(np.float64)
+    return float(0.5 * np.linalg.norm(np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]),
+                                      axis=1).sum())
+
+
+def auto_radius(area: float, k: int, stored: int) -> float:
+    """Maximum gather radius (metres) for ``stored`` photons spread over ``area`` m^2."""
+    if stored <= 0 or area <= 0:
+        return math.inf
+    return RADIUS_FACTOR * math.sqrt(area * k / (math.pi * stored))
+
+
+# --- radiance estimate -------------------------------------------------------------------
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def _estimate_kernel(tree, flux_codes, inv_scale, direction_codes, idx, dist2, points,
+                     normals, albedo, max_r2, kind, k_cone, plane_fraction, out):
+    """out[i] = albedo[i] / pi * E(points[i]) in the order of the sorted neighbours;
+    returns the number of zero-area discs holding photons."""
+    k = idx.shape[1]
+    degenerate = 0
+    for i in prange(idx.shape[0]):
+        out[i, 0] = 0.0
+        out[i, 1] = 0.0
+        out[i, 2] = 0.0
+        c = 0
+        while c < k and idx[i, c] >= 0:
+            c += 1
+        if c == 0:
+            continue
+        r2 = disc_radius2(c, k, dist2[i, c - 1], max_r2)
+        if r2 == 0.0:
+            degenerate += 1
+            continue
+        n0, n1, n2 = normals[i, 0], normals[i, 1], normals[i, 2]
+        inv = 1.0 / math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+        n0 *= inv
+        n1 *= inv
+        n2 *= inv
+        px, py, pz = np.float32(points[i, 0]), np.float32(points[i, 1]), np.float32(points[i, 2])
+        ex = 0.0
+        ey = 0.0
+        ez = 0.0
+        for s in range(c):
+            j = idx[i, s]
+            w = photon_weight(direction_codes, tree, j, np.float64(dist2[i, s]), r2, px, py, pz,
+                              n0, n1, n2, kind, k_cone, plane_fraction)
+            if w != 0.0:
+                ex += w * encoding.half_to_float(flux_codes[j, 0])
+                ey += w * encoding.half_to_float(flux_codes[j, 1])
+                ez += w * encoding.half_to_float(flux_codes[j, 2])
+        s_ = inv_scale / math.pi
+        out[i, 0] = albedo[i, 0] * ex * s_
+        out[i, 1] = albedo[i, 1] * ey * s_
+        out[i, 2] = albedo[i, 2] * ez * s_
+    return degenerate
+
+
+def radiance_estimate(photon_map: PhotonMap, points: np.ndarray, normals: np.ndarray,
+                      albedo: np.ndarray, k: int, max_radius: float, filter: str = "cone",
+                      plane_fraction: float = PLANE_FRACTION) -> np.ndarray:
+    """Diffuse reflected radiance albedo / pi * E (W/(m^2 sr)) at surface points.
+
+    points (M, 3) metres; normals (M, 3) non-zero, facing the viewer (only photons
+    arriving on that side count); albedo (M, 3) >= 0; k >= 1; max_radius > 0 metres
+    (inf allowed). Returns (M, 3) float64. Raises ValueError when k photons sit exactly
+    on a query point (zero-area disc).
+    """
+    return radiance_estimate_sides(photon_map, points, [normals], albedo, k, max_radius,
+                                   filter, plane_fraction)[0]
+
+
+def radiance_estimate_sides(photon_map: PhotonMap, points, normals_list, albedo, k,
+                            max_radius, filter="cone", plane_fraction=PLANE_FRACTION):
+    """``radiance_estimate`` for several normals per point (e.g. both sides of a
+    surface) from one neighbour search; returns a list of (M, 3) float64."""
+    m = points.shape[0]
+    outs = [np.zeros((m, 3)) for _ in normals_list]
+    if m == 0 or len(photon_map) == 0:
+        return outs
+    tree, _, _, flux_codes, scale, direction_codes = photon_map.kernel_arrays()
+    k = min(int(k), len(photon_map))
+    r2 = squared_radius(max_radius)
+    points32 = np.ascontiguousarray(points, np.float32)
+    normals_list = [np.ascontiguousarray(n, np.float64) for n in normals_list]
+    albedo = np.ascontiguousarray(albedo, np.float64)
+    bad = 0
+    for lo in range(0, m, QUERY_CHUNK):
+        hi = min(m, lo + QUERY_CHUNK)
+        idx, dist2 = photon_map.nearest(points32[lo:hi], k, max_radius)
+        for normals, out in zip(normals_list, outs):
+            bad += _estimate_kernel(tree, flux_codes, 1.0 / scale, direction_codes, idx,
+                                    dist2, points32[lo:hi], normals[lo:hi], albedo[lo:hi], r2,
+                                    FILTERS[filter], CONE_K, float(plane_fraction), out[lo:hi])
+    if bad:
+        raise ValueError(f"{bad} points have k photons exactly on them (zero-area disc): "
+                         "use a larger k")
+    return outs
+
+
+# --- the radiance cache (Christensen 1999) -----------------------------------------------------
+
+@dataclass
+class RadianceCache:
+    """Outgoing diffuse radiance precomputed at points on the diffuse surfaces.
+
+    points: a PhotonMap over the cache points whose "flux" is the radiance rho / pi * E
+    (W/(m^2 sr)) on the side of its "direction", the surface normal of that side (each
+    surface point has one entry per side). Final gathering reads the nearest entry with
+    a compatible normal (k = CACHE_NEIGHBOURS lookups instead of a k = global_k estimate,
+    several times faster); a hit with none within the radius gets the full estimate.
+    """
+
+    points: PhotonMap
+    radius: float
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def _cache_points_kernel(tri_v, cdf, u0, u1, u2, pos, nrm, tri):
+    """Points uniform over the area of the triangles (cdf over their areas)."""
+    for i in prange(u0.shape[0]):
+        t = np.searchsorted(cdf, u0[i] * cdf[-1], side="right")
+        t = min(t, cdf.shape[0] - 1)
+        b0, b1 = sampling.uniform_triangle(u1[i], u2[i])
+        for c in range(3):
+            v0 = tri_v[t, 0, c]
+            pos[i, c] = v0 + b0 * (tri_v[t, 1, c] - v0) + b1 * (tri_v[t, 2, c] - v0)
+        ax = tri_v[t, 1, 0] - tri_v[t, 0, 0]
+        ay = tri_v[t, 1, 1] - tri_v[t, 0, 1]
+        az = tri_v[t, 1, 2] - tri_v[t, 0, 2]
+        bx = tri_v[t, 2, 0] - tri_v[t, 0, 0]
+        by = tri_v[t, 2, 1] - tri_v[t, 0, 1]
+        bz = tri_v[t, 2, 2] - tri_v[t, 0, 2]
+        nx, ny, nz = ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
+        ln = math.sqrt(nx * nx + ny * ny + nz * nz)
+        nrm[i, 0], nrm[i, 1], nrm[i, 2] = nx / ln, ny / ln, nz / ln
+        tri[i] = t
+
+
+def build_radiance_cache(terms: "PhotonTerms", ctx) -> RadianceCache | None:
+    """Precompute the global map's radiance at CACHE_FRACTION x its photon count points
+    spread uniformly over the diffuse surfaces (both sides of each). Deterministic: the
+    points are counter hashes of (seed, point index)."""
+    mats = ctx.materials
+    diffuse_tri = np.flatnonzero(np.any(mats["diffuse"] > 0, axis=1)[ctx.tri_material])
+    if terms.global_map is None or diffuse_tri.size == 0:
+        return None
+    t0 = time.perf_counter()
+    v = ctx.tri_vertices[diffuse_tri].astype(np.float64)
+    area = 0.5 * np.linalg.norm(np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]), axis=1)
+    keep = area > 0
+    v, tri_ids, area = v[keep], diffuse_tri[keep], area[keep]
+    if v.shape[0] == 0:
+        return None
+    m = max(1, int(CACHE_FRACTION * len(terms.global_map)))
+    seed = ctx.settings.seed
+    ids = np.arange(m, dtype=np.int64)
+    zero = np.zeros(m, np.int64)
+    u0, u1, u2 = (sampling.uniform(seed, ids, zero, sampling.stream(CACHE_SAMPLE, c))
+                  for c in range(3))
+    pos, nrm, tri = np.empty((m, 3)), np.empty((m, 3)), np.empty(m, np.int64)
+    _cache_points_kernel(np.ascontiguousarray(v), np.cumsum(area), u0, u1, u2, pos, nrm, tri)
+    albedo = mats["diffuse"][ctx.tri_material[tri_ids[tri]]]
+    # One neighbour search per point serves both of its sides.
+    front, back = radiance_estimate_sides(terms.global_map, pos, [nrm, -nrm], albedo,
+                                          terms.global_k, terms.global_radius, terms.filter)
+    cache = RadianceCache(PhotonMap(np.concatenate([pos, pos]).astype(np.float32),
+                                    np.concatenate([front, back]),
+                                    np.concatenate([nrm, -nrm])), terms.global_radius)
+    terms.stats["cache_points"] = 2 * m
+    terms.stats["time_cache"] = time.perf_counter() - t0
+    return cache
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def _cache_lookup_kernel(idx, cache_dirs, cache_rad, normals, min_cos, out, found):
+    """The first (nearest) entry whose normal agrees with the hit's normal."""
+    for i in prange(idx.shape[0]):
+        found[i] = False
+        out[i, 0] = 0.0
+        out[i, 1] = 0.0
+        out[i, 2] = 0.0
+        n0, n1, n2 = normals[i, 0], normals[i, 1], normals[i, 2]
+        inv = 1.0 / math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+        for s in range(idx.shape[1]):
+            j = idx[i, s]
+            if j < 0:
+                break
+            c = (cache_dirs[j, 0] * n0 + cache_dirs[j, 1] * n1 + cache_dirs[j, 2] * n2) * inv
+            if c >= min_cos:
+                out[i, 0] = cache_rad[j, 0]
+                out[i, 1] = cache_rad[j, 1]
+                out[i, 2] = cache_rad[j, 2]
+                found[i] = True
+                break
+
+
+def cached_radiance(terms: "PhotonTerms", points, normals, albedo) -> np.ndarray:
+    """(M, 3) radiance at gather hits from the cache; the full estimate where no cache
+    entry with a compatible normal lies within the radius."""
+    cache = terms.cache
+    m = points.shape[0]
+    out = np.empty((m, 3))
+    found = np.empty(m, bool)
+    k = min(CACHE_NEIGHBOURS, len(cache.points))
+    idx, _ = cache.points.nearest(np.ascontiguousarray(points, np.float32), k, cache.radius)
+    _cache_lookup_kernel(idx, terms.cache_dirs, terms.cache_radiance,
+                         np.ascontiguousarray(normals, np.float64), CACHE_MIN_COS, out, found)
+    missing = np.flatnonzero(~found)
+    if missing.size:
+        out[missing] = radiance_estimate(terms.global_map, points[missing], normals[missing],
+                                         albedo[missing], terms.global_k, terms.global_radius,
+                                         terms.filter)
+        terms.stats["cache_misses"] = terms.stats.get("cache_misses", 0) + int(missing.size)
+    return out
+
+
+# --- the terms at a set of diffuse hits ----------------------------------------------------
+
+@dataclass
+class PhotonTerms:
+    """What the camera pass needs to add caustics and indirect light at diffuse hits.
+
+    caustic_map / global_map: PhotonMap or None (term skipped); radii in metres (already
+    resolved from 0 = automatic); mode: "final_gather", "preview" or "off";
+    gather_rays: final-gather rays per camera sample.
+    """
+
+    caustic_map: PhotonMap | None
+    global_map: PhotonMap | None
+    caustic_k: int
+    global_k: int
+    caustic_radius: float
+    global_radius: float
+    filter: str
+    mode: str
+    gather_rays: int
+    cache: RadianceCache | None = None
+    cache_dirs: np.ndarray | None = None      # (C, 3) float64 decoded cache normals
+    cache_radiance: np.ndarray | None = None  # (C, 3) float64 decoded cache radiance
+    stats: dict = field(default_factory=lambda: {"rays_gather": 0, "gather_queries": 0,
+                                                 "caustic_queries": 0, "time_gather": 0.0,
+                                                 "time_caustics": 0.0})
+
+    def use_cache(self, cache: RadianceCache | None) -> None:
+        self.cache = cache
+        if cache is not None:
+            self.cache_dirs = cache.points.directions.astype(np.float64)
+            self.cache_radiance = cache.points.flux.astype(np.float64)
+
+    @property
+    def active(self) -> bool:
+        return self.caustic_map is not None or (self.global_map is not None
+                                                and self.mode != "off")
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def _gather_rays_kernel(pos, ngf, nsf, eps, owner, u1, u2, o, d, ok):
+    """Cosine-distributed directions about the shading normal of point owner[r]; rays
+    below the geometric surface are dropped (ok False)."""
+    for r in prange(owner.shape[0]):
+        i = owner[r]
+        lx, ly, lz = sampling.cosine_hemisphere(u1[r], u2[r])
+        wx, wy, wz = sampling.to_world(lx, ly, lz, nsf[i, 0], nsf[i, 1], nsf[i, 2])
+        ok[r] = wx * ngf[i, 0] + wy * ngf[i, 1] + wz * ngf[i, 2] > 0.0
+        e = eps[i]
+        o[r, 0] = pos[i, 0] + e * ngf[i, 0]
+        o[r, 1] = pos[i, 1] + e * ngf[i, 1]
+        o[r, 2] = pos[i, 2] + e * ngf[i, 2]
+        d[r, 0] = wx
+        d[r, 1] = wy
+        d[r, 2] = wz
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def _surface_kernel(tri_v, tri_n, tri_mat, prim, u, v, d, extent, pos, ngf, nsf, mat, eps,
+                    front):
+    """Hit points, normals flipped to face the ray, materials, offsets, front flags."""
+    for i in prange(prim.shape[0]):
+        t = prim[i]
+        dx, dy, dz = d[i, 0], d[i, 1], d[i, 2]
+        px, py, pz, gx, gy, gz, sx, sy, sz = geometry.surface_point(
+            tri_v, tri_n, t, np.float64(u[i]), np.float64(v[i]), dx, dy, dz)
+        f = dx * gx + dy * gy + dz * gz < 0.0
+        sgn = 1.0 if f else -1.0
+        pos[i, 0], pos[i, 1], pos[i, 2] = px, py, pz
+        ngf[i, 0], ngf[i, 1], ngf[i, 2] = sgn * gx, sgn * gy, sgn * gz
+        nsf[i, 0], nsf[i, 1], nsf[i, 2] = sgn * sx, sgn * sy, sgn * sz
+        mat[i] = tri_mat[t]
+        eps[i] = geometry.offset_eps(px, py, pz, extent)
+        front[i] = f
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def _delta_kernel(pos, ngf, nsf, d, front, mat, eps, specular, alpha, transmission, ior,
+                  u_lobe, u_pick, thr, new_o, new_d, new_thr, ok):
+    """One delta lobe per hit (bsdf.sample_delta): the next ray and throughput."""
+    for i in prange(pos.shape[0]):
+        m = mat[i]
+        ox, oy, oz, w0, w1, w2, tr, good = bsdf.sample_delta(
+            specular[m, 0], specular[m, 1], specular[m, 2], alpha[m],
+            transmission[m, 0], transmission[m, 1], transmission[m, 2], ior[m],
+            d[i, 0], d[i, 1], d[i, 2], nsf[i, 0], nsf[i, 1], nsf[i, 2],
+            ngf[i, 0], ngf[i, 1], ngf[i, 2], front[i], u_lobe[i], u_pick[i])
+        t0, t1, t2 = thr[i, 0] * w0, thr[i, 1] * w1, thr[i, 2] * w2
+        ok[i] = good and (t0 > 0.0 or t1 > 0.0 or t2 > 0.0)
+        side = -eps[i] if tr else eps[i]
+        new_o[i, 0] = pos[i, 0] + side * ngf[i, 0]
+        new_o[i, 1] = pos[i, 1] + side * ngf[i, 1]
+        new_o[i, 2] = pos[i, 2] + side * ngf[i, 2]
+        new_d[i, 0] = ox
+        new_d[i, 1] = oy
+        new_d[i, 2] = oz
+        new_thr[i, 0] = t0
+        new_thr[i, 1] = t1
+        new_thr[i, 2] = t2
+
+
+def caustics(terms: PhotonTerms, pos, ngf, albedo) -> np.ndarray:
+    """(N, 3) caustic radiance at diffuse hits (before the path throughput)."""
+    t0 = time.perf_counter()
+    out = radiance_estimate(terms.caustic_map, pos, ngf, albedo, terms.caustic_k,
+                            terms.caustic_radius, terms.filter)
+    terms.stats["caustic_queries"] += pos.shape[0]
+    terms.stats["time_caustics"] += time.perf_counter() - t0
+    return out
+
+
+def preview(terms: PhotonTerms, pos, ngf, albedo) -> np.ndarray:
+    """(N, 3) indirect radiance seen directly in the global map (the preview mode)."""
+    t0 = time.perf_counter()
+    out = radiance_estimate(terms.global_map, pos, ngf, albedo, terms.global_k,
+                            terms.global_radius, terms.filter)
+    terms.stats["gather_queries"] += pos.shape[0]
+    terms.stats["time_gather"] += time.perf_counter() - t0
+    return out
+
+
+GATHER_BATCH = 1 << 20
+"""Gather rays traced together at most (bounds memory whatever the tile and ray counts)."""
+
+
+def final_gather(terms: PhotonTerms, ctx, pos, ngf, nsf, eps, pixel, sample, depth) -> np.ndarray:
+    """(N, 3) mean radiance L(y_j) over the gather rays of each diffuse hit (module doc).
+
+    ctx: the integrator's per-render context (accel, triangles, materials, extent,
+    settings). pos, ngf, nsf (N, 3) float64, eps (N,), pixel and sample (N,) int64 of the
+    camera sample, depth: the camera path's bounce (a random stream index).
+    The caller multiplies by rho_x and the path throughput. Points are gathered in
+    batches of GATHER_BATCH rays; each point's value depends on its own rays only.
+    """
+    n = pos.shape[0]
+    step = max(1, GATHER_BATCH // terms.gather_rays)
+    if n <= step:
+        return _final_gather_batch(terms, ctx, pos, ngf, nsf, eps, pixel, sample, depth)
+    out = np.empty((n, 3))
+    for lo in range(0, n, step):
+        sl = slice(lo, min(n, lo + step))
+        out[sl] = _final_gather_batch(terms, ctx, pos[sl], ngf[sl], nsf[sl], eps[sl],
+                                      pixel[sl], sample[sl], depth)
+    return out
+
+
+def _final_gather_batch(terms, ctx, pos, ngf, nsf, eps, pixel, sample, depth) -> np.ndarray:
+    t_start = time.perf_counter()
+    st = ctx.settings
+    n = pos.shape[0]
+    g = terms.gather_rays
+    owner = np.repeat(np.arange(n, dtype=np.int64), g)
+    index = np.repeat(sample.astype(np.int64) * g, g) + np.tile(np.arange(g, dtype=np.int64), n)
+    ray_pixel = np.repeat(pixel.astype(np.int64), g)
+    u1, u2 = sampling.stratified2(st.seed, ray_pixel, index, st.samples * g,
+                                  sampling.stream(GATHER_DIRECTION, depth))
+    m = owner.shape[0]
+    o, d, ok = np.empty((m, 3)), np.empty((m, 3)), np.empty(m, bool)
+    _gather_rays_kernel(pos, ngf, nsf, eps, owner, u1, u2, o, d, ok)
+    radiance = np.zeros((m, 3))
+    rows = np.flatnonzero(ok)
+    o, d = o[rows], d[rows]
+    thr = np.ones((rows.shape[0], 3))
+    mats = ctx.materials
+    has_diffuse = np.any(mats["diffuse"] > 0, axis=1)
+    for bounce in range(st.max_specular_depth + 1):
+        if rows.shape[0] == 0:
+            break
+        hits = ctx.accel.intersect(o, d)
+        terms.stats["rays_gather"] += rows.shape[0]
+        hit = np.flatnonzero(hits.prim >= 0)
+        # Escaping rays and light sources count nothing (direct light holds them).
+        rows, thr, d = rows[hit], thr[hit], d[hit]
+        k = rows.shape[0]
+        p2, n2, s2 = np.empty((k, 3)), np.empty((k, 3)), np.empty((k, 3))
+        mat, e2, front = np.empty(k, np.int32), np.empty(k), np.empty(k, bool)
+        _surface_kernel(ctx.tri_vertices, ctx.tri_normals, ctx.tri_material, hits.prim[hit],
+                        hits.u[hit], hits.v[hit], d, ctx.extent, p2, n2, s2, mat, e2, front)
+        diff = np.flatnonzero(has_diffuse[mat])
+        if diff.size:
+            if terms.cache is not None:
+                est = cached_radiance(terms, p2[diff], n2[diff], mats["diffuse"][mat[diff]])
+            else:
+                est = radiance_estimate(terms.global_map, p2[diff], n2[diff],
+                                        mats["diffuse"][mat[diff]], terms.global_k,
+                                        terms.global_radius, terms.filter)
+            radiance[rows[diff]] += thr[diff] * est
+            terms.stats["gather_queries"] += diff.size
+        if bounce == st.max_specular_depth:
+            break
+        sd = np.flatnonzero(ctx.has_delta[mat])
+        if sd.size == 0:
+            break
+        rs = rows[sd]
+        dim = sampling.stream(GATHER_LOBE, depth, bounce)
+        u_lobe = sampling.uniform(st.seed, ray_pixel[rs], index[rs], 2 * dim)
+        u_pick = sampling.uniform(st.seed, ray_pixel[rs], index[rs], 2 * dim + 1)
+        c = sd.shape[0]
+        new_o, new_d, new_thr, good = (np.empty((c, 3)), np.empty((c, 3)), np.empty((c, 3)),
+                                       np.empty(c, bool))
+        _delta_kernel(p2[sd], n2[sd], s2[sd], d[sd], front[sd], mat[sd], e2[sd],
+                      mats["specular"], mats["alpha"], mats["transmission"], mats["ior"],
+                      u_lobe, u_pick, thr[sd], new_o, new_d, new_thr, good)
+        keep = np.flatnonzero(good)
+        rows, o, d, thr = rs[keep], new_o[keep], new_d[keep], new_thr[keep]
+    terms.stats["time_gather"] += time.perf_counter() - t_start
+    return radiance.reshape(n, g, 3).mean(axis=1)

@@ -1,0 +1,115 @@
+"""Cycles as the reference for Photon Map's caustics pass: a glass sphere above a floor,
+lit from the side by a small area light (so the caustic lands beside the sphere, where the
+camera sees the floor directly), seen from straight above.
+
+Cycles' caustic is the difference of two renders: caustics on (reflective and refractive)
+minus caustics off, with one diffuse bounce (floor -> glass ... -> light): on the floor
+pixels the camera sees directly, that difference is exactly the L S+ D light that Photon
+Map's caustics pass holds. Cycles converges on it here (a small scene, an area light the
+sphere magnifies), with many samples.
+
+Run as a script to re-render the cached reference tests/data/cycles_caustic_48x48.npz
+(about two minutes on 2 cores):
+
+    .venv/bin/python tests/blender/cycles_caustic_reference.py
+"""
+
+from __future__ import annotations
+
+import pathlib
+import sys
+
+import numpy as np
+
+import bpy
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+if str(ROOT) not in sys.path:
+    sys.path.insert(0, str(ROOT))
+
+from tests.blender import cycles_reference as ref  # noqa: E402
+from tests.blender import scenes  # noqa: E402
+
+RESOLUTION = (48, 48)
+CYCLES_SAMPLES = 16384
+NAME = "caustic"
+
+
+def glass_sphere_scene(resolution=RESOLUTION):
+    """A 6 m white floor, a glass sphere (r 0.3 m, IOR 1.5) 0.2 m above it, a 0.3 m area
+    light 2 m high to the side aimed at the sphere, a camera 3 m above the caustic."""
+    scene = scenes.reset()
+    scenes.set_resolution(*resolution)
+    scenes.add_plane(size=6.0, material=scenes.diffuse_material("Floor", (0.8, 0.8, 0.8)))
+    glass = bpy.data.materials.new("Glass")
+    nodes, links = glass.node_tree.nodes, glass.node_tree.links
+    nodes.clear()
+    bsdf = nodes.new('ShaderNodeBsdfGlass')
+    bsdf.inputs["IOR"].default_value = 1.5
+    bsdf.inputs["Roughness"].default_value = 0.0
+    links.new(bsdf.outputs[0], nodes.new('ShaderNodeOutputMaterial').inputs["Surface"])
+    scenes.add_sphere(radius=0.3, location=(0.0, 0.0, 0.5), material=glass, segments=64)
+    scenes.add_light('AREA', location=(-1.5, 0.0, 2.0), power=300.0, size=0.3,
+                     rotation=ref._aim((-1.5, 0.0, 2.0), (0.0, 0.0, 0.5)), name="Key")
+    scenes.add_camera(location=(0.7, 0.0, 3.0), look_at=(0.7, 0.0, 0.0), lens=50.0)
+    return scene
+
+
+def configure(scene, samples, seed, caustics):
+    ref.configure_cycles(scene, samples, seed)
+    c = scene.cycles
+    c.caustics_refractive = caustics
+    c.caustics_reflective = caustics
+    c.diffuse_bounces = 1
+    return scene
+
+
+def render(samples, seed, caustics) -> np.ndarray:
+    scene = configure(glass_sphere_scene(), samples, seed, caustics)
+    return scenes.render_passes(scene)["Combined"][..., :3].astype(np.float64)
+
+
+def fingerprint() -> str:
+    import hashlib
+    import inspect
+
+    parts = [inspect.getsource(glass_sphere_scene), inspect.getsource(configure),
+             inspect.getsource(ref.configure_cycles), inspect.getsource(ref._aim),
+             repr((RESOLUTION, CYCLES_SAMPLES))]
+    return hashlib.sha256("\n".join(parts).encode()).hexdigest()[:16]
+
+
+def reference_path() -> pathlib.Path:
+    return ref.DATA / f"cycles_{NAME}_{RESOLUTION[0]}x{RESOLUTION[1]}.npz"
+
+
+def load_reference() -> dict:
+    """caustic (H, W, 3): Cycles with caustics minus without; caustic_b: the same from a
+    second pair of seeds (the difference of the two is Cycles' noise)."""
+    path = reference_path()
+    regenerate = "re-render it with: .venv/bin/python tests/blender/cycles_caustic_reference.py"
+    assert path.exists(), f"missing Cycles reference {path.relative_to(ROOT)}; {regenerate}"
+    data = dict(np.load(path))
+    assert str(data["fingerprint"]) == fingerprint(), \
+        f"{path.relative_to(ROOT)} was made from other scene code; {regenerate}"
+    return data
+
+
+def main():
+    import time
+
+    started = time.perf_counter()
+    off = render(CYCLES_SAMPLES, 1, False)
+    a = render(CYCLES_SAMPLES, 2, True) - off
+    b = render(CYCLES_SAMPLES, 3, True) - off
+    np.savez_compressed(reference_path(), caustic=((a + b) / 2).astype(np.float32),
+                        caustic_a=a.astype(np.float32), caustic_b=b.astype(np.float32),
+                        samples=np.int64(CYCLES_SAMPLES), fingerprint=np.str_(fingerprint()),
+                        blender=np.str_(bpy.app.version_string))
+    print(f"{reference_path().relative_to(ROOT)}: in {time.perf_counter() - started:.1f} s, "
+          f"caustic sum {(a + b).sum() / 2:.3f}, seeds differ by "
+          f"{100 * (a.sum() / b.sum() - 1):+.2f} %")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,197 @@
+"""Stochastic progressive photon mapping (core/sppm.py): convergence against a reference
+and against an independent oracle (the integrator's shadow-ray direct light), the SPPM
+statistics rules, bounded memory, cancelling, determinism and scale invariance."""
+
+import pathlib
+import tracemalloc
+
+import numpy as np
+import pytest
+
+from core import integrator, shapes, sppm
+from core.scene import LIGHT_POINT, Lights, Materials, Scene
+from core.settings import RenderSettings, SettingsError
+
+DATA = pathlib.Path(__file__).resolve().parents[1] / "data"
+SETTINGS = RenderSettings().with_values(threads=1)
+
+
+def rel_mse(a, b):
+    a, b = np.asarray(a, np.float64), np.asarray(b, np.float64)
+    return float(np.mean((a - b) ** 2 / (b * b + 0.01)))
+
+
+def caustic_scene(scale=1.0, width=32, height=32):
+    """Glass sphere on a floor under a point light: the scene of benchmarks/sppm_convergence.py
+    (keep them equal: the stored reference was rendered from it)."""
+    s = scale
+    mesh = shapes.assemble([(shapes.quad([0, 0, 0], [2 * s, 0, 0], [0, 2 * s, 0]), 0),
+                            (shapes.uv_sphere([0, 0, 0.6 * s], 0.5 * s, 16, 32), 1)])
+    mats = Materials.from_list([{"diffuse": [0.8] * 3}, {"transmission": [1, 1, 1], "ior": 1.5}])
+    lights = Lights.from_list([{"kind": LIGHT_POINT, "position": [0.3 * s, 0, 2.5 * s],
+                                "power": 200.0 * s * s}])
+    cam = shapes.pinhole([0, -3.0 * s, 2.5 * s], [0, 0, 0.3 * s], width, height, 0.9)
+    return Scene(mesh, mats, lights, cam).validate()
+
+
+def floor_scene(width=16, height=16):
+    """Only a floor under a point light: no second bounce is possible, so the full solution
+    is the direct light."""
+    mesh = shapes.assemble([(shapes.quad([0, 0, 0], [2, 0, 0], [0, 2, 0]), 0)])
+    mats = Materials.from_list([{"diffuse": [0.8, 0.5, 0.2]}])
+    lights = Lights.from_list([{"kind": LIGHT_POINT, "position": [0.3, 0.2, 1.5],
+                                "power": 100.0}])
+    cam = shapes.pinhole([0, -2.0, 2.0], [0, 0, 0], width, height, 0.9)
+    return Scene(mesh, mats, lights, cam).validate()
+
+
+def _finite_nonnegative(img):
+    assert np.all(np.isfinite(img)), "NaN/Inf in the image"
+    assert img.min() >= 0.0, f"negative radiance {img.min()}"
+
+
+def test_caustic_converges_to_the_reference():
+    ref = np.load(DATA / "sppm_caustic_ref.npz")["image"]
+    errors = {}
+    for state in sppm.progressive_passes(caustic_scene(), SETTINGS, 25_000, max_passes=64):
+        if state.passes in (1, 4, 16, 64):
+            img = state.radiance()
+            _finite_nonnegative(img)
+            errors[state.passes] = rel_mse(img, ref)
+    e = [errors[k] for k in (1, 4, 16, 64)]
+    # Monotone within noise: each 4x more passes must cut the error (by any amount).
+    assert all(b < a for a, b in zip(e, e[1:])), e
+    assert e[-1] < 0.02, e
+    # The image's mean is right, not just its noise low.
+    assert abs(img.mean() / ref.mean() - 1.0) < 0.03
+
+
+def test_floor_converges_to_the_integrators_direct_light():
+    """Independent oracle: the integrator's shadow rays (different code, no photons)."""
+    scene = floor_scene()
+    oracle = integrator.render(scene, RenderSettings().with_values(
+        threads=1, samples=64, indirect_mode="off", caustics=False)).passes["combined"]
+    out = sppm.render_progressive(scene, SETTINGS, 48, 20_000)
+    img = out.passes["combined"]
+    _finite_nonnegative(img)
+    assert oracle.mean() > 0.05
+    for c in range(3):
+        assert abs(img[..., c].mean() / oracle[..., c].mean() - 1.0) < 0.03, c
+    assert rel_mse(img, oracle) < 0.01
+
+
+def test_radius_shrinks_and_count_grows_per_pixel():
+    prev_r = prev_n = None
+    alpha = 2.0 / 3.0
+    for state in sppm.progressive_passes(caustic_scene(1.0, 16, 16), SETTINGS, 5_000,
+                                         alpha=alpha, max_passes=12):
+        r, n = state.radius.copy(), state.n.copy()
+        assert np.all(np.isfinite(r)) and np.all(r > 0)
+        if prev_r is not None:
+            assert np.all(r <= prev_r)
+            assert np.all(n >= prev_n)
+            grew = n > prev_n
+            assert grew.sum() > 0.3 * n.size  # most of the floor catches photons each pass
+            # The SPPM rule: R'^2 / R^2 = (N + alpha M) / (N + M) with M = (N' - N) / alpha.
+            m = (n[grew] - prev_n[grew]) / alpha
+            expect = (prev_n[grew] + alpha * m) / (prev_n[grew] + m)
+            np.testing.assert_allclose((r[grew] / prev_r[grew]) ** 2, expect, rtol=1e-9)
+            assert np.all(r[~grew] == prev_r[~grew])
+        prev_r, prev_n = r, n
+    assert state.radius.min() < 0.8 * state.stats["initial_radius"]
+
+
+def _peak_bytes(passes):
+    tracemalloc.start()
+    try:
+        out = sppm.render_progressive(caustic_scene(1.0, 16, 16), SETTINGS, passes, 20_000)
+        return tracemalloc.get_traced_memory()[1], out
+    finally:
+        tracemalloc.stop()
+
+
+def test_memory_is_bounded_whatever_the_pass_count():
+    sppm.render_progressive(caustic_scene(1.0, 8, 8), SETTINGS, 1, 100)  # load the kernels
+    few, out_few = _peak_bytes(2)
+    many, out_many = _peak_bytes(16)
+    # One pass's photons alive at a time: the most held does not grow with passes.
+    assert out_many.stats["photons_alive_max"] <= 1.2 * out_few.stats["photons_alive_max"]
+    assert len(out_many.stats["photons_stored"]) == 16
+    assert out_many.stats["photons_emitted"] == 16 * 20_000
+    # A leak of each pass's stored photons (~36 B each, ~2.5k per pass here) would add
+    # ~1.2 MB over 14 more passes; per-pass stats lists add a few kB.
+    assert many < 1.05 * few + 100_000, (few, many)
+
+
+def test_cancel_after_pass_k_returns_k_passes():
+    seen = []
+    stop_after = 3
+
+    def progress(fraction, message):
+        return fraction >= stop_after / 10 - 1e-12
+
+    out = sppm.render_progressive(caustic_scene(1.0, 16, 16), SETTINGS, 10, 4_000, progress=progress,
+                                  on_pass=lambda k, img: seen.append((k, img.copy())))
+    assert out.cancelled
+    assert out.stats["passes"] == stop_after
+    assert [k for k, _ in seen] == [1, 2, 3]
+    done = sppm.render_progressive(caustic_scene(1.0, 16, 16), SETTINGS, stop_after, 4_000)
+    assert not done.cancelled
+    np.testing.assert_array_equal(out.passes["combined"], done.passes["combined"])
+    np.testing.assert_array_equal(seen[-1][1], done.passes["combined"])
+
+
+def test_time_budget_stops_after_the_passes_that_fit():
+    scene = caustic_scene(1.0, 16, 16)
+    sppm.render_progressive(scene, SETTINGS, 1, 100)  # load the kernels
+    out = sppm.render_progressive(scene, SETTINGS, 100_000, 4_000, time_budget=0.3)
+    assert not out.cancelled
+    assert out.stats["stopped_by"] == "time_budget"
+    assert 2 <= out.stats["passes"] < 100_000
+    assert out.stats["time_total"] < 0.3 + 0.5  # one pass takes ~5 ms; slack for a loaded machine
+    ample = sppm.render_progressive(scene, SETTINGS, 3, 4_000, time_budget=1e6)
+    assert ample.stats["passes"] == 3 and ample.stats["stopped_by"] == "passes"
+    with pytest.raises(SettingsError, match="time_budget"):
+        sppm.render_progressive(scene, SETTINGS, 3, 100, time_budget=-1.0)
+
+
+def test_deterministic_across_runs_and_threads():
+    a = sppm.render_progressive(caustic_scene(1.0, 16, 16), SETTINGS, 4, 4_000).passes["combined"]
+    b = sppm.render_progressive(caustic_scene(1.0, 16, 16), SETTINGS.with_values(threads=2), 4,
+                                4_000).passes["combined"]
+    np.testing.assert_array_equal(a, b)
+    c = sppm.render_progressive(caustic_scene(1.0, 16, 16), SETTINGS.with_values(seed=1), 4,
+                                4_000).passes["combined"]
+    assert not np.array_equal(a, c)
+
+
+@pytest.mark.parametrize("scale", [1e-3, 1e3])
+def test_scale_invariance(scale):
+    base = sppm.render_progressive(caustic_scene(1.0, 16, 16), SETTINGS, 8, 8_000)
+    scaled = sppm.render_progressive(caustic_scene(scale, 16, 16), SETTINGS, 8, 8_000)
+    a, b = scaled.passes["combined"], base.passes["combined"]
+    _finite_nonnegative(a)
+    np.testing.assert_allclose(scaled.stats["initial_radius"],
+                               scale * base.stats["initial_radius"], rtol=1e-6)
+    # Same random numbers, scaled geometry: equal up to float32 rounding at the edges.
+    assert rel_mse(a, b) < 0.01
+    assert abs(a.mean() / b.mean() - 1.0) < 0.01
+
+
+def test_empty_and_unlit_scenes_are_black_and_finite():
+    s = caustic_scene(1.0, 8, 8)
+    dark = Scene(s.mesh, s.materials, Lights.empty(), s.camera).validate()
+    img = sppm.render_progressive(dark, SETTINGS, 2, 1_000).passes["combined"]
+    assert np.all(img == 0.0)
+
+
+def test_bad_input_raises_errors_naming_the_parameter():
+    s = caustic_scene(1.0, 8, 8)
+    for kwargs, name in (({"passes": 0}, "passes"), ({"photons_per_pass": -1}, "photons_per_pass"),
+                         ({"alpha": 1.0}, "alpha"), ({"alpha": 0.0}, "alpha"),
+                         ({"initial_radius": 0.0}, "initial_radius"),
+                         ({"initial_radius": float("nan")}, "initial_radius")):
+        args = {"passes": 2, "photons_per_pass": 100, **kwargs}
+        with pytest.raises(SettingsError, match=name):
+            sppm.render_progressive(s, SETTINGS, args.pop("passes"), args.pop("photons_per_pass"),
+                                    **args)
