@@ -5,7 +5,8 @@ the CLI) and ``bl_ext.user_default.photon_map.core`` (installed in Blender). num
 in-tree cache is keyed by file, not by module name, and a cached kernel re-imports the
 module it was compiled in by name, so a cache written under one name breaks loading
 under another ("No module named 'photon_map'"). This locator puts each package's cache
-in ``core/__pycache__/numba_<package>/``.
+in ``core/__pycache__/numba_<package>_<digest>/``, where the digest covers every
+core source file (see _sources_digest).
 
 Import this module before any ``@njit(cache=True)`` in the core is decorated
 (``core/__init__.py`` does; every kernel module also imports it, which is harmless).
@@ -13,11 +14,27 @@ Import this module before any ``@njit(cache=True)`` in the core is decorated
 
 from __future__ import annotations
 
+import hashlib
 import os
 
 from numba.core import caching
 
 _CORE_DIR = os.path.dirname(os.path.abspath(__file__))
+
+
+def _sources_digest() -> str:
+    """A short hash of every core/*.py: kernels inline functions from other files
+    (estimate.py and gather.py inline kdtree.py's search), and numba's own cache only
+    checks the defining file's timestamp, so any change to the core starts a fresh cache."""
+    h = hashlib.sha1()
+    for name in sorted(os.listdir(_CORE_DIR)):
+        if name.endswith(".py"):
+            with open(os.path.join(_CORE_DIR, name), "rb") as f:
+                h.update(name.encode() + b"\0" + f.read())
+    return h.hexdigest()[:12]
+
+
+_DIGEST = _sources_digest()
 
 
 class PackageCacheLocator(caching.InTreeCacheLocator):
@@ -27,7 +44,7 @@ class PackageCacheLocator(caching.InTreeCacheLocator):
         super().__init__(py_func, py_file)
         package = (py_func.__module__ or "unknown").rpartition(".")[0] or "top"
         self._cache_path = os.path.join(os.path.dirname(py_file), "__pycache__",
-                                        "numba_" + package.replace(".", "_"))
+                                        "numba_" + package.replace(".", "_") + "_" + _DIGEST)
 
     @classmethod
     def from_function(cls, py_func, py_file):

@@ -21,7 +21,7 @@ they come with the transport issue), and the transmission lobe is always smooth.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from . import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
 
@@ -260,3 +260,32 @@ def material_table(materials) -> dict[str, np.ndarray]:
         "ior": materials.ior.astype(np.float64),
         "emission": materials.emission.astype(np.float64).reshape(-1, 3),
     }
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def continue_delta(pos, ngf, nsf, d, front, mat, eps, specular, alpha, transmission, ior,
+                   u_lobe, u_pick, thr, new_o, new_d, new_thr, transmitted, ok):
+    """Batched sample_delta: pick one delta lobe per hit (N hits) and write the next ray
+    (origin offset by eps along the flipped geometric normal, to the side it leaves on),
+    its throughput thr * weight and whether it was transmitted. ok is False where the path
+    ends (no delta lobe, or zero throughput). Used by camera paths and gather rays."""
+    for i in prange(pos.shape[0]):
+        m = mat[i]
+        ox, oy, oz, w0, w1, w2, tr, good = sample_delta(
+            specular[m, 0], specular[m, 1], specular[m, 2], alpha[m],
+            transmission[m, 0], transmission[m, 1], transmission[m, 2], ior[m],
+            d[i, 0], d[i, 1], d[i, 2], nsf[i, 0], nsf[i, 1], nsf[i, 2],
+            ngf[i, 0], ngf[i, 1], ngf[i, 2], front[i], u_lobe[i], u_pick[i])
+        t0, t1, t2 = thr[i, 0] * w0, thr[i, 1] * w1, thr[i, 2] * w2
+        ok[i] = good and (t0 > 0.0 or t1 > 0.0 or t2 > 0.0)
+        side = -eps[i] if tr else eps[i]
+        new_o[i, 0] = pos[i, 0] + side * ngf[i, 0]
+        new_o[i, 1] = pos[i, 1] + side * ngf[i, 1]
+        new_o[i, 2] = pos[i, 2] + side * ngf[i, 2]
+        new_d[i, 0] = ox
+        new_d[i, 1] = oy
+        new_d[i, 2] = oz
+        new_thr[i, 0] = t0
+        new_thr[i, 1] = t1
+        new_thr[i, 2] = t2
+        transmitted[i] = tr

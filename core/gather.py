@@ -374,31 +374,6 @@ def _surface_kernel(tri_v, tri_n, tri_mat, prim, u, v, d, extent, pos, ngf, nsf,
         front[i] = f
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
-def _delta_kernel(pos, ngf, nsf, d, front, mat, eps, specular, alpha, transmission, ior,
-                  u_lobe, u_pick, thr, new_o, new_d, new_thr, ok):
-    """One delta lobe per hit (bsdf.sample_delta): the next ray and throughput."""
-    for i in prange(pos.shape[0]):
-        m = mat[i]
-        ox, oy, oz, w0, w1, w2, tr, good = bsdf.sample_delta(
-            specular[m, 0], specular[m, 1], specular[m, 2], alpha[m],
-            transmission[m, 0], transmission[m, 1], transmission[m, 2], ior[m],
-            d[i, 0], d[i, 1], d[i, 2], nsf[i, 0], nsf[i, 1], nsf[i, 2],
-            ngf[i, 0], ngf[i, 1], ngf[i, 2], front[i], u_lobe[i], u_pick[i])
-        t0, t1, t2 = thr[i, 0] * w0, thr[i, 1] * w1, thr[i, 2] * w2
-        ok[i] = good and (t0 > 0.0 or t1 > 0.0 or t2 > 0.0)
-        side = -eps[i] if tr else eps[i]
-        new_o[i, 0] = pos[i, 0] + side * ngf[i, 0]
-        new_o[i, 1] = pos[i, 1] + side * ngf[i, 1]
-        new_o[i, 2] = pos[i, 2] + side * ngf[i, 2]
-        new_d[i, 0] = ox
-        new_d[i, 1] = oy
-        new_d[i, 2] = oz
-        new_thr[i, 0] = t0
-        new_thr[i, 1] = t1
-        new_thr[i, 2] = t2
-
-
 def caustics(terms: PhotonTerms, pos, ngf, albedo) -> np.ndarray:
     """(N, 3) caustic radiance at diffuse hits (before the path throughput)."""
     t0 = time.perf_counter()
@@ -496,11 +471,11 @@ def _final_gather_batch(terms, ctx, pos, ngf, nsf, eps, pixel, sample, depth) ->
         u_lobe = sampling.uniform(st.seed, ray_pixel[rs], index[rs], 2 * dim)
         u_pick = sampling.uniform(st.seed, ray_pixel[rs], index[rs], 2 * dim + 1)
         c = sd.shape[0]
-        new_o, new_d, new_thr, good = (np.empty((c, 3)), np.empty((c, 3)), np.empty((c, 3)),
-                                       np.empty(c, bool))
-        _delta_kernel(p2[sd], n2[sd], s2[sd], d[sd], front[sd], mat[sd], e2[sd],
-                      mats["specular"], mats["alpha"], mats["transmission"], mats["ior"],
-                      u_lobe, u_pick, thr[sd], new_o, new_d, new_thr, good)
+        new_o, new_d, new_thr = np.empty((c, 3)), np.empty((c, 3)), np.empty((c, 3))
+        transmitted, good = np.empty(c, bool), np.empty(c, bool)
+        bsdf.continue_delta(p2[sd], n2[sd], s2[sd], d[sd], front[sd], mat[sd], e2[sd],
+                            mats["specular"], mats["alpha"], mats["transmission"], mats["ior"],
+                            u_lobe, u_pick, thr[sd], new_o, new_d, new_thr, transmitted, good)
         keep = np.flatnonzero(good)
         rows, o, d, thr = rs[keep], new_o[keep], new_d[keep], new_thr[keep]
     terms.stats["time_gather"] += time.perf_counter() - t_start

@@ -270,32 +270,6 @@ def _gather_kernel(target, rows, contrib, need_idx, occluded):
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
-def _continue_kernel(pos, ngf, nsf, d, front, mat, eps, specular, alpha, transmission, ior,
-                     u_lobe, u_pick, thr, new_o, new_d, new_thr, transmitted, ok):
-    """Pick a delta lobe per hit and write the next ray and throughput."""
-    for i in prange(pos.shape[0]):
-        m = mat[i]
-        ox, oy, oz, w0, w1, w2, tr, good = bsdf.sample_delta(
-            specular[m, 0], specular[m, 1], specular[m, 2], alpha[m],
-            transmission[m, 0], transmission[m, 1], transmission[m, 2], ior[m],
-            d[i, 0], d[i, 1], d[i, 2], nsf[i, 0], nsf[i, 1], nsf[i, 2],
-            ngf[i, 0], ngf[i, 1], ngf[i, 2], front[i], u_lobe[i], u_pick[i])
-        t0, t1, t2 = thr[i, 0] * w0, thr[i, 1] * w1, thr[i, 2] * w2
-        ok[i] = good and (t0 > 0.0 or t1 > 0.0 or t2 > 0.0)
-        side = -eps[i] if tr else eps[i]
-        new_o[i, 0] = pos[i, 0] + side * ngf[i, 0]
-        new_o[i, 1] = pos[i, 1] + side * ngf[i, 1]
-        new_o[i, 2] = pos[i, 2] + side * ngf[i, 2]
-        new_d[i, 0] = ox
-        new_d[i, 1] = oy
-        new_d[i, 2] = oz
-        new_thr[i, 0] = t0
-        new_thr[i, 1] = t1
-        new_thr[i, 2] = t2
-        transmitted[i] = tr
-
-
-@njit(cache=True, parallel=True, error_model="numpy")
 def _pixel_mean_kernel(per_sample, samples, out):
     """Mean over each pixel's consecutive samples, summed in sample order (deterministic)."""
     for p in prange(out.shape[0]):
@@ -494,9 +468,9 @@ def _render_tile(ctx: _Context, pix: np.ndarray) -> dict[str, np.ndarray]:
         k = sd.shape[0]
         new_o, new_d, new_thr = np.empty((k, 3)), np.empty((k, 3)), np.empty((k, 3))
         new_tr, ok = np.empty(k, bool), np.empty(k, bool)
-        _continue_kernel(pos[sd], ngf[sd], nsf[sd], d[sd], front[sd], mat[sd], eps[sd],
-                         mats["specular"], mats["alpha"], mats["transmission"], mats["ior"],
-                         u_lobe, u_pick, thr[sd], new_o, new_d, new_thr, new_tr, ok)
+        bsdf.continue_delta(pos[sd], ngf[sd], nsf[sd], d[sd], front[sd], mat[sd], eps[sd],
+                            mats["specular"], mats["alpha"], mats["transmission"], mats["ior"],
+                            u_lobe, u_pick, thr[sd], new_o, new_d, new_thr, new_tr, ok)
         keep = np.flatnonzero(ok)
         rows, origins, dirs = rs[keep], new_o[keep], new_d[keep]
         thr, transmitted = new_thr[keep], new_tr[keep]

@@ -10,7 +10,8 @@ Conventions (the same as Blender's):
   sun ``strength`` in W/m^2, emission and background as radiance in W/(m^2 sr).
 - Images are (height, width, 3) float32 with row 0 at the TOP of the picture.
 
-``Scene.validate()`` checks shapes, dtypes, finiteness and ranges and raises
+``Scene.validate()`` checks shapes, dtypes, finiteness (and magnitudes up to
+MAX_MAGNITUDE) and ranges and raises
 ``SceneError`` naming the offending field and, where known, the object or material.
 """
 
@@ -90,9 +91,9 @@ class Materials:
 
     Every BSDF the exporter understands maps onto these lobes:
     diffuse: (M, 3) float32, Lambert albedo in [0, 1].
-    specular: (M, 3) float32, tint of the reflection lobe (metal / Glossy BSDF); the
+    specular: (M, 3) float32 in [0, 1], tint of the reflection lobe (metal / Glossy BSDF); the
         lobe is a perfect mirror when roughness is 0, GGX otherwise.
-    transmission: (M, 3) float32, tint of the dielectric lobe (Glass BSDF, Principled
+    transmission: (M, 3) float32 in [0, 1], tint of the dielectric lobe (Glass BSDF, Principled
         transmission): Fresnel-weighted reflection and refraction with ``ior``.
     roughness: (M,) float32 in [0, 1], Blender's roughness (alpha = roughness^2).
     ior: (M,) float32 > 0, index of refraction of the dielectric lobe.
@@ -304,6 +305,14 @@ class Scene:
         _validate_lights(self.lights)
         _validate_camera(self.camera)
         _check_array("world.radiance", self.world.radiance, (3,), nonnegative=True)
+        if self.mesh.triangle_count:
+            lo, hi = self.bounds()
+            size = float(np.max(hi - lo))
+            if size > 0 and not MIN_SCENE_SIZE <= size <= MAX_SCENE_SIZE:
+                raise SceneError(
+                    f"scene size {size:.3g} m (the bounding box of the geometry, lights and "
+                    f"camera) is outside [{MIN_SCENE_SIZE:g}, {MAX_SCENE_SIZE:g}] m, the "
+                    f"range float32 rendering holds; rescale the scene")
         return self
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
@@ -320,8 +329,22 @@ class Scene:
         return allp.min(axis=0), allp.max(axis=0)
 
 
-def _check_array(name, a, shape, *, dtype=None, nonnegative=False, finite=True, labels=None):
-    """Validate one array: shape (None = any length), dtype kind, finite, >= 0."""
+MIN_SCENE_SIZE = 1e-6
+MAX_SCENE_SIZE = 1e11
+"""Scene sizes (largest side of Scene.bounds(), metres) the renderer holds. Measured on a
+4.4 m box scaled: correct from 4.4e-7 to 4.4e12 m; at 4.4e-8 m the caustics come out 29 %
+too bright, at 4.4e-12 m the radiance estimate finds k photons on one point, at 4.4e13 m
+the image is black."""
+
+MAX_MAGNITUDE = 1e30
+"""Largest magnitude of any float input: radiance, power, lengths. Beyond it float32 sums
+of the passes (and squares of lengths) overflow to infinity."""
+
+
+def _check_array(name, a, shape, *, dtype=None, nonnegative=False, finite=True, labels=None,
+                 at_most=None):
+    """Validate one array: shape (None = any length), dtype kind, finite and within
+    +-MAX_MAGNITUDE, >= 0, <= at_most."""
     if not isinstance(a, np.ndarray):
         raise SceneError(f"{name} must be a numpy array, got {type(a).__name__}")
     if a.ndim != len(shape) or any(s is not None and s != d for s, d in zip(shape, a.shape)):
@@ -333,10 +356,19 @@ def _check_array(name, a, shape, *, dtype=None, nonnegative=False, finite=True, 
         bad = np.argwhere(~np.isfinite(a))[0]
         where = _label(labels, bad[0])
         raise SceneError(f"{name}{where} holds a non-finite value {a[tuple(bad)]} at index {tuple(bad)}")
+    if finite and a.dtype.kind == "f" and a.size and np.any(np.abs(a) > MAX_MAGNITUDE):
+        bad = np.argwhere(np.abs(a) > MAX_MAGNITUDE)[0]
+        where = _label(labels, bad[0])
+        raise SceneError(f"{name}{where} holds {a[tuple(bad)]} at index {tuple(bad)}, beyond "
+                         f"the largest magnitude {MAX_MAGNITUDE:g} the renderer accepts")
     if nonnegative and a.size and np.any(a < 0):
         bad = np.argwhere(a < 0)[0]
         where = _label(labels, bad[0])
         raise SceneError(f"{name}{where} must be >= 0, got {a[tuple(bad)]} at index {tuple(bad)}")
+    if at_most is not None and a.size and np.any(a > at_most):
+        bad = np.argwhere(a > at_most)[0]
+        where = _label(labels, bad[0])
+        raise SceneError(f"{name}{where} must be <= {at_most:g}, got {a[tuple(bad)]} at index {tuple(bad)}")
 
 
 def _label(labels, i):
@@ -383,10 +415,15 @@ def _validate_mesh(mesh: Mesh, materials: Materials) -> None:
 def _validate_materials(m: Materials) -> None:
     n = m.count
     names = m.names if len(m.names) == n else None
-    for key in ("diffuse", "specular", "transmission", "emission"):
+    # Reflectances above 1 create energy (photon flux grows geometrically with the
+    # bounces until it overflows); the exporter clamps them to 1 with a warning.
+    for key in ("diffuse", "specular", "transmission"):
         _check_array(f"materials.{key}", getattr(m, key), (n, 3), dtype=np.float32,
-                     nonnegative=True, labels=names)
-    _check_array("materials.roughness", m.roughness, (n,), dtype=np.float32, nonnegative=True, labels=names)
+                     nonnegative=True, labels=names, at_most=1.0)
+    _check_array("materials.emission", m.emission, (n, 3), dtype=np.float32,
+                 nonnegative=True, labels=names)
+    _check_array("materials.roughness", m.roughness, (n,), dtype=np.float32, nonnegative=True,
+                 labels=names, at_most=1.0)
     _check_array("materials.ior", m.ior, (n,), dtype=np.float32, labels=names)
     if n and np.any(m.ior <= 0):
         i = int(np.argmax(m.ior <= 0))
@@ -402,8 +439,10 @@ def _validate_lights(li: Lights) -> None:
         raise SceneError(f"lights.kind{_label(names, i)} is {li.kind[i]}, not one of {LIGHT_KIND_NAMES}")
     _check_array("lights.to_world", li.to_world, (n, 4, 4), labels=names)
     _check_array("lights.color", li.color, (n, 3), nonnegative=True, labels=names)
-    for key in ("power", "radius", "angle", "spot_size", "spot_blend"):
+    for key in ("power", "radius", "angle", "spot_size"):
         _check_array(f"lights.{key}", getattr(li, key), (n,), nonnegative=True, labels=names)
+    _check_array("lights.spot_blend", li.spot_blend, (n,), nonnegative=True, labels=names,
+                 at_most=1.0)
     _check_array("lights.shape", li.shape, (n,), dtype=np.int32)
     _check_array("lights.size", li.size, (n, 2), nonnegative=True, labels=names)
     _check_array("lights.visible_to_camera", li.visible_to_camera, (n,), dtype=bool)
