@@ -355,25 +355,6 @@ def _gather_rays_kernel(pos, ngf, nsf, eps, owner, u1, u2, o, d, ok):
         d[r, 2] = wz
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
-def _surface_kernel(tri_v, tri_n, tri_mat, prim, u, v, d, extent, pos, ngf, nsf, mat, eps,
-                    front):
-    """Hit points, normals flipped to face the ray, materials, offsets, front flags."""
-    for i in prange(prim.shape[0]):
-        t = prim[i]
-        dx, dy, dz = d[i, 0], d[i, 1], d[i, 2]
-        px, py, pz, gx, gy, gz, sx, sy, sz = geometry.surface_point(
-            tri_v, tri_n, t, np.float64(u[i]), np.float64(v[i]), dx, dy, dz)
-        f = dx * gx + dy * gy + dz * gz < 0.0
-        sgn = 1.0 if f else -1.0
-        pos[i, 0], pos[i, 1], pos[i, 2] = px, py, pz
-        ngf[i, 0], ngf[i, 1], ngf[i, 2] = sgn * gx, sgn * gy, sgn * gz
-        nsf[i, 0], nsf[i, 1], nsf[i, 2] = sgn * sx, sgn * sy, sgn * sz
-        mat[i] = tri_mat[t]
-        eps[i] = geometry.offset_eps(px, py, pz, extent)
-        front[i] = f
-
-
 def caustics(terms: PhotonTerms, pos, ngf, albedo) -> np.ndarray:
     """(N, 3) caustic radiance at diffuse hits (before the path throughput)."""
     t0 = time.perf_counter()
@@ -446,11 +427,9 @@ def _final_gather_batch(terms, ctx, pos, ngf, nsf, eps, pixel, sample, depth) ->
         hit = np.flatnonzero(hits.prim >= 0)
         # Escaping rays and light sources count nothing (direct light holds them).
         rows, thr, d = rows[hit], thr[hit], d[hit]
-        k = rows.shape[0]
-        p2, n2, s2 = np.empty((k, 3)), np.empty((k, 3)), np.empty((k, 3))
-        mat, e2, front = np.empty(k, np.int32), np.empty(k), np.empty(k, bool)
-        _surface_kernel(ctx.tri_vertices, ctx.tri_normals, ctx.tri_material, hits.prim[hit],
-                        hits.u[hit], hits.v[hit], d, ctx.extent, p2, n2, s2, mat, e2, front)
+        p2, n2, s2, mat, e2, front = geometry.facing_surface_points(
+            ctx.tri_vertices, ctx.tri_normals, ctx.tri_material, hits.prim[hit],
+            hits.u[hit], hits.v[hit], d, ctx.extent)
         diff = np.flatnonzero(has_diffuse[mat])
         if diff.size:
             if terms.cache is not None:

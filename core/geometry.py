@@ -132,6 +132,40 @@ def surface_points(tri_vertices: np.ndarray, tri_normals: np.ndarray, tri_materi
     return SurfacePoints(pos, ng, ns, mat, eps)
 
 
+@njit(cache=True, parallel=True, error_model="numpy")
+def _facing_kernel(tri_v, tri_n, tri_mat, prim, u, v, d, extent, pos, ngf, nsf, mat, eps, front):
+    for i in prange(prim.shape[0]):
+        t = prim[i]
+        dx, dy, dz = d[i, 0], d[i, 1], d[i, 2]
+        px, py, pz, gx, gy, gz, sx, sy, sz = surface_point(
+            tri_v, tri_n, t, np.float64(u[i]), np.float64(v[i]), dx, dy, dz)
+        f = dx * gx + dy * gy + dz * gz < 0.0
+        sgn = 1.0 if f else -1.0
+        pos[i, 0], pos[i, 1], pos[i, 2] = px, py, pz
+        ngf[i, 0], ngf[i, 1], ngf[i, 2] = sgn * gx, sgn * gy, sgn * gz
+        nsf[i, 0], nsf[i, 1], nsf[i, 2] = sgn * sx, sgn * sy, sgn * sz
+        mat[i] = tri_mat[t]
+        eps[i] = offset_eps(px, py, pz, extent)
+        front[i] = f
+
+
+def facing_surface_points(tri_vertices, tri_normals, tri_material, prim, u, v, directions,
+                          extent):
+    """Like surface_points, with both normals flipped to face the incoming ray.
+
+    Returns (pos, ngf, nsf (N, 3) float64, mat (N,) int32, eps (N,) float64, front (N,)
+    bool: the ray hit the side the winding's normal points to). Camera paths and gather
+    rays shade with these.
+    """
+    n = prim.shape[0]
+    pos, ngf, nsf = np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3))
+    mat, eps, front = np.empty(n, np.int32), np.empty(n), np.empty(n, bool)
+    if n:
+        _facing_kernel(tri_vertices, tri_normals, tri_material, prim, u, v, directions,
+                       float(extent), pos, ngf, nsf, mat, eps, front)
+    return pos, ngf, nsf, mat, eps, front
+
+
 def offset_points(points: np.ndarray, geometric_normal: np.ndarray, eps: np.ndarray,
                   directions: np.ndarray) -> np.ndarray:
     """Origins (N, 3) float64 for rays leaving ``points`` along ``directions``.

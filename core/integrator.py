@@ -149,30 +149,6 @@ SOURCE_LIGHT, SOURCE_TRIANGLES, SOURCE_WORLD = 0, 1, 2
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
-def _hit_kernel(tri_v, tri_n, tri_mat, prim, u, v, d, extent, rows, thr, emission, emit_acc,
-                pos, ngf, nsf, mat, eps, front):
-    """Surface points of the hits, normals flipped to face the ray, and the emission seen
-    (two-sided, like Cycles' emission closure) added to emit_acc[rows]."""
-    for i in prange(prim.shape[0]):
-        t = prim[i]
-        dx, dy, dz = d[i, 0], d[i, 1], d[i, 2]
-        px, py, pz, gx, gy, gz, sx, sy, sz = geometry.surface_point(
-            tri_v, tri_n, t, np.float64(u[i]), np.float64(v[i]), dx, dy, dz)
-        f = dx * gx + dy * gy + dz * gz < 0.0
-        sgn = 1.0 if f else -1.0
-        pos[i, 0], pos[i, 1], pos[i, 2] = px, py, pz
-        ngf[i, 0], ngf[i, 1], ngf[i, 2] = sgn * gx, sgn * gy, sgn * gz
-        nsf[i, 0], nsf[i, 1], nsf[i, 2] = sgn * sx, sgn * sy, sgn * sz
-        m = tri_mat[t]
-        mat[i] = m
-        eps[i] = geometry.offset_eps(px, py, pz, extent)
-        front[i] = f
-        r = rows[i]
-        for k in range(3):
-            emit_acc[r, k] += thr[i, k] * emission[m, k]
-
-
-@njit(cache=True, parallel=True, error_model="numpy")
 def _shade_kernel(source, q, tris_cdf, tris_prob, tris_v0, tris_e1, tris_e2, tris_n, tris_area,
                   tris_rad, world, pos, ngf, nsf, d, mat, eps, thr, pixel, sample, seed, dim,
                   pick_dim, k, k_count, bits, diffuse, specular, alpha, use_diffuse,
@@ -431,12 +407,10 @@ def _render_tile(ctx: _Context, pix: np.ndarray) -> dict[str, np.ndarray]:
         # Shade the hits: geometry, emission seen
         h = np.flatnonzero(hit) if not hit.all() else slice(None)
         rows, thr, d, transmitted = rows[h], thr[h], dirs[h], transmitted[h]
-        k = rows.shape[0]
-        pos, ngf, nsf = np.empty((k, 3)), np.empty((k, 3)), np.empty((k, 3))
-        mat, eps, front = np.empty(k, np.int32), np.empty(k), np.empty(k, bool)
-        _hit_kernel(ctx.tri_vertices, ctx.tri_normals, ctx.tri_material, hits.prim[h], hits.u[h],
-                    hits.v[h], d, ctx.extent, rows, thr, mats["emission"], emit_target,
-                    pos, ngf, nsf, mat, eps, front)
+        pos, ngf, nsf, mat, eps, front = geometry.facing_surface_points(
+            ctx.tri_vertices, ctx.tri_normals, ctx.tri_material, hits.prim[h], hits.u[h],
+            hits.v[h], d, ctx.extent)
+        _add(emit_target, rows, thr * mats["emission"][mat])  # two-sided, like Cycles' closure
         ctx.stats["time_shading"] += time.perf_counter() - t1
 
         # Direct light at the hits' non-delta lobes
