@@ -28,9 +28,7 @@ import argparse
 import pathlib
 import resource
 import sys
-import time
 import tracemalloc
-from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
@@ -42,6 +40,7 @@ from core.scene import LIGHT_AREA, Lights, Materials, Scene  # noqa: E402
 from core.settings import RenderSettings  # noqa: E402
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
+import bench_rays  # noqa: E402
 from bench_rays import RecordingAccelerator, replay_raw  # noqa: E402
 
 
@@ -70,25 +69,9 @@ def demo_scene() -> Scene:
 
 def raw_embree(scene: Scene, n_rays: int, seed: int = 0) -> float:
     """Raw embreex INTERSECT rate on incoherent rays in the box, 2 threads (rays/s)."""
-    from embreex import rtcore_scene
-    from embreex.mesh_construction import TriangleMesh
-
-    emb = rtcore_scene.EmbreeScene()
-    TriangleMesh(emb, np.ascontiguousarray(scene.mesh.triangle_vertices(), np.float32))
-    rng = np.random.default_rng(seed)
-    o = rng.uniform([-0.95, -0.95, 0.05], [0.95, 0.95, 1.95], (n_rays, 3)).astype(np.float32)
-    d = rng.normal(size=(n_rays, 3)).astype(np.float32)
-    d /= np.linalg.norm(d, axis=1, keepdims=True)
-    far = np.full(n_rays, 1e30, np.float32)
-    emb.run(o[:1000], d[:1000], dists=far[:1000])
-    half = n_rays // 2
-    with ThreadPoolExecutor(2) as pool:
-        t0 = time.perf_counter()
-        futs = [pool.submit(emb.run, o[a:b], d[a:b], dists=far[a:b].copy(), output=1)
-                for a, b in ((0, half), (half, n_rays))]
-        for f in futs:
-            f.result()
-        return n_rays / (time.perf_counter() - t0)
+    rates = bench_rays.raw_embree(scene, n_rays, seed,
+                                  box=((-0.95, -0.95, 0.05), (0.95, 0.95, 1.95)))
+    return rates["intersect_2threads"]
 
 
 def main() -> None:

@@ -46,15 +46,18 @@ def build_scene(triangles: int, size: int) -> Scene:
     return Scene(mesh, mats, lights, cam)
 
 
-def raw_embree(scene: Scene, n_rays: int, seed: int = 0) -> dict[str, float]:
-    """Raw embreex rates: one thread, and two threads on halves (rays/s)."""
+def raw_embree(scene: Scene, n_rays: int, seed: int = 0,
+               box=((-1.9, -1.9, 0.1), (1.9, 1.9, 2.9))) -> dict[str, float]:
+    """Raw embreex rates (rays/s) on ``n_rays`` incoherent rays (uniform origins in ``box``,
+    metres, uniform directions): ``intersect_1thread``, ``intersect_2threads`` (halves),
+    and the same for ``occluded``. bench_photons.py uses it with its own box."""
     from embreex import rtcore_scene
     from embreex.mesh_construction import TriangleMesh
 
     emb = rtcore_scene.EmbreeScene()
     TriangleMesh(emb, np.ascontiguousarray(scene.mesh.triangle_vertices(), np.float32))
     rng = np.random.default_rng(seed)
-    o = rng.uniform([-1.9, -1.9, 0.1], [1.9, 1.9, 2.9], (n_rays, 3)).astype(np.float32)
+    o = rng.uniform(box[0], box[1], (n_rays, 3)).astype(np.float32)
     d = rng.normal(size=(n_rays, 3)).astype(np.float32)
     d /= np.linalg.norm(d, axis=1, keepdims=True)
     far = np.full(n_rays, 1e30, np.float32)
