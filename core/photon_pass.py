@@ -64,8 +64,13 @@ def run(ctx, maps, progress, share: float) -> tuple[dict, bool]:
             state["cancelled"] = bool(progress(share * fraction, message))
             return state["cancelled"]
 
+        # The tracer builds only the maps of the terms rendered: no caustic photons when,
+        # say, the only glossy lobe sits on a diffuse base (the global map carries it).
+        skip = {key: skipped[term] for term, key in (("caustics", "caustic"),
+                                                     ("indirect", "global")) if term in skipped}
         maps = tracing.trace_photons(ctx.scene, st, ctx.accel, photon_progress,
-                                     include_direct=st.indirect_mode == "final_gather")
+                                     include_direct=st.indirect_mode == "final_gather",
+                                     skip=skip)
         stats["traced"] = True
         cancelled = state["cancelled"]
         if progress is not None and not cancelled:

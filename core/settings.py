@@ -52,6 +52,9 @@ class RenderSettings:
     """Maximum number of bounces a photon makes before it is dropped."""
     projection_map: bool = True
     """Aim caustic photons at the specular objects only (flux weighted by the aimed fraction)."""
+    photon_importance: bool = True
+    """Share each map's photons by power x visual importance (a camera pre-pass and pilot
+    photons, core/importance.py) instead of by power alone; unbiased either way."""
 
     # Radiance estimates (core/estimate.py).
     global_k: int = 50
@@ -112,7 +115,7 @@ class RenderSettings:
         if not ok or not (0.0 <= float(v) <= MAX_DOT_RADIUS_PX):
             raise SettingsError(f'"overlay_dot_radius" must be a number in '
                                 f'[0, {MAX_DOT_RADIUS_PX:g}] (pixels), got {v!r}')
-        for name in ("projection_map", "caustics", "photon_debug_pass", "overlay_composite"):
+        for name in ("projection_map", "photon_importance", "caustics", "photon_debug_pass", "overlay_composite"):
             v = getattr(self, name)
             if not isinstance(v, bool):
                 raise SettingsError(f'"{name}" must be true or false, got {v!r}')

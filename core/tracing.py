@@ -177,8 +177,9 @@ def _trace_chunk(setup: _Setup, accel, em: emission.Emitted, pid: np.ndarray, mo
 
 
 def _trace_map(setup, accel, sources, counts, targets_per_source, mode, include_direct,
-               settings, map_id, counters, progress, done_before, total_work):
-    """Emit counts[s] photons from each source and trace them; returns (store, cancelled)."""
+               settings, map_id, counters, progress, done_before, total_work, flux_out=None):
+    """Emit counts[s] photons from each source and trace them; returns (store, cancelled).
+    flux_out: optional (S, 3) float64 array, += the flux each source emitted (watts)."""
     seed = int(_setting(settings, "seed", 0))
     max_bounces = int(_setting(settings, "photon_max_bounces", 8))
     store = _Store()
@@ -195,6 +196,8 @@ def _trace_map(setup, accel, sources, counts, targets_per_source, mode, include_
                                source_slot=slot, targets=targets, target_prob=probs,
                                extent=setup.extent)
             counters["time_emission"] += time.perf_counter() - t0
+            if flux_out is not None:
+                flux_out[slot] += em.flux.sum(axis=0)
             pid = np.arange(first_id + first, first_id + first + count, dtype=np.int64)
             t1 = time.perf_counter()
             _trace_chunk(setup, accel, em, pid, mode, include_direct, max_bounces, seed, map_id,
@@ -261,13 +264,50 @@ def trace_stored_photons(setup: _Setup, accel, sources: list, n_photons: int, *,
     return pos, flux, direction, counters
 
 
+_KIND_NAMES = {0: "point", 1: "spot", 2: "sun", 3: "area"}
+
+
+def _source_label(src, light_set: LightSet) -> str:
+    """How the log names a source: "light 'Lamp' (point, 100 W)", "world (background, 3 W)"."""
+    watts = f"{float(emission.luminance(src.power)):,.4g} W"
+    if src.index >= 0:
+        return f"light '{src.name}' ({_KIND_NAMES.get(int(light_set.kind[src.index]), 'light')}, {watts})"
+    kind = "mesh" if src.index == emission.SOURCE_TRIANGLES else "background"
+    return f"{src.name} ({kind}, {watts})"
+
+
+def _pilot_fractions(setup, accel, sources, targets_per_source, power_lum, mode, include_direct,
+                     seed, max_bounces, map_id, n_pilot, grid, counters):
+    """Step 2-3 of core/importance.py: per source, the fraction f_s of its power (luminance)
+    that its n_pilot pilot photons store near the visible points (``grid``). (S,) float64."""
+    from . import importance, sppm
+
+    frac = np.zeros(len(sources))
+    for slot, src in enumerate(sources):
+        # A seed of its own per (source, map): the pilot shares no random numbers with
+        # the real pass, whose streams are keyed by (seed, map 0/1, slot).
+        params = _PassSettings(seed=sppm.pass_seed(seed, (1 << 20) + 2 * slot + map_id),
+                               photon_max_bounces=max_bounces)
+        store, _ = _trace_map(setup, accel, [src], np.array([n_pilot]), [targets_per_source[slot]],
+                              mode, include_direct, params, importance.MAP_PILOT + map_id, counters,
+                              None, 0, n_pilot)
+        pos, flux, direction = store.take()
+        if pos.shape[0] and power_lum[slot] > 0:
+            near = grid.near(pos, direction)
+            frac[slot] = float(emission.luminance(flux[near].astype(np.float64)).sum()
+                               / power_lum[slot])
+    return frac
+
+
 def trace_photons(scene: Scene, settings: RenderSettings, accel: Accelerator | None = None,
-                  progress: ProgressFn | None = None, *, include_direct: bool = True) -> PhotonMaps:
+                  progress: ProgressFn | None = None, *, include_direct: bool = True,
+                  skip: dict | None = None) -> PhotonMaps:
     """Trace the global and caustic photon maps of a scene (see the module doc).
 
     accel: the render's Accelerator over ``scene.mesh`` (built and closed here if None).
     progress(fraction, message) -> True cancels (the maps built so far are returned
-    as None and ``stats["cancelled"]`` is True).
+    as None and ``stats["cancelled"]`` is True). skip: {"global" or "caustic": reason}
+    for maps the caller has already decided against (not traced; the reason is logged).
     """
     t_start = time.perf_counter()
     decisions: list[str] = []
@@ -294,12 +334,15 @@ def trace_photons(scene: Scene, settings: RenderSettings, accel: Accelerator | N
     skipped = [setup.light_set.names[i] if i < len(setup.light_set.names) else f"light {i}"
                for i in range(setup.light_set.count) if i not in {s.index for s in sources}]
     for name in skipped:
-        decisions.append(f"light '{name}' gets no photons: zero power or no geometry in reach")
+        decisions.append(f"light '{name}': no photons, zero power or no geometry in reach")
     if np.any(setup.world > 0) and not with_world:
         decisions.append("world background emits no photons (photon_world off)")
 
+    skip = dict(skip or {})
     build_global = True
-    if indirect_mode == "off":
+    if "global" in skip:
+        build_global, why = False, skip["global"]
+    elif indirect_mode == "off":
         build_global, why = False, "indirect light is off"
     elif not diffuse_any:
         build_global, why = False, "no surface has a diffuse lobe (nothing can bounce)"
@@ -308,13 +351,15 @@ def trace_photons(scene: Scene, settings: RenderSettings, accel: Accelerator | N
     elif not sources or scene.mesh.triangle_count == 0:
         build_global, why = False, "no light reaches any geometry"
     if not build_global:
-        decisions.append(f"global map skipped: {why}")
+        decisions.append(f"global map: skipped, {why}")
 
     build_caustic = True
-    if not want_caustics:
+    if "caustic" in skip:
+        build_caustic, why = False, skip["caustic"]
+    elif not want_caustics:
         build_caustic, why = False, "caustics are off"
     elif not spec_any:
-        build_caustic, why = False, "no specular surface"
+        build_caustic, why = False, "no mirror, glass or glossy surface"
     elif not diffuse_any:
         build_caustic, why = False, "no diffuse surface to receive caustics"
     elif n_caustic <= 0:
@@ -330,7 +375,7 @@ def trace_photons(scene: Scene, settings: RenderSettings, accel: Accelerator | N
             shares = []
             for src in sources:
                 if src.index == emission.SOURCE_WORLD:
-                    decisions.append("world background emits no caustic photons")
+                    decisions.append("world background: no caustic photons (not aimed)")
                     continue
                 power, probs = emission.aimed_power(src, setup.light_set, setup.emissive,
                                                     targets, setup.centre, setup.radius)
@@ -338,41 +383,133 @@ def trace_photons(scene: Scene, settings: RenderSettings, accel: Accelerator | N
                     caustic_sources.append(src)
                     caustic_targets.append((targets, probs))
                     shares.append(emission.luminance(power))
-            caustic_counts = emission.allocate(np.array(shares), n_caustic)
-            decisions.append(f"caustic photons aimed at {targets.count} specular object(s) "
-                             "(projection map)")
+            caustic_power = np.array(shares)
+            caustic_counts = emission.allocate(caustic_power, n_caustic)
+            caustic_how = f"aimed at {targets.count} specular object(s) (projection map)"
         else:
             caustic_sources = list(sources)
             caustic_targets = [(None, None)] * len(sources)
-            caustic_counts = emission.allocate(
-                np.array([emission.luminance(s.power) for s in sources]), n_caustic)
-            decisions.append("caustic photons emitted unaimed (projection map off)")
+            caustic_power = np.array([emission.luminance(s.power) for s in sources])
+            caustic_counts = emission.allocate(caustic_power, n_caustic)
+            caustic_how = "emitted unaimed (projection map off)"
         if not caustic_sources or caustic_counts.sum() == 0:
             build_caustic, why = False, "no light reaches a specular object"
     if not build_caustic:
-        decisions.append(f"caustic map skipped: {why}")
+        decisions.append(f"caustic map: skipped, {why}")
 
-    global_counts = (emission.allocate(np.array([emission.luminance(s.power) for s in sources]),
-                                       n_global) if build_global else np.zeros(len(sources), np.int64))
-    total_work = int(global_counts.sum()) + (int(caustic_counts.sum()) if build_caustic else 0)
+    global_power = np.array([emission.luminance(s.power) for s in sources])
+    global_counts = (emission.allocate(global_power, n_global) if build_global
+                     else np.zeros(len(sources), np.int64))
 
+    # Visual importance (core/importance.py): only where there is a choice to make.
+    use_importance = bool(_setting(settings, "photon_importance", True))
+    g_multi = build_global and len(sources) > 1
+    c_multi = build_caustic and len(caustic_sources) > 1
+    imp = {"prepass": False, "time": 0.0, "time_camera": 0.0, "time_pilot": 0.0,
+           "camera_rays": 0, "visible_points": 0, "pilot_photons": 0, "pilot_rays": 0,
+           "radius_global": 0.0, "radius_caustic": 0.0, "reason": ""}
+    g_imp, c_imp = np.ones(len(sources)), np.ones(len(caustic_sources))
+    g_frac, c_frac = np.full(len(sources), np.nan), np.full(len(caustic_sources), np.nan)
+    if not (build_global or build_caustic):
+        imp["reason"] = "no photon map to trace"
+    elif not use_importance:
+        imp["reason"] = "photon_importance off: photons shared by power"
+    elif not (g_multi or c_multi):
+        imp["reason"] = "one source per map: nothing to allocate"
     own_accel = accel is None and (build_global or build_caustic)
     if own_accel:
         accel = Accelerator(setup.tri_v, threads=threads)
     cancelled = False
     global_map = caustic_map = None
     g_store = c_store = None
+    g_flux = np.zeros((len(sources), 3))
+    c_flux = np.zeros((len(caustic_sources), 3))
+    t_caustic = 0.0
     try:
+        if use_importance and (g_multi or c_multi):
+            from . import gather, importance
+
+            t0 = time.perf_counter()
+            seed = int(_setting(settings, "seed", 0))
+            max_bounces = int(_setting(settings, "photon_max_bounces", 8))
+            view = importance.visible_points(scene, setup, accel, seed,
+                                             int(_setting(settings, "max_specular_depth", 8)))
+            imp.update(prepass=True, time_camera=view.time, camera_rays=view.rays,
+                       visible_points=int(view.position.shape[0]))
+            area = gather.diffuse_area(setup.tri_v, setup.tri_mat, mats["diffuse"])
+            pilot_counters = dict(counters, rays=0)
+            t1 = time.perf_counter()
+            if view.position.shape[0] == 0:
+                imp["reason"] = "the camera sees no diffuse surface: photons shared by power"
+            for multi, name, srcs, tps, power, total, mode, direct, map_id in (
+                    (g_multi, "global", sources, [(None, None)] * len(sources), global_power,
+                     n_global, scatter.MODE_GLOBAL, include_direct, MAP_GLOBAL),
+                    (c_multi, "caustic", caustic_sources, caustic_targets,
+                     caustic_power if build_caustic else None, n_caustic, scatter.MODE_CAUSTIC,
+                     False, MAP_CAUSTIC)):
+                n_pilot = importance.pilot_count(total, len(srcs))
+                if not multi or view.position.shape[0] == 0 or n_pilot < importance.MIN_PILOT:
+                    continue
+                k = int(_setting(settings, f"{name}_k", 50))
+                radius = importance.view_radius(area, view.position.shape[0], k, total)
+                grid = importance.ViewGrid(view, radius)
+                frac = _pilot_fractions(setup, accel, srcs, tps, power, mode, direct, seed,
+                                        max_bounces, map_id, n_pilot, grid, pilot_counters)
+                weight = importance.weights(power, importance.importance_of(frac))
+                counts = importance.allocate(weight, total)
+                imp[f"radius_{name}"] = radius
+                imp["pilot_photons"] = max(imp["pilot_photons"], n_pilot)
+                if name == "global":
+                    g_frac, g_imp, global_counts = frac, importance.importance_of(frac), counts
+                else:
+                    c_frac, c_imp, caustic_counts = frac, importance.importance_of(frac), counts
+            imp["pilot_rays"] = pilot_counters["rays"]
+            imp["time_pilot"] = time.perf_counter() - t1
+            imp["time"] = time.perf_counter() - t0
+            decisions.append(
+                f"photon importance: camera pre-pass {view.rays:,} rays, "
+                f"{imp['visible_points']:,} visible points; pilot {imp['pilot_photons']:,} "
+                f"photons per source and map; {imp['time']:.2f} s; floor {importance.FLOOR:.0%}"
+                + (f" ({imp['reason']})" if imp["reason"] else ""))
+        elif imp["reason"] and (build_global or build_caustic):
+            decisions.append(f"photon importance: not used, {imp['reason']}")
+        total_work = int(global_counts.sum()) + (int(caustic_counts.sum()) if build_caustic else 0)
+        if build_global:
+            purpose = ("final gathering (direct light included)" if include_direct
+                       else "indirect light (stored after the first diffuse bounce)")
+            decisions.append(f"global map: {int(global_counts.sum()):,} photons for {purpose}")
+        if build_caustic:
+            decisions.append(f"caustic map: {int(caustic_counts.sum()):,} photons {caustic_how}")
+        c_slot = {src.index: j for j, src in enumerate(caustic_sources)} if build_caustic else {}
+        for slot, src in enumerate(sources):
+            parts = []
+            for built, frac, imps, counts, j, name in (
+                    (build_global, g_frac, g_imp, global_counts, slot, "global"),
+                    (build_caustic, c_frac, c_imp, caustic_counts, c_slot.get(src.index), "caustic")):
+                if not built or j is None:
+                    continue
+                text = f"{int(counts[j]):,} {name} photons"
+                if not np.isnan(frac[j]):
+                    if frac[j] == 0:
+                        text = (f"{name} importance 0.00 (none of its pilot photons reach the "
+                                f"view), {text} (floor)")
+                    else:
+                        text = f"{name} importance {imps[j]:.2f}, {text}"
+                parts.append(text)
+            if parts:
+                decisions.append(f"{_source_label(src, setup.light_set)}: " + "; ".join(parts))
         if build_global:
             g_store, cancelled = _trace_map(
                 setup, accel, sources, global_counts, [(None, None)] * len(sources),
                 scatter.MODE_GLOBAL, include_direct, settings, MAP_GLOBAL, counters, progress,
-                0, total_work)
+                0, total_work, g_flux)
         if build_caustic and not cancelled:
+            t0 = time.perf_counter()
             c_store, cancelled = _trace_map(
                 setup, accel, caustic_sources, caustic_counts, caustic_targets,
                 scatter.MODE_CAUSTIC, False, settings, MAP_CAUSTIC, counters, progress,
-                int(global_counts.sum()), total_work)
+                int(global_counts.sum()), total_work, c_flux)
+            t_caustic = time.perf_counter() - t0
     finally:
         if own_accel:
             accel.close()
@@ -380,12 +517,25 @@ def trace_photons(scene: Scene, settings: RenderSettings, accel: Accelerator | N
         if g_store is not None:
             global_map = _build(g_store, counters)
             if global_map is None:
-                decisions.append("global map empty: no photon was stored")
+                decisions.append("global map: empty, no photon was stored")
         if c_store is not None:
             caustic_map = _build(c_store, counters)
             if caustic_map is None:
-                decisions.append("caustic map empty: no photon reached a diffuse surface "
+                decisions.append("caustic map: empty, no photon reached a diffuse surface "
                                  "through a specular one")
+    c_slot = {src.index: j for j, src in enumerate(caustic_sources)} if build_caustic else {}
+    per_source = []
+    for slot, src in enumerate(sources):
+        j = c_slot.get(src.index)
+        per_source.append({
+            "name": src.name, "index": src.index, "power": src.power.copy(),
+            "global_photons": int(global_counts[slot]) if build_global else 0,
+            "global_importance": float(g_imp[slot]), "global_fraction": float(g_frac[slot]),
+            "global_flux": g_flux[slot].copy(),
+            "caustic_photons": int(caustic_counts[j]) if j is not None else 0,
+            "caustic_importance": float(c_imp[j]) if j is not None else float("nan"),
+            "caustic_fraction": float(c_frac[j]) if j is not None else float("nan"),
+            "caustic_flux": c_flux[j].copy() if j is not None else np.zeros(3)})
     elapsed = time.perf_counter() - t_start
     traced = counters["time_tracing"] + counters["time_emission"]
     stats = {
@@ -405,7 +555,10 @@ def trace_photons(scene: Scene, settings: RenderSettings, accel: Accelerator | N
         "time_scatter": counters["time_scatter"],
         "time_balancing": counters["time_balancing"],
         "time_photons": elapsed,
+        "time_caustic_map": t_caustic,
         "sources": [s.name for s in sources],
+        "per_source": per_source,
+        "importance": imp,
         "decisions": decisions,
         "cancelled": cancelled,
     }

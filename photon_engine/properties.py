@@ -108,6 +108,13 @@ class PhotonMapRenderSettings(bpy.types.PropertyGroup):
                     "by the aimed fraction), so small glass objects still get dense caustics",
         default=True,
     )
+    photon_importance: BoolProperty(
+        name="Photon Importance",
+        description="Give more photons to the lights whose light the camera sees (a quick "
+                    "camera pre-pass and a few pilot photons per light) and fewer, never none, "
+                    "to the others; the image stays unbiased, only its noise moves",
+        default=True,
+    )
     global_k: IntProperty(
         name="Global k",
         description="Nearest photons used for each radiance estimate from the global map",
@@ -219,6 +226,7 @@ def to_core_settings(props):
         caustic_photons=props.caustic_photons,
         photon_max_bounces=props.photon_max_bounces,
         projection_map=bool(props.projection_map),
+        photon_importance=bool(props.photon_importance),
         global_k=props.global_k,
         caustic_k=props.caustic_k,
         global_radius=float(props.global_radius),

@@ -68,6 +68,7 @@ class PHOTON_MAP_RENDER_PT_photons(PhotonMapPanel, bpy.types.Panel):
         col.prop(settings, "caustic_radius")
         layout.prop(settings, "filter")
         layout.prop(settings, "projection_map")
+        layout.prop(settings, "photon_importance")
 
 
 class PHOTON_MAP_RENDER_PT_indirect(PhotonMapPanel, bpy.types.Panel):

@@ -1,0 +1,124 @@
+"""What photon importance costs and what it gains (core/importance.py).
+
+    .venv/bin/python benchmarks/bench_importance.py [--photons 200000] [--reference 4000000]
+
+Scenes (arrays, no Blender):
+- demo: the demo's Cornell box (bench_photons.demo_scene) with a second light, a 20 W
+  point lamp behind the camera shining in through the open front: both lights matter.
+- next room: the demo plus a closed 2 m room 3 m to its right with a 500 W lamp inside
+  (light the camera never sees, ten times the demo light's power).
+
+For each: the photon pass with importance on (its pre-pass time: camera rays and pilot
+photons) against the pass itself; then renders at --photons global and caustic photons
+with importance on and off, and a reference at --reference photons (importance off),
+all with the same camera seed, so the differences are the photon maps' error:
+relMSE = mean((a - b)^2 / (b^2 + 0.01)) over pixels and channels of the combined image.
+Repeated over --seeds photon seeds (the relMSE is averaged).
+"""
+
+from __future__ import annotations
+
+import argparse
+import pathlib
+import sys
+import time
+
+import numpy as np
+
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
+
+from bench_photons import demo_scene  # noqa: E402
+from core import integrator, shapes, tracing  # noqa: E402
+from core.scene import LIGHT_POINT, Lights, Scene  # noqa: E402
+from core.settings import RenderSettings  # noqa: E402
+
+
+def _with(scene: Scene, extra_parts=(), extra_lights=(), width=96, height=72) -> Scene:
+    """The scene's objects (one material each, as in the demo) plus parts and lights."""
+    mesh = scene.mesh
+    corners = mesh.vertices[mesh.triangles].astype(np.float64)
+    parts = []
+    for o in np.unique(mesh.object_index):
+        sel = mesh.object_index == o
+        parts.append((shapes.Part(corners[sel], mesh.normals[sel].astype(np.float64)),
+                      int(mesh.material_index[sel][0])))
+    rows = [{"kind": int(scene.lights.kind[i]), "to_world": scene.lights.to_world[i],
+             "power": float(scene.lights.power[i]), "size": scene.lights.size[i],
+             "name": f"Demo light {i}"} for i in range(scene.lights.count)] + list(extra_lights)
+    cam = shapes.pinhole([0, -3, 1], [0, 0, 1], width, height, np.radians(54.4))
+    return Scene(shapes.assemble(parts + list(extra_parts)), scene.materials,
+                 Lights.from_list(rows), cam).validate()
+
+
+def scenes():
+    demo = demo_scene()
+    behind = _with(demo, extra_lights=[{"kind": LIGHT_POINT, "position": [0.3, -4.0, 1.5],
+                                        "power": 20.0, "name": "Lamp behind the camera"}])
+    room = shapes.box([2.5, -1, 0], [4.5, 1, 2], inward=True)
+    nextdoor = _with(demo, extra_parts=[(room, 0)],
+                     extra_lights=[{"kind": LIGHT_POINT, "position": [3.5, 0, 1.5], "power": 500.0,
+                                    "name": "Lamp next room"}])
+    return {"demo + lamp behind the camera": behind, "demo + lamp in the next room": nextdoor}
+
+
+def rel_mse(a, b):
+    a, b = a.astype(np.float64), b.astype(np.float64)
+    return float(np.mean((a - b) ** 2 / (b * b + 0.01)))
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--photons", type=int, default=200_000)
+    ap.add_argument("--reference", type=int, default=4_000_000)
+    ap.add_argument("--seeds", type=int, default=3)
+    ap.add_argument("--pass-photons", type=int, default=1_000_000,
+                    help="global photons of the cost measurement (caustic: a fifth)")
+    args = ap.parse_args()
+    base = RenderSettings(samples=4, final_gather_rays=64, threads=2, seed=0)
+    for name, scene in scenes().items():
+        print(f"== {name}")
+        # Cost: the pass with importance on, the pre-pass inside it.
+        st = base.with_values(global_photons=args.pass_photons,
+                              caustic_photons=args.pass_photons // 5)
+        tracing.trace_photons(scene, st.with_values(global_photons=20_000, caustic_photons=4000))
+        pm = tracing.trace_photons(scene, st)
+        imp = pm.stats["importance"]
+        work = pm.stats["time_emission"] + pm.stats["time_tracing"]
+        print(f"pass {args.pass_photons:,} + {args.pass_photons // 5:,} photons: emission + "
+              f"tracing {work:.2f} s, whole pass {pm.stats['time_photons']:.2f} s; importance "
+              f"{imp['time']:.3f} s (camera {imp['time_camera']:.3f} s, {imp['camera_rays']:,} "
+              f"rays; pilot {imp['time_pilot']:.3f} s, {imp['pilot_rays']:,} rays) = "
+              f"{imp['time'] / work:.1%} of emission + tracing, "
+              f"{imp['time'] / pm.stats['time_photons']:.1%} of the pass")
+        for line in pm.stats["decisions"]:
+            print("   ", line)
+        # Gain: relMSE against the reference at equal photon count.
+        t0 = time.perf_counter()
+        ref = integrator.render(scene, base.with_values(
+            global_photons=args.reference, caustic_photons=args.reference // 2,
+            photon_importance=False)).passes["combined"]
+        print(f"reference ({args.reference:,} photons) {time.perf_counter() - t0:.1f} s")
+        errs = {True: [], False: []}
+        for s in range(args.seeds):
+            for on in (True, False):
+                # The camera seed stays 0 (same camera samples as the reference); the
+                # photons get a seed of their own through the map.
+                st = base.with_values(global_photons=args.photons,
+                                      caustic_photons=args.photons // 2, photon_importance=on)
+                out = integrator.render(scene, _photon_seed(st, s))
+                errs[on].append(rel_mse(out.passes["combined"], ref))
+        on, off = np.mean(errs[True]), np.mean(errs[False])
+        print(f"relMSE at {args.photons:,} photons: importance on {on:.5f}, off {off:.5f} "
+              f"(off / on = {off / on:.2f}); per seed on {np.round(errs[True], 5).tolist()}, "
+              f"off {np.round(errs[False], 5).tolist()}")
+
+
+def _photon_seed(st: RenderSettings, s: int) -> RenderSettings:
+    """The settings with photon seed s: the seed drives camera and photons alike, so the
+    camera noise changes too; s = 0 keeps the reference's camera samples."""
+    return st.with_values(seed=s)
+
+
+if __name__ == "__main__":
+    main()
