@@ -225,7 +225,7 @@ def _cutout_scene(alpha=0.25, res=16):
     floor = shapes.quad([0, 0, 0], [1, 0, 0], [0, 1, 0])
     plane = shapes.quad([0, 0, 0.5], [0.5, 0, 0], [0, 1, 0])
     mats = Materials.from_list([{"diffuse": [0.8, 0.8, 0.8]},
-                                {"diffuse": [0.2, 0.6, 0.2], "alpha": alpha}])
+                                {"diffuse": [0.9, 0.3, 0.1], "alpha": alpha}])
     lights = Lights.from_list([{"kind": LIGHT_SUN, "power": 1.0}])
     return Scene(shapes.assemble([(floor, 0), (plane, 1)]), mats, lights,
                  ortho_down([0, 0, 0], 2.0, res))
@@ -241,7 +241,7 @@ def test_floor_seen_through_a_cutout_is_the_alpha_blend():
     e = 1.0 / np.pi
     over = d[:, 5:11].mean(axis=(0, 1))   # x in [-0.5, 0.5] -> columns 4..11
     beside = np.concatenate([d[:, :3], d[:, 13:]], axis=1).mean(axis=(0, 1))
-    want = 0.25 * np.array([0.2, 0.6, 0.2]) * e + 0.75 * 0.75 * 0.8 * e
+    want = 0.25 * np.array([0.9, 0.3, 0.1]) * e + 0.75 * 0.75 * 0.8 * e
     np.testing.assert_allclose(over, want, rtol=0.02)
     np.testing.assert_allclose(beside, 0.8 * e, rtol=1e-4)
     assert np.all(out.passes["specular"] == 0)
