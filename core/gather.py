@@ -12,7 +12,8 @@ At a diffuse hit x (a material with a diffuse lobe) seen with path throughput T:
 - indirect, preview: T * rho_x / pi * E_g(x) from the global map built WITHOUT direct
   photons (the direct visualisation: fast, blotchy, labelled a preview).
 
-Glossy (rough) lobes get direct light only; photon terms use the diffuse albedo.
+Glossy (rough) lobes get direct light only; photon terms use the diffuse albedo, the
+textured one at each hit (core/textures.py). Gather rays pass cut-outs like camera rays.
 
 Radiance estimates (``radiance_estimate``): the k nearest photons within the maximum
 radius, weighted with core/estimate.py's ``photon_weight`` (front-side photons only,
@@ -50,6 +51,7 @@ from .photon_map import PhotonMap, squared_radius
 # Random-number purposes (sampling.stream's first argument); sampling.py's own are < 16.
 GATHER_DIRECTION = 16
 GATHER_LOBE = 17
+GATHER_CUTOUT = 20
 
 PLANE_FRACTION = 0.25
 """Flattened-disc gather: photons farther than this fraction of r from the tangent plane
@@ -199,12 +201,15 @@ class RadianceCache:
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
-def _cache_points_kernel(tri_v, cdf, u0, u1, u2, pos, nrm, tri):
-    """Points uniform over the area of the triangles (cdf over their areas)."""
+def _cache_points_kernel(tri_v, cdf, u0, u1, u2, pos, nrm, tri, bu, bv):
+    """Points uniform over the area of the triangles (cdf over their areas); bu, bv: their
+    barycentrics (Embree's u, v: weights of corners 1 and 2)."""
     for i in prange(u0.shape[0]):
         t = np.searchsorted(cdf, u0[i] * cdf[-1], side="right")
         t = min(t, cdf.shape[0] - 1)
         b0, b1 = sampling.uniform_triangle(u1[i], u2[i])
+        bu[i] = b0
+        bv[i] = b1
         for c in range(3):
             v0 = tri_v[t, 0, c]
             pos[i, c] = v0 + b0 * (tri_v[t, 1, c] - v0) + b1 * (tri_v[t, 2, c] - v0)
@@ -242,8 +247,17 @@ def build_radiance_cache(terms: "PhotonTerms", ctx) -> RadianceCache | None:
     u0, u1, u2 = (sampling.uniform(seed, ids, zero, sampling.stream(CACHE_SAMPLE, c))
                   for c in range(3))
     pos, nrm, tri = np.empty((m, 3)), np.empty((m, 3)), np.empty(m, np.int64)
-    _cache_points_kernel(np.ascontiguousarray(v), np.cumsum(area), u0, u1, u2, pos, nrm, tri)
-    albedo = mats["diffuse"][ctx.tri_material[tri_ids[tri]]]
+    bu, bv = np.empty(m), np.empty(m)
+    _cache_points_kernel(np.ascontiguousarray(v), np.cumsum(area), u0, u1, u2, pos, nrm, tri,
+                         bu, bv)
+    prim = tri_ids[tri]
+    if ctx.surfaces is not None and ctx.surfaces.textured:
+        # Textured: cache E / pi (albedo 1) and multiply by the hit's own texel at lookup,
+        # so the cache does not blur the texture.
+        albedo = np.ones((m, 3))
+        terms.cache_unit_albedo = True
+    else:
+        albedo = mats["diffuse"][ctx.tri_material[prim]]
     # One neighbour search per point serves both of its sides.
     front, back = radiance_estimate_sides(terms.global_map, pos, [nrm, -nrm], albedo,
                                           terms.global_k, terms.global_radius, terms.filter)
@@ -289,6 +303,8 @@ def cached_radiance(terms: "PhotonTerms", points, normals, albedo) -> np.ndarray
     idx, _ = cache.points.nearest(np.ascontiguousarray(points, np.float32), k, cache.radius)
     _cache_lookup_kernel(idx, terms.cache_dirs, terms.cache_radiance,
                          np.ascontiguousarray(normals, np.float64), CACHE_MIN_COS, out, found)
+    if terms.cache_unit_albedo:
+        out *= albedo
     missing = np.flatnonzero(~found)
     if missing.size:
         out[missing] = radiance_estimate(terms.global_map, points[missing], normals[missing],
@@ -321,6 +337,7 @@ class PhotonTerms:
     cache: RadianceCache | None = None
     cache_dirs: np.ndarray | None = None      # (C, 3) float64 decoded cache normals
     cache_radiance: np.ndarray | None = None  # (C, 3) float64 decoded cache radiance
+    cache_unit_albedo: bool = False           # the cache holds E / pi (textured scenes)
     stats: dict = field(default_factory=lambda: {"rays_gather": 0, "gather_queries": 0,
                                                  "caustic_queries": 0, "time_gather": 0.0,
                                                  "time_caustics": 0.0})
@@ -410,6 +427,7 @@ def _final_gather_batch(terms, ctx, pos, ngf, nsf, eps, pixel, sample, depth) ->
     ray_pixel = np.repeat(pixel.astype(np.int64), g)
     u1, u2 = sampling.stratified2(st.seed, ray_pixel, index, st.samples * g,
                                   sampling.stream(GATHER_DIRECTION, depth))
+    index_of = index
     m = owner.shape[0]
     o, d, ok = np.empty((m, 3)), np.empty((m, 3)), np.empty(m, bool)
     _gather_rays_kernel(pos, ngf, nsf, eps, owner, u1, u2, o, d, ok)
@@ -422,7 +440,15 @@ def _final_gather_batch(terms, ctx, pos, ngf, nsf, eps, pixel, sample, depth) ->
     for bounce in range(st.max_specular_depth + 1):
         if rows.shape[0] == 0:
             break
-        hits = ctx.accel.intersect(o, d)
+        if ctx.surfaces is not None and ctx.surfaces.cutout:
+            def uniforms(index, layer, rows=rows, bounce=bounce):
+                r = rows[index]
+                return sampling.uniform(st.seed, ray_pixel[r], index_of[r],
+                                        sampling.stream(GATHER_CUTOUT, depth, bounce, layer))
+            hits = ctx.surfaces.intersect(ctx.accel, ctx.tri_vertices, ctx.tri_normals,
+                                          ctx.extent, o, d, None, uniforms)
+        else:
+            hits = ctx.accel.intersect(o, d)
         terms.stats["rays_gather"] += rows.shape[0]
         hit = np.flatnonzero(hits.prim >= 0)
         # Escaping rays and light sources count nothing (direct light holds them).
@@ -432,11 +458,16 @@ def _final_gather_batch(terms, ctx, pos, ngf, nsf, eps, pixel, sample, depth) ->
             hits.u[hit], hits.v[hit], d, ctx.extent)
         diff = np.flatnonzero(has_diffuse[mat])
         if diff.size:
+            if ctx.surfaces is not None and ctx.surfaces.textured:
+                hd = hit[diff]
+                albedo = ctx.surfaces.albedo(hits.prim[hd], hits.u[hd], hits.v[hd], mat[diff])
+            else:
+                albedo = mats["diffuse"][mat[diff]]
             if terms.cache is not None:
-                est = cached_radiance(terms, p2[diff], n2[diff], mats["diffuse"][mat[diff]])
+                est = cached_radiance(terms, p2[diff], n2[diff], albedo)
             else:
                 est = radiance_estimate(terms.global_map, p2[diff], n2[diff],
-                                        mats["diffuse"][mat[diff]], terms.global_k,
+                                        albedo, terms.global_k,
                                         terms.global_radius, terms.filter)
             radiance[rows[diff]] += thr[diff] * est
             terms.stats["gather_queries"] += diff.size

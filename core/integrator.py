@@ -53,7 +53,7 @@ from numba import njit, prange
 
 from . import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
 from . import (bsdf, camera, debug_overlay, gather, geometry, light_kernels, lights,
-               photon_pass, sampling)
+               photon_pass, sampling, textures)
 from .accel import Accelerator, default_threads
 from .passes import BLENDER_PASS_NAMES, PASSES  # noqa: F401  (re-exported)
 from .scene import Scene
@@ -112,6 +112,7 @@ class _Context:
     no_light: np.ndarray        # a dummy parameter row for non-analytic sources
     has_diffuse: np.ndarray = None   # (M,) the material has a diffuse lobe
     terms: "gather.PhotonTerms | None" = None
+    surfaces: "textures.SurfaceTextures | None" = None  # textured albedo, cut-outs
 
 
 def _prepare(scene: Scene, settings: RenderSettings) -> _Context:
@@ -140,22 +141,26 @@ def _prepare(scene: Scene, settings: RenderSettings) -> _Context:
         light_shows=np.any(light_set.radiance > 0, axis=1),
         no_light=np.zeros(light_kernels.P_COUNT),
         has_diffuse=np.any(mats["diffuse"] > 0, axis=1),
+        surfaces=textures.SurfaceTextures(scene, mats["diffuse"]),
     )
 
 
 # --- kernels --------------------------------------------------------------------------------
 
 SOURCE_LIGHT, SOURCE_TRIANGLES, SOURCE_WORLD = 0, 1, 2
+CUTOUT_CHOICE = 19
+"""Random-number purpose (sampling.stream) of the camera rays' pass-through choices."""
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
 def _shade_kernel(source, q, tris_cdf, tris_prob, tris_v0, tris_e1, tris_e2, tris_n, tris_area,
                   tris_rad, world, pos, ngf, nsf, d, mat, eps, thr, pixel, sample, seed, dim,
-                  pick_dim, k, k_count, bits, diffuse, specular, alpha, use_diffuse,
+                  pick_dim, k, k_count, bits, albedo, specular, alpha, use_diffuse,
                   use_glossy, extent, contrib, sh_o, sh_d, sh_t, need):
     """One light sample per point: unshadowed contribution f |cos| L / pdf / k_count and
     the shadow ray that decides it (need[i]). Light samples are stratified over the
-    pixel's samples x light samples (index sample * k_count + k)."""
+    pixel's samples x light samples (index sample * k_count + k). albedo (N, 3): the
+    diffuse albedo at each point (textured, ``textures.SurfaceTextures.albedo``)."""
     fmax = 3.0e38
     scale = 1.0 / k_count
     for i in prange(pos.shape[0]):
@@ -188,9 +193,9 @@ def _shade_kernel(source, q, tris_cdf, tris_prob, tris_v0, tris_e1, tris_e2, tri
             continue
         kd *= use_diffuse * cos * scale
         ks *= use_glossy * cos * scale
-        c0 = (diffuse[m, 0] * kd + specular[m, 0] * ks) * l0 * thr[i, 0]
-        c1 = (diffuse[m, 1] * kd + specular[m, 1] * ks) * l1 * thr[i, 1]
-        c2 = (diffuse[m, 2] * kd + specular[m, 2] * ks) * l2 * thr[i, 2]
+        c0 = (albedo[i, 0] * kd + specular[m, 0] * ks) * l0 * thr[i, 0]
+        c1 = (albedo[i, 1] * kd + specular[m, 1] * ks) * l1 * thr[i, 1]
+        c2 = (albedo[i, 2] * kd + specular[m, 2] * ks) * l2 * thr[i, 2]
         if c0 <= 0.0 and c1 <= 0.0 and c2 <= 0.0:
             continue
         contrib[i, 0] = c0
@@ -301,12 +306,19 @@ def _direct_light(ctx: _Context, hit: dict, pixel, sample, depth, target):
                           tris.normal, tris.area, tris.radiance, ctx.world, hit["pos"], hit["ngf"],
                           hit["nsf"], hit["d"], hit["mat"], hit["eps"], hit["thr"], pixel, sample,
                           ctx.settings.seed, dim, sampling.stream(sampling.LIGHT_PICK, depth, k),
-                          k, k_count, bits, m["diffuse"], m["specular"], m["alpha"], use_d, use_g,
+                          k, k_count, bits, hit["albedo"], m["specular"], m["alpha"], use_d, use_g,
                           ctx.extent, contrib, sh_o, sh_d, sh_t, need)
             t1 = time.perf_counter()
             c = _compact_kernel(need, sh_o, sh_d, sh_t, idx, pk_o, pk_d, pk_t) if shadows else 0
             occ = np.zeros(0, bool)
-            if c:
+            if c and ctx.surfaces.cutout:
+                # Shadows through cut-outs: the light times the product of (1 - opacity).
+                trans = ctx.surfaces.transmittance(ctx.accel, ctx.tri_vertices, ctx.tri_normals,
+                                                   ctx.extent, pk_o[:c], pk_d[:c], pk_t[:c])
+                contrib[idx[:c]] *= trans[:, None]
+                occ = trans <= 0.0
+                ctx.stats["rays_shadow"] += c
+            elif c:
                 occ = ctx.accel.occluded(pk_o[:c], pk_d[:c], pk_t[:c])
                 ctx.stats["rays_shadow"] += c
             t2 = time.perf_counter()
@@ -316,14 +328,15 @@ def _direct_light(ctx: _Context, hit: dict, pixel, sample, depth, target):
 
 
 def _photon_terms(ctx: _Context, rows, pos, ngf, nsf, eps, mat, thr, pixel, sample, depth,
-                  caustic_target, indirect_target):
-    """Add T * (caustics) and T * (indirect) at the hits with a diffuse lobe (core/gather.py)."""
+                  caustic_target, indirect_target, albedo):
+    """Add T * (caustics) and T * (indirect) at the hits with a diffuse lobe (core/gather.py).
+    albedo (N, 3): the (textured) diffuse albedo at the hits."""
     terms = ctx.terms
     sel = np.flatnonzero(ctx.has_diffuse[mat])
     if sel.size == 0:
         return
     r = rows[sel]
-    albedo = ctx.materials["diffuse"][mat[sel]]
+    albedo = albedo[sel]
     if terms.caustic_map is not None:
         _add(caustic_target, r, thr[sel] * gather.caustics(terms, pos[sel], ngf[sel], albedo))
     if terms.global_map is None:
@@ -334,6 +347,17 @@ def _photon_terms(ctx: _Context, rows, pos, ngf, nsf, eps, mat, thr, pixel, samp
         _add(indirect_target, r, thr[sel] * albedo * incoming)
     elif terms.mode == "preview":
         _add(indirect_target, r, thr[sel] * gather.preview(terms, pos[sel], ngf[sel], albedo))
+
+
+def _intersect(ctx: _Context, origins, dirs, tmax, rows, pixel, sample, depth):
+    """The camera paths' nearest hits, passing cut-outs stochastically
+    (``textures.SurfaceTextures.intersect``; plain Embree without cut-outs)."""
+    def uniforms(index, layer):
+        r = rows[index]
+        return sampling.uniform(ctx.settings.seed, pixel[r], sample[r],
+                                sampling.stream(CUTOUT_CHOICE, depth, layer))
+    return ctx.surfaces.intersect(ctx.accel, ctx.tri_vertices, ctx.tri_normals, ctx.extent,
+                                  origins, dirs, tmax, uniforms)
 
 
 def _render_tile(ctx: _Context, pix: np.ndarray) -> dict[str, np.ndarray]:
@@ -365,7 +389,7 @@ def _render_tile(ctx: _Context, pix: np.ndarray) -> dict[str, np.ndarray]:
         first = depth == 0
         # Intersect the batch
         t0 = time.perf_counter()
-        hits = ctx.accel.intersect(origins, dirs, tmax)
+        hits = _intersect(ctx, origins, dirs, tmax, rows, pixel, sample, depth)
         t1 = time.perf_counter()
         ctx.stats["time_intersect"] += t1 - t0
         if not first:
@@ -410,6 +434,7 @@ def _render_tile(ctx: _Context, pix: np.ndarray) -> dict[str, np.ndarray]:
         pos, ngf, nsf, mat, eps, front = geometry.facing_surface_points(
             ctx.tri_vertices, ctx.tri_normals, ctx.tri_material, hits.prim[h], hits.u[h],
             hits.v[h], d, ctx.extent)
+        albedo = ctx.surfaces.albedo(hits.prim[h], hits.u[h], hits.v[h], mat)
         _add(emit_target, rows, thr * mats["emission"][mat])  # two-sided, like Cycles' closure
         ctx.stats["time_shading"] += time.perf_counter() - t1
 
@@ -419,7 +444,7 @@ def _render_tile(ctx: _Context, pix: np.ndarray) -> dict[str, np.ndarray]:
         if isinstance(sel, slice) or sel.size:
             r = rows[sel]
             hit_data = {"pos": pos[sel], "ngf": ngf[sel], "nsf": nsf[sel], "d": d[sel], "mat": mat[sel],
-                        "eps": eps[sel], "thr": thr[sel], "rows": r}
+                        "eps": eps[sel], "thr": thr[sel], "rows": r, "albedo": albedo[sel]}
             _direct_light(ctx, hit_data, pixel[r], sample[r], depth,
                           acc["direct"] if first else acc["specular"])
 
@@ -427,7 +452,7 @@ def _render_tile(ctx: _Context, pix: np.ndarray) -> dict[str, np.ndarray]:
         if ctx.terms is not None and ctx.terms.active:
             _photon_terms(ctx, rows, pos, ngf, nsf, eps, mat, thr, pixel, sample, depth,
                           acc["caustics"] if first else acc["specular"],
-                          acc["indirect"] if first else acc["specular"])
+                          acc["indirect"] if first else acc["specular"], albedo)
 
         # Spawn the specular rays
         if depth == st.max_specular_depth:

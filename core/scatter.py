@@ -20,6 +20,11 @@ One numba kernel handles a whole wavefront (all photons of one bounce). Per phot
    total internal reflection reflects).
 
 Glossy bounces count as specular for the path type, like Jensen's caustic paths.
+Textures: the diffuse lobe's colour is the textured albedo at the hit (roulette and bounce
+weight); storage depends on the material having a diffuse lobe, not on the texel.
+Cut-outs (opacity a < 1): the photon is stored as usual, then passes straight through
+with probability 1 - a (same flux, same path type, so never a caustic because of it), or
+meets the surface (the roulette above) with probability a.
 A new direction on the wrong side of the geometric normal (bent shading normals) is
 absorbed for diffuse/glossy, and mirrored about the geometric normal for delta lobes,
 like ``bsdf.sample_delta``.
@@ -46,6 +51,7 @@ def _max3(a, b, c):
 
 @njit(cache=True, error_model="numpy")
 def _scatter_range(tri_v, tri_n, tri_mat, extent, diffuse, specular, transmission, alpha, ior,
+                   albedo, opacity,
                    prim, hu, hv, d, flux, pid, n_diff, n_spec, seed, dims, bounce, mode,
                    include_direct, last,
                    store, s_pos, s_flux, s_dir, alive, o_new, d_new, f_new, lo, hi):
@@ -65,28 +71,53 @@ def _scatter_range(tri_v, tri_n, tri_mat, extent, diffuse, specular, transmissio
         gx, gy, gz = sg * gx, sg * gy, sg * gz
         sx, sy, sz = sg * sx, sg * sy, sg * sz
         m = tri_mat[t]
-        kd = _max3(diffuse[m, 0], diffuse[m, 1], diffuse[m, 2])
+        # The diffuse lobe's presence (storage) is the material's; its colour (roulette,
+        # bounce weight) is the textured albedo at the hit when there is a texture.
+        kd_lobe = _max3(diffuse[m, 0], diffuse[m, 1], diffuse[m, 2])
+        if albedo.shape[0]:
+            a0, a1, a2 = albedo[i, 0], albedo[i, 1], albedo[i, 2]
+        else:
+            a0, a1, a2 = diffuse[m, 0], diffuse[m, 1], diffuse[m, 2]
+        kd = _max3(a0, a1, a2)
         ks = _max3(specular[m, 0], specular[m, 1], specular[m, 2])
         kt = _max3(transmission[m, 0], transmission[m, 1], transmission[m, 2])
         nd = n_diff[i]
         ns = n_spec[i]
         f0, f1, f2 = flux[i, 0], flux[i, 1], flux[i, 2]
+        u_rr = sampling.hash_uniform(seed, pid[i], bounce, dims[0])
+        # Cut-out (opacity < 1): pass straight through with probability 1 - opacity, the
+        # flux and the path type unchanged (not a bounce: a photon seen through a cut-out
+        # is not a caustic). The surface itself receives the full flux (stored below):
+        # the camera weights its shading by the opacity.
+        through = False
+        if opacity.shape[0]:
+            op = opacity[i]
+            if u_rr >= op:
+                through = True
+            else:
+                u_rr = u_rr / op
         if mode == MODE_CAUSTIC:
-            if ns == 0 and ks <= 0.0 and kt <= 0.0:
+            if ns == 0 and ks <= 0.0 and kt <= 0.0 and not through:
                 continue  # first surface not specular: not a caustic path
-            if kd > 0.0 and ns > 0:
+            if kd_lobe > 0.0 and ns > 0:
                 store[i] = True
-        elif kd > 0.0 and (include_direct or nd > 0):
+        elif kd_lobe > 0.0 and (include_direct or nd > 0):
             store[i] = True
         if store[i]:
             s_pos[i, 0], s_pos[i, 1], s_pos[i, 2] = px, py, pz
             s_flux[i, 0], s_flux[i, 1], s_flux[i, 2] = f0, f1, f2
             s_dir[i, 0], s_dir[i, 1], s_dir[i, 2] = -dx, -dy, -dz
-            if mode == MODE_CAUSTIC:
+            if mode == MODE_CAUSTIC and not through:
                 continue
         if last:
             continue
-        u_rr = sampling.hash_uniform(seed, pid[i], bounce, dims[0])
+        if through:
+            e = -geometry.offset_eps(px, py, pz, extent)
+            o_new[i, 0], o_new[i, 1], o_new[i, 2] = px + e * gx, py + e * gy, pz + e * gz
+            d_new[i, 0], d_new[i, 1], d_new[i, 2] = dx, dy, dz
+            f_new[i, 0], f_new[i, 1], f_new[i, 2] = f0, f1, f2
+            alive[i] = True
+            continue
         u1 = sampling.hash_uniform(seed, pid[i], bounce, dims[1])
         u2 = sampling.hash_uniform(seed, pid[i], bounce, dims[2])
         u3 = sampling.hash_uniform(seed, pid[i], bounce, dims[3])
@@ -102,7 +133,7 @@ def _scatter_range(tri_v, tri_n, tri_mat, extent, diffuse, specular, transmissio
             ox, oy, oz = sampling.to_world(lx, ly, lz, sx, sy, sz)
             if lz <= 0.0 or ox * gx + oy * gy + oz * gz <= 0.0:
                 continue
-            w0, w1, w2 = diffuse[m, 0] / pd, diffuse[m, 1] / pd, diffuse[m, 2] / pd
+            w0, w1, w2 = a0 / pd, a1 / pd, a2 / pd
             n_diff[i] = nd + 1
         elif u_rr < pd + ps:
             a = alpha[m]
@@ -170,12 +201,15 @@ def _scatter_range(tri_v, tri_n, tri_mat, extent, diffuse, specular, transmissio
 
 @njit(cache=True, parallel=True, error_model="numpy")
 def scatter_kernel(tri_v, tri_n, tri_mat, extent, diffuse, specular, transmission, alpha, ior,
+                   albedo, opacity,
                    prim, hu, hv, d, flux, pid, n_diff, n_spec, seed, dims, bounce, mode,
                    include_direct, last,
                    store, s_pos, s_flux, s_dir, alive, o_new, d_new, f_new):
     """Store and scatter one wavefront of N photons (see the module doc).
 
-    Inputs: prim (N,) int32 (-1 = missed), hu, hv (N,) float32 barycentrics, d (N, 3)
+    Inputs: albedo (N, 3) float64 textured diffuse albedo per photon, or (0, 3) to read
+    ``diffuse`` (M, 3) by material; opacity (N,) float64 per photon, or (0,) for none
+    (textures.SurfaceTextures.photon_albedo / photon_opacity); prim (N,) int32 (-1 = missed), hu, hv (N,) float32 barycentrics, d (N, 3)
     float32 unit directions of travel, flux (N, 3) float64 W, pid (N,) int64 photon ids (random
     counters), n_diff / n_spec (N,) int32 bounces so far (updated in place), dims (4,)
     int64 random dimensions, bounce: this hit's index (the counter's "sample").
@@ -187,7 +221,7 @@ def scatter_kernel(tri_v, tri_n, tri_mat, extent, diffuse, specular, transmissio
     blocks = (n + _BLOCK - 1) // _BLOCK
     for b in prange(blocks):
         _scatter_range(tri_v, tri_n, tri_mat, extent, diffuse, specular, transmission, alpha,
-                       ior, prim, hu, hv, d, flux, pid, n_diff, n_spec, seed, dims, bounce,
+                       ior, albedo, opacity, prim, hu, hv, d, flux, pid, n_diff, n_spec, seed, dims, bounce,
                        mode, include_direct, last, store, s_pos, s_flux, s_dir, alive, o_new,
                        d_new, f_new, b * _BLOCK, min(n, (b + 1) * _BLOCK))
 

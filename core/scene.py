@@ -99,6 +99,17 @@ class Materials:
     ior: (M,) float32 > 0, index of refraction of the dielectric lobe.
     emission: (M, 3) float32, emitted radiance, W/(m^2 sr) (colour x strength).
     names: tuple of str, material names for messages.
+
+    Optional (None = no texture / opaque for every material, so older callers still work):
+    diffuse_texture: (M,) int32, index into ``Scene.textures`` whose texel colour (linear
+        RGB, at the hit's interpolated UV) MULTIPLIES the diffuse lobe; -1 = none. An
+        Image Texture feeding Base Color replaces the base colour, so the exporter stores
+        ``diffuse`` with the base colour factored out (the lobe's weight, e.g.
+        (1 - metallic)(1 - transmission)) and the core multiplies by the texel.
+    alpha: (M,) float32 in [0, 1], opacity (Principled Alpha): a hit is the surface with
+        probability alpha and a straight pass-through (no refraction, no Fresnel, no
+        bounce) with probability 1 - alpha.
+    alpha_texture: (M,) int32, texture whose texel ALPHA channel multiplies ``alpha``; -1 = none.
     """
 
     diffuse: np.ndarray
@@ -108,16 +119,38 @@ class Materials:
     ior: np.ndarray
     emission: np.ndarray
     names: tuple = ()
+    diffuse_texture: np.ndarray | None = None
+    alpha: np.ndarray | None = None
+    alpha_texture: np.ndarray | None = None
 
     @property
     def count(self) -> int:
         return int(self.diffuse.shape[0])
 
+    def diffuse_texture_index(self) -> np.ndarray:
+        """(M,) int32 texture of the diffuse lobe, -1 where none."""
+        if self.diffuse_texture is None:
+            return np.full(self.count, -1, np.int32)
+        return np.asarray(self.diffuse_texture, np.int32)
+
+    def alpha_texture_index(self) -> np.ndarray:
+        """(M,) int32 texture whose alpha multiplies the opacity, -1 where none."""
+        if self.alpha_texture is None:
+            return np.full(self.count, -1, np.int32)
+        return np.asarray(self.alpha_texture, np.int32)
+
+    def opacity(self) -> np.ndarray:
+        """(M,) float64 constant opacity (1 where ``alpha`` is None)."""
+        if self.alpha is None:
+            return np.ones(self.count)
+        return np.asarray(self.alpha, np.float64)
+
     @staticmethod
     def from_list(rows: list[dict]) -> "Materials":
         """Build from dicts with any of the keys above (missing lobes are zero).
 
-        Defaults: ior 1.5, roughness 0, name "Material.<i>".
+        Defaults: ior 1.5, roughness 0, name "Material.<i>", diffuse_texture -1,
+        alpha 1, alpha_texture -1 (the optional fields are None when no row sets them).
         """
         m = len(rows)
 
@@ -136,7 +169,65 @@ class Materials:
             ior=col("ior", 0, 1.5),
             emission=col("emission", 3, 0.0),
             names=tuple(r.get("name", f"Material.{i}") for i, r in enumerate(rows)),
+            diffuse_texture=(np.array([r.get("diffuse_texture", -1) for r in rows], np.int32)
+                             .reshape(m) if any("diffuse_texture" in r for r in rows) else None),
+            alpha=(col("alpha", 0, 1.0) if any("alpha" in r for r in rows) else None),
+            alpha_texture=(np.array([r.get("alpha_texture", -1) for r in rows], np.int32)
+                           .reshape(m) if any("alpha_texture" in r for r in rows) else None),
         )
+
+
+@dataclass(frozen=True)
+class Textures:
+    """All image textures of the scene, packed into one pixel array (struct of arrays).
+
+    pixels: (P, 4) float32, linear RGBA (colour spaces already decoded by the exporter),
+        every image one after the other, each row-major with row 0 at the BOTTOM of the
+        image (Blender's ``Image.pixels`` order, so UV (0, 0) is pixel (0, 0)).
+    offset: (K,) int64, first row of ``pixels`` of texture k.
+    width, height: (K,) int32 >= 1, texels; texture k is pixels[offset[k]:offset[k] + w * h].
+    names: tuple of str, image names for messages.
+    Lookup (core/textures.py): bilinear, pixel centres at ((i + 0.5) / w, (j + 0.5) / h),
+    repeat wrapping (Blender's default "Repeat" extension).
+    """
+
+    pixels: np.ndarray
+    offset: np.ndarray
+    width: np.ndarray
+    height: np.ndarray
+    names: tuple = ()
+
+    @property
+    def count(self) -> int:
+        return int(self.offset.shape[0])
+
+    @staticmethod
+    def empty() -> "Textures":
+        return Textures(np.zeros((0, 4), np.float32), np.zeros(0, np.int64),
+                        np.zeros(0, np.int32), np.zeros(0, np.int32), ())
+
+    @staticmethod
+    def from_images(images, names=()) -> "Textures":
+        """Pack (H, W, 3 or 4) linear images (row 0 at the bottom) into one Textures;
+        a missing alpha channel is 1."""
+        parts, offset, width, height = [], [], [], []
+        start = 0
+        for img in images:
+            a = np.asarray(img, np.float32)
+            if a.ndim != 3 or a.shape[2] not in (3, 4):
+                raise SceneError(f"texture image must be (H, W, 3|4), got {a.shape}")
+            h, w = a.shape[:2]
+            rgba = np.ones((h, w, 4), np.float32)
+            rgba[..., :a.shape[2]] = a
+            parts.append(rgba.reshape(-1, 4))
+            offset.append(start)
+            width.append(w)
+            height.append(h)
+            start += h * w
+        pixels = np.concatenate(parts) if parts else np.zeros((0, 4), np.float32)
+        names = tuple(names) or tuple(f"Texture.{i}" for i in range(len(offset)))
+        return Textures(np.ascontiguousarray(pixels), np.array(offset, np.int64),
+                        np.array(width, np.int32), np.array(height, np.int32), names)
 
 
 @dataclass(frozen=True)
@@ -297,11 +388,13 @@ class Scene:
     lights: Lights
     camera: Camera
     world: World = field(default_factory=World)
+    textures: Textures = field(default_factory=Textures.empty)
 
     def validate(self) -> "Scene":
         """Check every array; raise SceneError naming the field, object or material."""
         _validate_mesh(self.mesh, self.materials)
-        _validate_materials(self.materials)
+        _validate_textures(self.textures)
+        _validate_materials(self.materials, self.textures.count)
         _validate_lights(self.lights)
         _validate_camera(self.camera)
         _check_array("world.radiance", self.world.radiance, (3,), nonnegative=True)
@@ -412,9 +505,37 @@ def _validate_mesh(mesh: Mesh, materials: Materials) -> None:
                              f"{mesh.material_index.min()}..{mesh.material_index.max()}")
 
 
-def _validate_materials(m: Materials) -> None:
+def _validate_textures(tx: Textures) -> None:
+    k = tx.count
+    names = tx.names if len(tx.names) == k else None
+    _check_array("textures.pixels", tx.pixels, (None, 4), dtype=np.float32, nonnegative=True)
+    _check_array("textures.offset", tx.offset, (k,), dtype=np.int64)
+    _check_array("textures.width", tx.width, (k,), dtype=np.int32)
+    _check_array("textures.height", tx.height, (k,), dtype=np.int32)
+    for i in range(k):
+        w, h, o = int(tx.width[i]), int(tx.height[i]), int(tx.offset[i])
+        if w < 1 or h < 1:
+            raise SceneError(f"textures.width/height{_label(names, i)} must be >= 1, got {w}x{h}")
+        if o < 0 or o + w * h > tx.pixels.shape[0]:
+            raise SceneError(f"textures.offset{_label(names, i)}: texels [{o}, {o + w * h}) "
+                             f"outside textures.pixels (P = {tx.pixels.shape[0]})")
+
+
+def _validate_materials(m: Materials, texture_count: int = 0) -> None:
     n = m.count
     names = m.names if len(m.names) == n else None
+    for key in ("diffuse_texture", "alpha_texture"):
+        a = getattr(m, key)
+        if a is None:
+            continue
+        _check_array(f"materials.{key}", a, (n,), dtype=np.int32, labels=names)
+        if n and (a.min() < -1 or a.max() >= texture_count):
+            i = int(np.argmax((a < -1) | (a >= texture_count)))
+            raise SceneError(f"materials.{key}{_label(names, i)} is {a[i]}, not -1 (none) or "
+                             f"an index into the scene's {texture_count} textures")
+    if m.alpha is not None:
+        _check_array("materials.alpha", m.alpha, (n,), dtype=np.float32, nonnegative=True,
+                     labels=names, at_most=1.0)
     # Reflectances above 1 create energy (photon flux grows geometrically with the
     # bounces until it overflows); the exporter clamps them to 1 with a warning.
     for key in ("diffuse", "specular", "transmission"):

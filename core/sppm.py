@@ -129,9 +129,10 @@ class SPPMState:
 # --- kernels --------------------------------------------------------------------------------
 
 @njit(cache=True, parallel=True, error_model="numpy")
-def _path_kernel(pos, d, ng, ns, mat, eps, thr, u_vp, u_lobe, u_pick, diffuse, specular, alpha,
+def _path_kernel(pos, d, ng, ns, mat, eps, thr, u_vp, u_lobe, u_pick, albedo, specular, alpha,
                  transmission, ior, vp, new_o, new_d, new_thr, go_on, transmitted):
     """At each hit: stop at the diffuse lobe (vp) or follow one delta lobe (go_on).
+    albedo (N, 3): the (textured) diffuse albedo at each hit.
 
     ng, ns: normals as computed from the winding (flipped here to face the ray). thr is
     divided by the probability of the branch taken; new_thr is the visible point's weight
@@ -145,7 +146,7 @@ def _path_kernel(pos, d, ng, ns, mat, eps, thr, u_vp, u_lobe, u_pick, diffuse, s
         sx, sy, sz = sg * ns[i, 0], sg * ns[i, 1], sg * ns[i, 2]
         ng[i, 0], ng[i, 1], ng[i, 2] = gx, gy, gz
         ns[i, 0], ns[i, 1], ns[i, 2] = sx, sy, sz
-        kd = (diffuse[m, 0] + diffuse[m, 1] + diffuse[m, 2]) / 3.0
+        kd = (albedo[i, 0] + albedo[i, 1] + albedo[i, 2]) / 3.0
         mirror = alpha[m] * alpha[m] <= bsdf.SINGULAR_ALPHA2
         kdel = (transmission[m, 0] + transmission[m, 1] + transmission[m, 2]) / 3.0
         if mirror:
@@ -224,7 +225,7 @@ def _grid_kernel(pos, lo, inv_h, mask, cells, start, order):
 
 @njit(cache=True, parallel=True, error_model="numpy")
 def _gather_kernel(vp_pos, vp_ng, vp_ns, vp_wo, vp_mat, radius, ph_pos, ph_flux, ph_dir, cells,
-                   start, order, lo, inv_h, mask, diffuse, specular, alpha, phi, count):
+                   start, order, lo, inv_h, mask, vp_albedo, specular, alpha, phi, count):
     """phi[i] = sum f(wo, w_p) Phi_p and count[i] = M over this pass's photons within
     radius[i] of visible point i on its visible side."""
     for i in prange(vp_pos.shape[0]):
@@ -262,16 +263,20 @@ def _gather_kernel(vp_pos, vp_ng, vp_ns, vp_wo, vp_mat, radius, ph_pos, ph_flux,
                         kd, ks = bsdf.eval_reflection(
                             0.0, 0.0, alpha[m], vp_ns[i, 0], vp_ns[i, 1], vp_ns[i, 2],
                             vp_wo[i, 0], vp_wo[i, 1], vp_wo[i, 2], wx, wy, wz)
-                        a0 += (diffuse[m, 0] * kd + specular[m, 0] * ks) * ph_flux[k, 0]
-                        a1 += (diffuse[m, 1] * kd + specular[m, 1] * ks) * ph_flux[k, 1]
-                        a2 += (diffuse[m, 2] * kd + specular[m, 2] * ks) * ph_flux[k, 2]
+                        a0 += (vp_albedo[i, 0] * kd + specular[m, 0] * ks) * ph_flux[k, 0]
+                        a1 += (vp_albedo[i, 1] * kd + specular[m, 1] * ks) * ph_flux[k, 1]
+                        a2 += (vp_albedo[i, 2] * kd + specular[m, 2] * ks) * ph_flux[k, 2]
         phi[i, 0], phi[i, 1], phi[i, 2] = a0, a1, a2
         count[i] = c
 
 
-def gather_photons(vp_pos, vp_ng, vp_ns, vp_wo, vp_mat, radius, ph_pos, ph_flux, ph_dir, mats):
+def gather_photons(vp_pos, vp_ng, vp_ns, vp_wo, vp_mat, radius, ph_pos, ph_flux, ph_dir, mats,
+                   vp_albedo=None):
     """Phi (V, 3) float64 and M (V,) int64 of step 3 for V visible points and one pass's
-    photons (positions, flux, directions (P, 3) float32); mats: ``bsdf.material_table``."""
+    photons (positions, flux, directions (P, 3) float32); mats: ``bsdf.material_table``;
+    vp_albedo (V, 3): the points' (textured) diffuse albedo, default the materials'."""
+    if vp_albedo is None:
+        vp_albedo = mats["diffuse"][vp_mat]
     v = vp_pos.shape[0]
     phi = np.zeros((v, 3))
     count = np.zeros(v, np.int64)
@@ -288,7 +293,8 @@ def gather_photons(vp_pos, vp_ng, vp_ns, vp_wo, vp_mat, radius, ph_pos, ph_flux,
     _grid_kernel(ph_pos, lo, 1.0 / h, np.int64(size - 1), cells, start, order)
     _gather_kernel(vp_pos, vp_ng, vp_ns, vp_wo, vp_mat, np.ascontiguousarray(radius, np.float64),
                    ph_pos, ph_flux, ph_dir, cells, start, order, lo, 1.0 / h, np.int64(size - 1),
-                   mats["diffuse"], mats["specular"], mats["alpha"], phi, count)
+                   np.ascontiguousarray(vp_albedo, np.float64), mats["specular"], mats["alpha"],
+                   phi, count)
     return phi, count
 
 
@@ -309,7 +315,8 @@ class _Context:
 class VisiblePoints:
     """One pass's visible points (V of them), float64: pixel (V,) int64, position (V, 3)
     metres, ng / ns (V, 3) unit normals facing the viewer, wo (V, 3) unit towards the
-    viewer, material (V,) int32, weight (V, 3) path throughput."""
+    viewer, material (V,) int32, weight (V, 3) path throughput, albedo (V, 3) the
+    diffuse albedo there (textured)."""
 
     pixel: np.ndarray
     position: np.ndarray
@@ -318,6 +325,21 @@ class VisiblePoints:
     wo: np.ndarray
     material: np.ndarray
     weight: np.ndarray
+    albedo: np.ndarray
+
+
+_CUTOUT_CHOICE = 19  # random purpose of the pass-through choices (as integrator's)
+
+
+def _intersect(ctx: _Context, origins, dirs, tmax, rows, pixel, sample, depth):
+    """Nearest hits of the camera paths, passing cut-outs stochastically."""
+    def uniforms(index, layer):
+        r = rows[index]
+        return sampling.uniform(ctx.seed, pixel[r], sample[r],
+                                sampling.stream(_CUTOUT_CHOICE, depth, layer, 7))
+    setup = ctx.setup
+    return setup.surfaces.intersect(ctx.accel, setup.tri_v, setup.tri_n, setup.extent,
+                                    origins, dirs, tmax, uniforms)
 
 
 def _camera_pass(ctx: _Context, k: int, direct: np.ndarray) -> VisiblePoints:
@@ -341,7 +363,7 @@ def _camera_pass(ctx: _Context, k: int, direct: np.ndarray) -> VisiblePoints:
         if rows.shape[0] == 0:
             break
         first = depth == 0
-        hits = ctx.accel.intersect(origins, dirs, tmax)
+        hits = _intersect(ctx, origins, dirs, tmax, rows, pixel, sample, depth)
         hit = hits.prim >= 0
         # Lights seen along the rays, in front of the geometry
         visible = ls.visible_camera if first else ls.visible_glossy | ls.visible_transmission
@@ -373,6 +395,7 @@ def _camera_pass(ctx: _Context, k: int, direct: np.ndarray) -> VisiblePoints:
                                      hits.u[h], hits.v[h], d, setup.extent)
         # Emission seen (two-sided, like Cycles' emission closure)
         direct[rows] += thr * mats["emission"][sp.material]
+        albedo = setup.surfaces.albedo(hits.prim[h], hits.u[h], hits.v[h], sp.material)
         m = len(rows)
         pix, smp = pixel[rows], sample[rows]
         u_vp = sampling.uniform(ctx.seed, pix, smp, _dim_lobe(depth))
@@ -381,12 +404,13 @@ def _camera_pass(ctx: _Context, k: int, direct: np.ndarray) -> VisiblePoints:
         vp, go_on, new_tr = np.empty(m, bool), np.empty(m, bool), np.empty(m, bool)
         new_o, new_d, new_thr = np.empty((m, 3)), np.empty((m, 3)), np.empty((m, 3))
         _path_kernel(sp.position, d, ng, ns, sp.material, sp.eps, thr, u_vp, u_lobe, u_pick,
-                     mats["diffuse"], mats["specular"], mats["alpha"], mats["transmission"],
+                     albedo, mats["specular"], mats["alpha"], mats["transmission"],
                      mats["ior"], vp, new_o, new_d, new_thr, go_on, new_tr)
         # Visible points: the first diffuse lobe on the path
         s = np.flatnonzero(vp)
         if s.size:
-            out.append((rows[s], sp.position[s], ng[s], ns[s], -d[s], sp.material[s], new_thr[s]))
+            out.append((rows[s], sp.position[s], ng[s], ns[s], -d[s], sp.material[s], new_thr[s],
+                        albedo[s]))
         if depth == ctx.max_depth:
             break
         g = np.flatnonzero(go_on)
@@ -394,7 +418,7 @@ def _camera_pass(ctx: _Context, k: int, direct: np.ndarray) -> VisiblePoints:
         thr, transmitted, tmax = new_thr[g], new_tr[g], None
     if not out:
         z3 = np.zeros((0, 3))
-        return VisiblePoints(np.zeros(0, np.int64), z3, z3, z3, z3, np.zeros(0, np.int32), z3)
+        return VisiblePoints(np.zeros(0, np.int64), z3, z3, z3, z3, np.zeros(0, np.int32), z3, z3)
     cols = [np.concatenate(c) for c in zip(*out)]
     return VisiblePoints(*[np.ascontiguousarray(c) for c in cols])
 
@@ -503,7 +527,8 @@ def progressive_passes(scene: Scene, settings: RenderSettings, photons_per_pass:
                 st["rays_photon"] += counters["rays"]
                 t2 = time.perf_counter()
                 phi, count = gather_photons(vps.position, vps.ng, vps.ns, vps.wo, vps.material,
-                                            state.radius[vps.pixel], pos, flux, wdir, setup.mats)
+                                            state.radius[vps.pixel], pos, flux, wdir, setup.mats,
+                                            vps.albedo)
                 _update(state, vps, phi, count, alpha)
                 stored = int(pos.shape[0])
                 st["photon_bytes_max"] = max(st["photon_bytes_max"],

@@ -30,7 +30,7 @@ from typing import Callable
 import numba
 import numpy as np
 
-from . import bsdf, emission, geometry, sampling, scatter
+from . import bsdf, emission, geometry, sampling, scatter, textures
 from .accel import Accelerator, default_threads
 from .lights import EmissiveTriangles, LightSet
 from .photon_map import PhotonMap
@@ -74,6 +74,7 @@ class _Setup:
     radius: float
     objects: emission.Targets
     specular_objects: np.ndarray
+    surfaces: textures.SurfaceTextures | None = None
 
 
 def _setting(settings, name, default):
@@ -105,7 +106,7 @@ def _prepare(scene: Scene) -> _Setup:
         emissive=EmissiveTriangles.from_mesh(mesh, scene.materials),
         world=np.asarray(scene.world.radiance, np.float64).reshape(3),
         centre=centre, radius=radius * 1.01 if radius > 0 else 0.0, objects=objects,
-        specular_objects=spec_obj)
+        specular_objects=spec_obj, surfaces=textures.SurfaceTextures(scene, mats["diffuse"]))
 
 
 class _Store:
@@ -166,8 +167,11 @@ def _trace_chunk(setup: _Setup, accel, em: emission.Emitted, pid: np.ndarray, mo
         o2 = np.empty((n, 3), np.float32)
         d2 = np.empty((n, 3), np.float32)
         f2 = np.empty((n, 3))
+        surf = setup.surfaces
         scatter.scatter_kernel(setup.tri_v, setup.tri_n, setup.tri_mat, setup.extent,
                                m["diffuse"], m["specular"], m["transmission"], m["alpha"], m["ior"],
+                               surf.photon_albedo(hits.prim, hits.u, hits.v),
+                               surf.photon_opacity(hits.prim, hits.u, hits.v),
                                hits.prim, hits.u, hits.v, d, f, pid, n_diff, n_spec,
                                np.int64(seed), dims, np.int64(bounce), mode, include_direct,
                                bounce == max_bounces, s_flag, s_pos, s_flux, s_dir, alive, o2, d2, f2)

@@ -9,6 +9,7 @@ all; objects with every ray-visibility flag off are skipped, as Cycles does.
 
 Mesh data is read with ``foreach_get`` into numpy once per distinct evaluated mesh and
 transformed for all of its instances at once (normals by the inverse transpose).
+Images used by Image Texture nodes are read once per export (export_materials.ImageTable).
 What is exported and how shaders map to lobes: docs/export.md.
 """
 
@@ -22,7 +23,7 @@ from ..core.scene import Lights, Materials, Mesh, Scene, World
 from .export_camera import export_camera
 from .export_errors import ExportError, NoCameraError  # noqa: F401  (re-exported)
 from .export_lights import light_row
-from .export_materials import default_row, read_material, read_world
+from .export_materials import ImageTable, default_row, read_material, read_world
 
 _VISIBILITY_FLAGS = ("visible_camera", "visible_diffuse", "visible_glossy",
                      "visible_transmission", "visible_shadow")
@@ -68,6 +69,7 @@ def export_scene(depsgraph) -> ExportResult:
         lights=Lights.from_list(light_rows),
         camera=camera,
         world=_export_world(depsgraph, warnings),
+        textures=materials.images.textures(),
     )
     return ExportResult(scene=scene.validate(), warnings=warnings)
 
@@ -108,12 +110,14 @@ def _export_world(depsgraph, warnings) -> World:
 
 
 class _MaterialTable:
-    """The global material list, one row per distinct Blender material (None = default grey)."""
+    """The global material list, one row per distinct Blender material (None = default grey),
+    and the images their Image Texture nodes use (each read once)."""
 
     def __init__(self, warnings):
         self.rows: list[dict] = []
         self._index: dict = {}
         self._warnings = warnings
+        self.images = ImageTable(warnings)
 
     def index(self, mat) -> int:
         if mat is None:
@@ -122,7 +126,7 @@ class _MaterialTable:
             mat = getattr(mat, "original", mat) or mat
             key = mat.as_pointer()
         if key not in self._index:
-            row = default_row() if mat is None else read_material(mat, self._warnings)
+            row = default_row() if mat is None else read_material(mat, self._warnings, self.images)
             self._index[key] = len(self.rows)
             self.rows.append(row)
         return self._index[key]

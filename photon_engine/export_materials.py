@@ -2,17 +2,30 @@
 
 A surface is read by following the active output's Surface input through the shader
 nodes the core can express. Each node becomes a ``Closure``: the four lobe colours
-(diffuse, specular, transmission, emission) plus the roughness and IOR they share.
-Mix Shader interpolates closures, Add Shader sums them. Inputs driven by links that
-cannot be evaluated here (textures, maths) fall back to the socket's own value with a
-warning. A tree that cannot be read at all (unknown shader node, no output) renders as
-grey diffuse with one warning naming the material, never an exception.
+(diffuse, specular, transmission, emission) plus the roughness and IOR they share, the
+image texture that multiplies the diffuse lobe and the transparency (straight
+pass-through weight). Mix Shader interpolates closures, Add Shader sums them.
+
+Image Texture nodes (directly or through Reroutes) feeding Principled Base Color or
+Diffuse Color become a texture of the scene (``ImageTable``: each image's pixels read
+once per export with ``foreach_get``, sRGB images linearised, Non-Color/linear ones
+not); the lobe weights are stored with the base colour factored out, and the core
+multiplies the diffuse lobe by the texel. Principled Alpha (a constant, or an Image
+Texture's Alpha output) and Transparent BSDF make the surface a cut-out.
+
+Every node the exporter cannot express is reported once per material, by material and
+node name: a linked input falls back to its socket's own value, an unknown shader node
+makes the material grey diffuse. Never an exception.
 
 Mapping (Cycles' node semantics, ``docs/export.md`` has the table):
 - Principled BSDF: diffuse = base (1 - metallic)(1 - transmission),
   specular = base metallic, transmission = base (1 - metallic) transmission,
   emission = emission colour x strength. Its dielectric specular layer
-  (Specular IOR Level), coat, sheen and subsurface are not modelled yet.
+  (Specular IOR Level), coat, sheen and subsurface are not modelled yet. With an image
+  as base colour the diffuse lobe is textured; the metallic and transmission tints use
+  the image's mean colour (the core textures the diffuse lobe only).
+  Alpha a: a x (the BSDF) + (1 - a) x transparent.
+- Transparent BSDF: straight pass-through weighted by its colour's mean.
 - Diffuse BSDF -> diffuse; Glossy BSDF -> specular; Glass BSDF -> transmission;
   Emission -> emission (radiance W/(m^2 sr) = colour x strength).
 """
@@ -22,6 +35,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+
+from ..core.scene import Textures
+from ..core.textures import srgb_to_linear
 
 DEFAULT_GREY = 0.8
 """Albedo of the material used for empty slots and unreadable trees (Cycles' default surface)."""
@@ -47,10 +63,14 @@ class Closure:
     roughness: float = 0.0
     ior: float = 1.5
     glossy_weight: float = 0.0
+    diffuse_texture: int = -1   # index into the ImageTable, multiplies the diffuse lobe
+    transparency: float = 0.0   # weight of the straight pass-through (1 - opacity)
+    alpha_texture: int = -1     # image whose alpha multiplies the opacity
 
     def scaled(self, w: float) -> "Closure":
         return Closure(self.diffuse * w, self.specular * w, self.transmission * w,
-                       self.emission * w, self.roughness, self.ior, self.glossy_weight * w)
+                       self.emission * w, self.roughness, self.ior, self.glossy_weight * w,
+                       self.diffuse_texture, self.transparency * w, self.alpha_texture)
 
     def plus(self, other: "Closure") -> "Closure":
         wa, wb = self.glossy_weight, other.glossy_weight
@@ -59,14 +79,25 @@ class Closure:
             ior = (wa * self.ior + wb * other.ior) / (wa + wb)
         else:
             roughness, ior = max(self.roughness, other.roughness), self.ior
+        tex = self.diffuse_texture if self.diffuse_texture >= 0 else other.diffuse_texture
+        atex = self.alpha_texture if self.alpha_texture >= 0 else other.alpha_texture
         return Closure(self.diffuse + other.diffuse, self.specular + other.specular,
                        self.transmission + other.transmission, self.emission + other.emission,
-                       roughness, ior, wa + wb)
+                       roughness, ior, wa + wb, tex, self.transparency + other.transparency,
+                       atex)
 
     def as_row(self, name: str) -> dict:
-        return {"name": name, "diffuse": self.diffuse, "specular": self.specular,
-                "transmission": self.transmission, "emission": self.emission,
-                "roughness": float(np.clip(self.roughness, 0.0, 1.0)), "ior": float(self.ior)}
+        """A ``Materials.from_list`` row. Transparency t becomes opacity 1 - t and the
+        other lobes are divided by the opacity (the core scales what a hit sees by the
+        opacity when it picks the surface instead of the pass-through)."""
+        opacity = float(np.clip(1.0 - self.transparency, 0.0, 1.0))
+        k = 1.0 / opacity if 0.0 < opacity < 1.0 else 1.0
+        row = {"name": name, "diffuse": self.diffuse * k, "specular": self.specular * k,
+               "transmission": self.transmission * k, "emission": self.emission * k,
+               "roughness": float(np.clip(self.roughness, 0.0, 1.0)), "ior": float(self.ior),
+               "diffuse_texture": int(self.diffuse_texture), "alpha": opacity,
+               "alpha_texture": int(self.alpha_texture)}
+        return row
 
 
 def default_row(name="(default grey)") -> dict:
@@ -88,10 +119,32 @@ def _luminance(rgb) -> float:
 
 
 class _Reader:
-    """Evaluates one node tree; collects the names of inputs it had to approximate."""
+    """Evaluates one node tree; collects what it had to approximate.
 
-    def __init__(self):
-        self.approximated: list[str] = []
+    unsupported: node name -> (bl_idname, [inputs it fed]) of every node that could not be
+    evaluated (each reported once); notes: other approximations, one line each.
+    images: the export's ImageTable (None: image textures are reported as unsupported).
+    """
+
+    def __init__(self, images=None, material=""):
+        self.unsupported: dict[str, tuple[str, list[str]]] = {}
+        self.notes: list[str] = []
+        self.images = images
+        self.material = material
+
+    @property
+    def approximated(self) -> list[str]:
+        """"Node.Input" of every input replaced by its socket value (older callers)."""
+        return [use for _, uses in self.unsupported.values() for use in uses]
+
+    def _unsupported(self, node, use):
+        idname, uses = self.unsupported.setdefault(node.name, (node.bl_idname, []))
+        if use and use not in uses:
+            uses.append(use)
+
+    def note(self, text):
+        if text not in self.notes:
+            self.notes.append(text)
 
     # Socket values ------------------------------------------------------------------
     def _input(self, node, *names):
@@ -114,8 +167,37 @@ class _Reader:
             if linked is not None and linked.node.bl_idname in ("ShaderNodeRGB", "ShaderNodeValue"):
                 return linked.default_value  # a constant RGB / Value node
             if linked is not None:
-                self.approximated.append(f"{node.name}.{sock.name}")
+                self._unsupported(linked.node, f'input "{sock.name}" of node "{node.name}"')
         return getattr(sock, "default_value", default)
+
+    def image_input(self, node, names, output):
+        """(ImageTable index or -1, fed) for an input fed by an Image Texture node's
+        ``output`` ("Color" or "Alpha"), directly or through reroutes. fed is False when
+        the input is not fed that way (read its value instead); an image that cannot be
+        read gives (-1, True), reported once by the ImageTable."""
+        try:
+            sock = self._input(node, *names)
+        except UnreadableTree:
+            return -1, False
+        linked = _follow_reroutes(sock) if sock.is_linked else None
+        if linked is None or linked.node.bl_idname != "ShaderNodeTexImage" \
+                or self.images is None or getattr(linked.node, "mute", False):
+            return -1, False
+        tex = linked.node
+        if linked.name != output:
+            self._unsupported(tex, f'its "{linked.name}" output into input "{sock.name}" of '
+                                   f'node "{node.name}" (only Color -> colour, Alpha -> Alpha)')
+            return -1, False
+        where = f'Material "{self.material}": node "{tex.name}"'
+        if tex.inputs["Vector"].is_linked:
+            self.note(f'{where}: its Vector input is ignored; using the active render UV map')
+        if getattr(tex, "projection", "FLAT") != "FLAT":
+            self.note(f'{where}: projection {tex.projection} is not supported; using FLAT')
+        if getattr(tex, "extension", "REPEAT") != "REPEAT":
+            self.note(f'{where}: extension {tex.extension} is not supported; using REPEAT')
+        index = self.images.index(tex.image, where)
+        return (-1 if index is None else index), True
+
 
     def color(self, node, *names, default=None):
         v = self._value(node, *names, default=default)
@@ -141,8 +223,17 @@ class _Reader:
             raise UnreadableTree(f"muted node '{node.name}'")
         return handler(self, node)
 
+    def _base_color(self, node, *names):
+        """(colour (3,), texture index): the base colour, or white and the image that
+        replaces it when an Image Texture feeds it (grey 0.8 for a missing image)."""
+        tex, fed = self.image_input(node, names, "Color")
+        if fed:
+            return (np.ones(3), tex) if tex >= 0 else (np.full(3, DEFAULT_GREY), -1)
+        return self.color(node, *names), -1
+
     def principled(self, node) -> Closure:
-        base = self.color(node, "Base Color")
+        base, tex = self._base_color(node, "Base Color")
+        tint = base if tex < 0 else self.images.mean_rgb(tex)
         metallic = float(np.clip(self.scalar(node, "Metallic"), 0.0, 1.0))
         roughness = float(np.clip(self.scalar(node, "Roughness"), 0.0, 1.0))
         transmission = float(np.clip(self.scalar(node, "Transmission Weight", "Transmission",
@@ -150,14 +241,30 @@ class _Reader:
         ior = max(self.scalar(node, "IOR", default=1.5), 1e-5)
         emission = self.color(node, "Emission Color", "Emission", default=(0.0, 0.0, 0.0))
         strength = self.scalar(node, "Emission Strength", default=1.0)
-        c = _glossy(spec=np.minimum(base, 1.0) * metallic,
-                    trans=base * (1 - metallic) * transmission, roughness=roughness, ior=ior)
+        c = _glossy(spec=np.minimum(tint, 1.0) * metallic,
+                    trans=tint * (1 - metallic) * transmission, roughness=roughness, ior=ior)
         c.diffuse = base * (1 - metallic) * (1 - transmission)
+        c.diffuse_texture = tex
         c.emission = emission * max(strength, 0.0)
+        if tex >= 0 and (metallic > 0 or transmission > 0):
+            self.note(f'Material "{self.material}": node "{node.name}": metallic and '
+                      f'transmission use the image\'s mean colour (only the diffuse lobe '
+                      f'is textured)')
+        atex, linked_alpha = self.image_input(node, ("Alpha",), "Alpha")
+        alpha = 1.0 if linked_alpha else float(np.clip(self.scalar(node, "Alpha", default=1.0),
+                                                       0.0, 1.0))
+        if alpha < 1.0:
+            c = c.scaled(alpha)
+            c.transparency = 1.0 - alpha
+        c.alpha_texture = atex
         return c
 
+    def transparent(self, node) -> Closure:
+        return Closure(transparency=float(np.clip(np.mean(self.color(node, "Color")), 0.0, 1.0)))
+
     def diffuse(self, node) -> Closure:
-        return Closure(diffuse=self.color(node, "Color"))
+        color, tex = self._base_color(node, "Color")
+        return Closure(diffuse=color, diffuse_texture=tex)
 
     def glossy(self, node) -> Closure:
         return _glossy(spec=self.color(node, "Color"),
@@ -178,14 +285,26 @@ class _Reader:
         if len(shaders) != 2:
             raise UnreadableTree(f"mix node '{node.name}' without two shader inputs")
         a, b = self.shader_input(shaders[0]), self.shader_input(shaders[1])
+        self._check_textures(node, a, b)
         return a.scaled(1.0 - fac).plus(b.scaled(fac))
 
     def add(self, node) -> Closure:
         shaders = [s for s in node.inputs if s.type == 'SHADER']
         total = Closure()
         for s in shaders:
-            total = total.plus(self.shader_input(s))
+            c = self.shader_input(s)
+            self._check_textures(node, total, c)
+            total = total.plus(c)
         return total
+
+    def _check_textures(self, node, a: Closure, b: Closure):
+        """One image per material multiplies the whole diffuse lobe: say so when a mix
+        combines a textured diffuse with another diffuse."""
+        ta, tb = a.diffuse_texture, b.diffuse_texture
+        if (ta >= 0 or tb >= 0) and (ta != tb) and a.diffuse.any() and b.diffuse.any():
+            self.note(f'Material "{self.material}": node "{node.name}" mixes diffuse shaders '
+                      f'with different base colour images; the material\'s whole diffuse '
+                      f'lobe uses one image')
 
 
 _HANDLERS = {
@@ -198,6 +317,7 @@ _HANDLERS = {
     "ShaderNodeBackground": _Reader.emission,
     "ShaderNodeMixShader": _Reader.mix,
     "ShaderNodeAddShader": _Reader.add,
+    "ShaderNodeBsdfTransparent": _Reader.transparent,
 }
 
 
@@ -229,15 +349,16 @@ def _active_output(tree, idnames):
     return output
 
 
-def read_surface(tree, output_idnames) -> tuple[Closure, list[str]]:
-    """Evaluate a tree's active output Surface. Returns (closure, approximated inputs).
+def read_surface(tree, output_idnames, reader=None) -> tuple[Closure, list[str]]:
+    """Evaluate a tree's active output Surface. Returns (closure, approximated inputs);
+    ``reader`` (a _Reader) collects the details when given.
 
     Raises UnreadableTree when the tree has no usable output or an unsupported node.
     """
     output = _active_output(tree, output_idnames)
     if output is None:
         raise UnreadableTree("no active output node")
-    reader = _Reader()
+    reader = reader or _Reader()
     return reader.shader_input(output.inputs["Surface"]), reader.approximated
 
 
@@ -251,32 +372,124 @@ def _node_tree(idblock):
     return tree if idblock.use_nodes else None
 
 
-def read_material(mat, warnings: list[str]) -> dict:
-    """One material -> a row for ``Materials.from_list``; appends at most one warning.
+def read_material(mat, warnings: list[str], images: "ImageTable | None" = None) -> dict:
+    """One material -> a row for ``Materials.from_list``; appends one warning per node
+    it cannot express (by material and node name) and one per other approximation.
 
-    Without a node tree (legacy materials), Cycles renders ``diffuse_color`` as diffuse.
+    images: the export's ImageTable (Image Texture nodes become textures); None reports
+    them as unsupported like any other node. Without a node tree (legacy materials),
+    Cycles renders ``diffuse_color`` as diffuse.
     """
     name = mat.name
     tree = _node_tree(mat)
     if tree is None:
         return Closure(diffuse=np.asarray(mat.diffuse_color[:3], np.float64)).as_row(name)
+    reader = _Reader(images, name)
     try:
-        closure, approximated = read_surface(tree, ("ShaderNodeOutputMaterial",))
+        closure, _ = read_surface(tree, ("ShaderNodeOutputMaterial",), reader)
     except UnreadableTree as exc:
-        warnings.append(f"Material '{name}': cannot read its node tree ({exc}); "
+        warnings.append(f'Material "{name}": cannot read its node tree ({exc}); '
                         f"rendering it as grey diffuse")
         return default_row(name)
+    for node_name, (idname, uses) in reader.unsupported.items():
+        warnings.append(f'Material "{name}": node "{node_name}" ({idname}) is not supported; '
+                        f"using the socket value of " + ", ".join(uses))
+    warnings.extend(reader.notes)
     notes = []
-    if approximated:
-        notes.append("linked inputs replaced by their own values: " + ", ".join(approximated))
     for lobe in ("diffuse", "specular", "transmission"):
         v = getattr(closure, lobe)
         if np.any(v > 1.0):
             setattr(closure, lobe, np.minimum(v, 1.0))
             notes.append(f"{lobe} colour above 1 clamped to 1")
     if notes:
-        warnings.append(f"Material '{name}': " + "; ".join(notes))
-    return closure.as_row(name)
+        warnings.append(f'Material "{name}": ' + "; ".join(notes))
+    row = closure.as_row(name)
+    for lobe in ("diffuse", "specular", "transmission"):
+        row[lobe] = np.minimum(row[lobe], 1.0)  # the opacity division must not create energy
+    return row
+
+
+class ImageTable:
+    """The images of one export, each read ONCE into numpy however many materials use it.
+
+    ``index(image, where)`` returns the texture index (None for a missing image or one
+    without pixels, reported once with ``where``, "Material ...: node ..."). Pixels are
+    read with ``Image.pixels.foreach_get`` into float32 and decoded to linear: byte images
+    tagged sRGB (or another sRGB-like display space) with the exact sRGB EOTF; Non-Color,
+    Linear* and float images (Blender keeps those in scene linear) as they are.
+    """
+
+    LINEAR_SPACES = ("Non-Color", "Raw", "scene_linear", "Linear", "ACEScg", "ACES2065-1")
+
+    def __init__(self, warnings: list[str]):
+        self._warnings = warnings
+        self._index: dict = {}
+        self._images: list[np.ndarray] = []
+        self._names: list[str] = []
+        self._means: list[np.ndarray] = []
+
+    def index(self, image, where: str) -> int | None:
+        if image is None:
+            self._warnings.append(f"{where} has no image; using grey {DEFAULT_GREY}")
+            return None
+        image = getattr(image, "original", image) or image
+        key = image.as_pointer()
+        if key not in self._index:
+            self._index[key] = self._read(image, where)
+        return self._index[key]
+
+    def _read(self, image, where) -> int | None:
+        try:
+            w, h = (int(x) for x in image.size)
+            channels = int(image.channels)
+        except (AttributeError, ReferenceError):
+            w = h = channels = 0
+        n = w * h * channels
+        buf = None
+        if n > 0:
+            buf = np.empty(n, np.float32)
+            try:
+                image.pixels.foreach_get(buf)
+            except (RuntimeError, ValueError, TypeError):
+                buf = None
+        if buf is None:
+            self._warnings.append(f'{where}: image "{image.name}" has no pixels (missing file?); '
+                                  f"using grey {DEFAULT_GREY}")
+            return None
+        px = buf.reshape(h, w, channels)
+        rgba = np.ones((h, w, 4), np.float32)
+        if channels >= 3:
+            rgba[..., :3] = px[..., :3]
+        else:
+            rgba[..., :3] = px[..., :1]
+        if channels in (2, 4):
+            rgba[..., 3] = px[..., -1]
+        space = image.colorspace_settings.name
+        linear = bool(getattr(image, "is_float", False)) or space.startswith(self.LINEAR_SPACES)
+        if not linear:
+            if space != "sRGB":
+                self._warnings.append(f'{where}: image "{image.name}" colour space "{space}" '
+                                      f"is decoded as sRGB")
+            rgba[..., :3] = srgb_to_linear(rgba[..., :3])
+        np.clip(rgba, 0.0, None, out=rgba)
+        rgba[~np.isfinite(rgba)] = 0.0
+        if getattr(image, "alpha_mode", "STRAIGHT") in ("NONE", "CHANNEL_PACKED") and channels == 4:
+            if image.alpha_mode == "NONE":
+                rgba[..., 3] = 1.0
+        self._images.append(rgba)
+        self._names.append(image.name)
+        self._means.append(rgba[..., :3].reshape(-1, 3).mean(axis=0).astype(np.float64))
+        return len(self._images) - 1
+
+    def mean_rgb(self, index: int) -> np.ndarray:
+        """(3,) float64 mean linear colour of texture ``index``."""
+        return self._means[index]
+
+    def textures(self) -> Textures:
+        """The scene's Textures (images in index order, row 0 at the bottom)."""
+        if not self._images:
+            return Textures.empty()
+        return Textures.from_images(self._images, self._names)
 
 
 def read_world(world, warnings: list[str]) -> np.ndarray:

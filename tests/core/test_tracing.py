@@ -389,7 +389,8 @@ def _scatter_once(material, theta, n=200_000):
            np.zeros((n, 3), np.float32), np.zeros(n, bool), np.zeros((n, 3), np.float32),
            np.zeros((n, 3), np.float32), np.zeros((n, 3))]
     scatter.scatter_kernel(tri_v, tri_n, np.zeros(1, np.int32), 20.0, m["diffuse"], m["specular"],
-                           m["transmission"], m["alpha"], m["ior"], np.zeros(n, np.int32),
+                           m["transmission"], m["alpha"], m["ior"], np.zeros((0, 3)), np.zeros(0),
+                           np.zeros(n, np.int32),
                            np.full(n, 0.3, np.float32), np.full(n, 0.3, np.float32), d,
                            np.ones((n, 3)), np.arange(n, dtype=np.int64), np.zeros(n, np.int32),
                            np.zeros(n, np.int32), np.int64(5), np.arange(4, dtype=np.int64),
