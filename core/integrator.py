@@ -66,8 +66,16 @@ TARGET_SAMPLES_PER_TILE = 1 << 16
 TILE_SECONDS = 0.25
 PHOTON_SHARE = 0.2
 """Fraction of the progress bar given to the photon pass when photons are traced."""
+UPDATE_SECONDS = 1.0
+"""Least time between two ``on_tile`` calls (each assembles the partial images)."""
+UPDATE_SHARE = 0.05
+"""Most of the camera pass's time the ``on_tile`` calls may take: after a call that took
+c seconds the next one waits at least c / UPDATE_SHARE (large images, slow callbacks)."""
+REST = "rest"
+"""Accumulator of the light terms whose pass is switched off: it feeds "combined" only."""
 
 ProgressFn = Callable[[float, str], bool]
+TileFn = Callable[[int, dict], None]
 
 
 @dataclass
@@ -113,6 +121,8 @@ class _Context:
     has_diffuse: np.ndarray = None   # (M,) the material has a diffuse lobe
     terms: "gather.PhotonTerms | None" = None
     surfaces: "textures.SurfaceTextures | None" = None  # textured albedo, cut-outs
+    # The per-pixel images kept: the produced passes, then REST when some are off.
+    outputs: tuple = PASSES
 
 
 def _prepare(scene: Scene, settings: RenderSettings) -> _Context:
@@ -142,6 +152,7 @@ def _prepare(scene: Scene, settings: RenderSettings) -> _Context:
         no_light=np.zeros(light_kernels.P_COUNT),
         has_diffuse=np.any(mats["diffuse"] > 0, axis=1),
         surfaces=textures.SurfaceTextures(scene, mats["diffuse"]),
+        outputs=settings.passes() + ((REST,) if len(settings.passes()) < len(PASSES) else ()),
     )
 
 
@@ -367,7 +378,9 @@ def _render_tile(ctx: _Context, pix: np.ndarray) -> dict[str, np.ndarray]:
     pixel = np.repeat(pix.astype(np.int64), s_count)
     sample = np.tile(np.arange(s_count, dtype=np.int64), pix.shape[0])
     n = pixel.shape[0]
-    acc = {name: np.zeros((n, 3)) for name in PASSES}
+    # Switched-off passes share the REST accumulator: every term still reaches combined.
+    kept = {name: np.zeros((n, 3)) for name in ctx.outputs}
+    acc = {name: kept.get(name, kept.get(REST)) for name in PASSES}
     ls = ctx.light_set
     mats = ctx.materials
     t0 = time.perf_counter()
@@ -478,7 +491,7 @@ def _render_tile(ctx: _Context, pix: np.ndarray) -> dict[str, np.ndarray]:
 
     t0 = time.perf_counter()
     out = {}
-    for name, per_sample in acc.items():
+    for name, per_sample in kept.items():
         mean = np.empty((pix.shape[0], 3))
         _pixel_mean_kernel(per_sample, s_count, mean)
         out[name] = mean
@@ -489,7 +502,8 @@ def _render_tile(ctx: _Context, pix: np.ndarray) -> dict[str, np.ndarray]:
 # --- the render -----------------------------------------------------------------------------
 
 def render(scene: Scene, settings: RenderSettings | None = None,
-           progress: ProgressFn | None = None, photon_maps=None) -> RenderOutput:
+           progress: ProgressFn | None = None, photon_maps=None,
+           on_tile: TileFn | None = None) -> RenderOutput:
     """Render ``scene``: the photon pass, then the camera pass with every term.
 
     progress(fraction in [0, 1], message) is called during photon tracing and between
@@ -499,10 +513,23 @@ def render(scene: Scene, settings: RenderSettings | None = None,
     global map must match the mode (with direct photons for final gathering, without
     for the preview). Raises SceneError / SettingsError on bad input.
 
+    on_tile(pixels_done, passes) shows a long render filling in: called between tiles,
+    at most once per UPDATE_SECONDS and taking at most UPDATE_SHARE of the time (never
+    after the last tile), with ``passes`` as
+    returned at the end (the pixels after ``pixels_done``, in row-major order from the
+    top-left, still 0; no "photons" pass yet).
+
+    Passes: "combined" always; of the light passes only ``settings.passes()`` (a
+    switched-off term is still in combined but has no image of its own; the per-sample
+    accumulators are the produced passes plus one shared by the others); "photons" only
+    with ``settings.photon_debug_pass`` (no projection or occlusion work otherwise).
+
     stats (RenderOutput.stats) holds, besides the ray counters and timings,
     ``photon_maps`` (the tracer's stats), ``caustic_photons_stored`` /
     ``global_photons_stored`` (0 when the map was not built), ``caustic_radius`` /
-    ``global_radius`` (metres, as used), and ``skipped``: term -> why it was not rendered.
+    ``global_radius`` (metres, as used), ``skipped``: term -> why it was not rendered,
+    ``passes_produced`` (the light passes returned) and ``pass_buffers`` (accumulator
+    arrays per tile: the produced passes, plus one if any is switched off).
     """
     t_start = time.perf_counter()
     scene.validate()
@@ -519,7 +546,7 @@ def render(scene: Scene, settings: RenderSettings | None = None,
     cam = scene.camera
     w, h = int(cam.width), int(cam.height)
     n_pix = w * h
-    images = {name: np.zeros((n_pix, 3)) for name in PASSES}
+    images = {name: np.zeros((n_pix, 3)) for name in ctx.outputs}
     done = 0
     # Start small (the first tile also pays for loading the kernels), then adapt.
     per_tile = max(1, TARGET_SAMPLES_PER_TILE // 8 // settings.samples)
@@ -527,12 +554,13 @@ def render(scene: Scene, settings: RenderSettings | None = None,
     tiles = 0
     share = PHOTON_SHARE if photon_stats.get("traced") else 0.0
     cancelled = photons_cancelled
+    last_update, update_wait = time.perf_counter(), UPDATE_SECONDS
     try:
         while done < n_pix and not cancelled:
             t0 = time.perf_counter()
             pix = np.arange(done, min(n_pix, done + per_tile), dtype=np.int64)
             result = _render_tile(ctx, pix)
-            for name in PASSES:
+            for name in ctx.outputs:
                 images[name][pix] = result[name]
             done += pix.shape[0]
             tiles += 1
@@ -549,6 +577,12 @@ def render(scene: Scene, settings: RenderSettings | None = None,
                                       f"tile {tiles} of {tiles + left} ({done}/{n_pix} pixels)"):
                     cancelled = True
                     break
+            if (on_tile is not None and done < n_pix
+                    and time.perf_counter() - last_update >= update_wait):
+                t_call = time.perf_counter()
+                on_tile(done, _assemble(images, ctx.outputs, h, w))
+                last_update = time.perf_counter()
+                update_wait = max(UPDATE_SECONDS, (last_update - t_call) / UPDATE_SHARE)
         used = UsedPhotonMaps(ctx.terms.global_map, ctx.terms.caustic_map)
         if used.global_map is None and used.caustic_map is None:
             used = None
@@ -559,11 +593,7 @@ def render(scene: Scene, settings: RenderSettings | None = None,
         ctx.accel.close()
     if progress is not None and not cancelled:
         progress(1.0, "Done")
-    passes = {name: images[name].reshape(h, w, 3).astype(np.float32) for name in PASSES}
-    combined = np.zeros((h, w, 3))
-    for name in PASSES:
-        combined += passes[name].astype(np.float64)
-    passes = {"combined": combined.astype(np.float32), **passes}
+    passes = _assemble(images, ctx.outputs, h, w)
     if debug_dots is not None:
         passes["photons"] = debug_dots
         if settings.overlay_composite:
@@ -576,6 +606,7 @@ def render(scene: Scene, settings: RenderSettings | None = None,
             + stats["rays_gather"])
     stats.update({
         "pixels": done, "samples": settings.samples, "tiles": tiles,
+        "passes_produced": settings.passes(), "pass_buffers": len(ctx.outputs),
         "rays_total": rays, "time_prepare": t_prepared - t_start,
         "time_photons": t_photons - t_prepared,
         "time_render": t_end - t_photons, "time_total": t_end - t_start,
@@ -584,6 +615,18 @@ def render(scene: Scene, settings: RenderSettings | None = None,
         "emissive_triangles": ctx.emissive.count,
     })
     return RenderOutput(passes=passes, stats=stats, cancelled=cancelled, photon_maps=used)
+
+
+def _assemble(images: dict, outputs: tuple, h: int, w: int) -> dict[str, np.ndarray]:
+    """The returned passes from the per-pixel images (n_pix, 3) float64 of ``outputs``:
+    "combined" (their float64 sum, cast) and each produced light pass, (h, w, 3) float32.
+    Each image is cast to float32 before summing, so combined == the sum of the passes."""
+    cast = {name: images[name].reshape(h, w, 3).astype(np.float32) for name in outputs}
+    combined = np.zeros((h, w, 3))
+    for name in outputs:
+        combined += cast[name].astype(np.float64)
+    cast.pop(REST, None)
+    return {"combined": combined.astype(np.float32), **cast}
 
 
 def _photon_dots(ctx: _Context, used: UsedPhotonMaps | None) -> np.ndarray:

@@ -9,6 +9,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, fields, replace
 
+from .passes import PASSES
+
 
 class SettingsError(ValueError):
     """A setting out of range; the message names the setting and the value."""
@@ -28,6 +30,17 @@ OVERLAY_MAPS = ("global", "caustic", "both")
 
 MAX_DOT_RADIUS_PX = 32.0
 """Largest ``overlay_dot_radius``, pixels (debug_overlay.MAX_DOT_RADIUS_PX)."""
+
+INTEGRATORS = ("photon_map", "progressive")
+"""``integrator`` values: photon maps + final gathering (core/integrator.py, a fixed
+budget) or stochastic progressive photon mapping (core/sppm.py, converges with passes)."""
+
+MAX_PROGRESSIVE_PASSES = 1 << 20
+"""Largest ``progressive_passes`` (core.sppm.MAX_PASSES)."""
+MAX_PHOTONS_PER_PASS = 1 << 26
+"""Largest ``photons_per_pass`` (core.sppm.MAX_PHOTONS_PER_PASS)."""
+MAX_TIME_BUDGET = 1e7
+"""Largest ``time_budget``, seconds (about 116 days: a bound that keeps it finite)."""
 
 
 @dataclass(frozen=True)
@@ -86,6 +99,38 @@ class RenderSettings:
     overlay_composite: bool = False
     """Draw the dots over "combined" too (which is then no longer the sum of the passes)."""
 
+    # Output passes (issue 6): which light terms are produced as their own images. A
+    # switched-off term is still rendered into "combined" (as in Cycles) but gets no image
+    # of its own: not allocated, accumulated, returned or transferred (see passes()).
+    pass_emission: bool = True
+    """Produce the "emission" pass."""
+    pass_environment: bool = True
+    """Produce the "environment" pass."""
+    pass_direct: bool = True
+    """Produce the "direct" pass."""
+    pass_specular: bool = True
+    """Produce the "specular" pass."""
+    pass_caustics: bool = True
+    """Produce the "caustics" pass (the term itself is switched by ``caustics``)."""
+    pass_indirect: bool = True
+    """Produce the "indirect" pass (the term itself is switched by ``indirect_mode``)."""
+
+    # Integrator choice and the progressive mode (issue 7, core/sppm.py).
+    integrator: str = "photon_map"
+    """One of INTEGRATORS: "photon_map" (fixed budget) or "progressive" (SPPM)."""
+    progressive_passes: int = 64
+    """SPPM passes to run (without a time budget); each traces photons_per_pass photons."""
+    photons_per_pass: int = 100_000
+    """Photons emitted per SPPM pass (memory scales with this, not with the passes)."""
+    time_budget: float = 0.0
+    """Seconds for a progressive render, export included; 0 = no budget (run
+    progressive_passes). With a budget the number of passes is chosen to fit it. The
+    photon_map integrator has a fixed cost and ignores it."""
+
+    def passes(self) -> tuple[str, ...]:
+        """The light passes (names in PASSES, summation order) produced as images."""
+        return tuple(name for name in PASSES if getattr(self, f"pass_{name}"))
+
     def validated(self) -> "RenderSettings":
         checks = {
             "samples": (1, 1 << 20),
@@ -99,6 +144,8 @@ class RenderSettings:
             "global_k": (1, 10_000),
             "caustic_k": (1, 10_000),
             "final_gather_rays": (1, 1 << 16),
+            "progressive_passes": (1, MAX_PROGRESSIVE_PASSES),
+            "photons_per_pass": (1, MAX_PHOTONS_PER_PASS),
         }
         for name, (lo, hi) in checks.items():
             v = getattr(self, name)
@@ -115,12 +162,19 @@ class RenderSettings:
         if not ok or not (0.0 <= float(v) <= MAX_DOT_RADIUS_PX):
             raise SettingsError(f'"overlay_dot_radius" must be a number in '
                                 f'[0, {MAX_DOT_RADIUS_PX:g}] (pixels), got {v!r}')
-        for name in ("projection_map", "photon_importance", "caustics", "photon_debug_pass", "overlay_composite"):
+        v = self.time_budget
+        ok = isinstance(v, (int, float)) and not isinstance(v, bool)
+        if not ok or not (0.0 <= float(v) <= MAX_TIME_BUDGET):
+            raise SettingsError(f'"time_budget" must be a number in [0, {MAX_TIME_BUDGET:g}] '
+                                f'(seconds; 0 = no budget), got {v!r}')
+        for name in ("projection_map", "photon_importance", "caustics", "photon_debug_pass",
+                     "overlay_composite") + tuple(
+                f"pass_{p}" for p in PASSES):
             v = getattr(self, name)
             if not isinstance(v, bool):
                 raise SettingsError(f'"{name}" must be true or false, got {v!r}')
         for name, allowed in (("indirect_mode", INDIRECT_MODES), ("filter", FILTERS),
-                              ("overlay_map", OVERLAY_MAPS)):
+                              ("overlay_map", OVERLAY_MAPS), ("integrator", INTEGRATORS)):
             v = getattr(self, name)
             if v not in allowed:
                 raise SettingsError(

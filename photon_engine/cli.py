@@ -2,8 +2,10 @@
 
 Does what ``blender -b SCENE.blend -E PHOTON_MAP -o OUT -f FRAMES`` does, with Blender as a
 Python module (bpy): register the engine before opening the file (otherwise the scene's
-engine falls back to EEVEE), select Photon Map, apply ``--set KEY=VALUE`` to
-``scene.photon_map``, then render each frame (``1``, ``1-3``, ``1..3``, ``1,3,5``) from its
+engine falls back to EEVEE), select Photon Map, apply ``--quality NAME`` (a preset of
+core/presets.py) and then ``--set KEY=VALUE`` to ``scene.photon_map`` (a --set of a
+setting the preset governs makes the quality Custom, keeping the preset's other values),
+then render each frame (``1``, ``1-3``, ``1..3``, ``1,3,5``) from its
 own depsgraph and write it to ``OUT`` with ``#`` expanded to the frame number. Unlike
 ``blender -b`` (which keeps the file's output format), the default format is a 32-bit float
 multilayer EXR holding every pass; ``-F PNG`` gives a display image.
@@ -43,6 +45,9 @@ def build_parser():
                              "comma list 1,3,5-8 (default: the file's current frame)")
     render.add_argument("-F", "--format", choices=FORMATS, default=FORMATS[0],
                         help="image format (default: %(default)s, 32-bit float, all passes)")
+    render.add_argument("--quality", metavar="NAME",
+                        help="a quality preset: draft, preview, final, converged (applied "
+                             "before --set; default: the file's own settings)")
     render.add_argument("--set", dest="settings", action="append", default=[],
                         metavar="KEY=VALUE",
                         help="a Photon Map setting (scene.photon_map.KEY), repeatable, "
@@ -104,6 +109,8 @@ def render_command(args, on_written=None):
     bpy.ops.wm.open_mainfile(filepath=blend)
     scene = bpy.context.scene
     scene.render.engine = 'PHOTON_MAP'
+    if getattr(args, "quality", None) is not None:
+        apply_quality(scene.photon_map, args.quality)
     apply_settings(scene.photon_map, overrides)
 
     frames = [scene.frame_current] if args.frames is None else args.frames
@@ -151,6 +158,15 @@ def parse_settings(pairs):
             raise CliError(f"--set expects KEY=VALUE, got {pair!r}")
         settings[key.strip()] = value.strip()
     return settings
+
+
+def apply_quality(props, name):
+    """Select the quality preset ``name``: its values go into the settings it governs."""
+    choices = [item.identifier for item in props.bl_rna.properties["quality"].enum_items
+               if item.identifier != 'custom']
+    if name not in choices:
+        raise CliError(f'--quality must be one of {", ".join(choices)}, got {name!r}')
+    props.quality = name
 
 
 def apply_settings(props, overrides):

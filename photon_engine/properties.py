@@ -5,11 +5,18 @@ Hard limits (``min``/``max``) mirror ``core.settings.RenderSettings.validated`` 
 never stores a value the core rejects; ``soft_max`` bounds the slider only. Enum
 identifiers are the core's strings (core.settings.INDIRECT_MODES, FILTERS); their items
 carry explicit indices so that a .blend keeps its choice if items are added.
+
+Quality (core/presets.py): choosing a preset writes its values into the settings it
+governs (``PRESET_FIELDS``); editing one of those by hand, from the UI or Python, turns
+Quality to Custom. Loading a .blend runs no update callback, so a file keeps both its
+Quality and its values. The presets' values are read from core.presets when this module
+is imported (at ``register()``), so the tooltips and defaults follow their tuning.
 """
 
 import bpy
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty
 
+from ..core.presets import DEFAULT_QUALITY, PRESET_FIELDS, PRESETS, QUALITIES
 from . import overlay
 
 INDIRECT_MODE_ITEMS = [
@@ -37,22 +44,89 @@ OVERLAY_MAP_ITEMS = [
     ('both', "Both", "Photons of both maps", 2),
 ]
 
+INTEGRATOR_ITEMS = [
+    ('photon_map', "Photon Map",
+     "Photon maps and final gathering: a fixed budget set by the photon counts, samples "
+     "and gather rays; every pass (Direct, Caustics, Indirect, ...) is produced", 0),
+    ('progressive', "Progressive (SPPM)",
+     "Stochastic progressive photon mapping: passes of photons refine the image until the "
+     "pass count or the time budget is used; converges to the right answer; Combined only", 1),
+]
+
+
+def preset_summary(values) -> str:
+    """A preset's cost in words, for its tooltip: "200k global + 100k caustic photons,
+    k 50, 16 samples, 64 gather rays"."""
+    def count(n):
+        return f"{n / 1e6:g}M" if n >= 1_000_000 else f"{n / 1e3:g}k" if n >= 1000 else str(n)
+
+    text = (f"{count(values['global_photons'])} global + {count(values['caustic_photons'])} "
+            f"caustic photons, k {values['global_k']}, {values['samples']} samples")
+    if values.get("indirect_mode", "final_gather") == "final_gather":
+        text += f", {values['final_gather_rays']} gather rays"
+    return text
+
+
+QUALITY_HINTS = {"draft": "Fastest, noisy", "preview": "A quick look",
+                 "final": "For final frames", "converged": "Reference quality, slow"}
+
+QUALITY_ITEMS = [
+    (name, name.capitalize(), f"{QUALITY_HINTS.get(name, name.capitalize())}: "
+     f"{preset_summary(PRESETS[name])}", i)
+    for i, name in enumerate(QUALITIES)
+] + [('custom', "Custom", "Hand-set values: editing a setting the presets govern selects this",
+      len(QUALITIES))]
+
+MAX_PROGRESSIVE_PASSES = 1 << 20  # core.settings.MAX_PROGRESSIVE_PASSES (kept equal by a test)
+MAX_PHOTONS_PER_PASS = 1 << 26  # core.settings.MAX_PHOTONS_PER_PASS
+MAX_TIME_BUDGET = 1e7  # core.settings.MAX_TIME_BUDGET, seconds
 MAX_RADIUS = 1e9  # core.settings.MAX_RADIUS (imported lazily there; kept equal by a test)
 MAX_DOT_RADIUS_PX = 32.0  # core.settings.MAX_DOT_RADIUS_PX (kept equal by a test)
 
 # Properties of scene.photon_map that the core never sees (not in setting_names()).
 VIEWPORT_ONLY = ("show_photons_in_viewport",)
+UI_ONLY = ("quality",)  # its values are in the governed settings the core does see
 
 
 def _update_passes(self, context):
-    """The Photons pass comes and goes with photon_debug_pass: re-list the passes."""
+    """Passes come and go with their switches and the integrator: re-list them."""
     view_layer = getattr(context, "view_layer", None)
     if view_layer is not None:
         view_layer.update_render_passes()
 
 
+# Set while a preset writes its values, so that those writes do not turn Quality to Custom.
+_applying_preset = False
+
+
+def _apply_quality(self, _context):
+    """Quality changed: write the chosen preset's values (Custom writes nothing)."""
+    global _applying_preset
+    if self.quality == 'custom' or _applying_preset:
+        return
+    _applying_preset = True
+    try:
+        for name, value in PRESETS[self.quality].items():
+            setattr(self, name, value)
+    finally:
+        _applying_preset = False
+
+
+def _governed_edited(self, _context):
+    """A setting a preset governs was set by hand: the values are now Custom."""
+    if not _applying_preset and self.quality != 'custom':
+        self.quality = 'custom'
+
+
 class PhotonMapRenderSettings(bpy.types.PropertyGroup):
     """Photon Map's per-scene render settings (defaults match core.settings.RenderSettings)."""
+
+    quality: EnumProperty(
+        name="Quality",
+        description="Preset photon counts, k, radii, final-gather rays and samples, chosen "
+                    "from measurements; editing one of them by hand selects Custom",
+        items=QUALITY_ITEMS, default=DEFAULT_QUALITY, update=_apply_quality,
+    )
 
     # Camera pass.
     samples: IntProperty(
@@ -193,6 +267,66 @@ class PhotonMapRenderSettings(bpy.types.PropertyGroup):
         default=False, update=overlay.update_toggle,
     )
 
+    # Output passes: a switched-off light pass is still in Combined, it only gets no image
+    # of its own (core.settings.RenderSettings.passes()).
+    pass_emission: BoolProperty(
+        name="Emission",
+        description="Emission pass: emitters, lights and emissive surfaces the camera sees",
+        default=True, update=_update_passes,
+    )
+    pass_environment: BoolProperty(
+        name="Environment",
+        description="Environment pass: the world background the camera sees",
+        default=True, update=_update_passes,
+    )
+    pass_direct: BoolProperty(
+        name="Direct",
+        description="Direct pass: light from the lights reflected at the first surface "
+                    "(shadow rays)",
+        default=True, update=_update_passes,
+    )
+    pass_specular: BoolProperty(
+        name="Specular",
+        description="Specular pass: everything seen through mirrors and glass",
+        default=True, update=_update_passes,
+    )
+    pass_caustics: BoolProperty(
+        name="Caustics",
+        description="Caustics pass: light focused by mirrors and glass, from the caustic map",
+        default=True, update=_update_passes,
+    )
+    pass_indirect: BoolProperty(
+        name="Indirect",
+        description="Indirect pass: indirect diffuse light (colour bleeding) from the global map",
+        default=True, update=_update_passes,
+    )
+
+    # Integrator and the progressive mode (core/sppm.py).
+    integrator: EnumProperty(
+        name="Integrator",
+        description="How the image is computed",
+        items=INTEGRATOR_ITEMS, default='photon_map', update=_update_passes,
+    )
+    progressive_passes: IntProperty(
+        name="Passes",
+        description="Progressive passes to run when there is no time budget; each traces "
+                    "Photons per Pass photons and shrinks every pixel's gather radius",
+        min=1, max=MAX_PROGRESSIVE_PASSES, soft_max=4096, default=64,
+    )
+    photons_per_pass: IntProperty(
+        name="Photons per Pass",
+        description="Photons emitted in each progressive pass; memory grows with this, "
+                    "not with the number of passes",
+        min=1, max=MAX_PHOTONS_PER_PASS, soft_max=2_000_000, default=100_000,
+    )
+    time_budget: FloatProperty(
+        name="Time Budget",
+        description="Seconds a progressive render may take, export included; it runs as "
+                    "many passes as fit and reports how many. 0 runs Passes passes",
+        min=0.0, max=MAX_TIME_BUDGET, soft_max=3600.0, default=0.0,
+        subtype='TIME_ABSOLUTE', unit='TIME_ABSOLUTE',
+    )
+
     @classmethod
     def register(cls):
         bpy.types.Scene.photon_map = PointerProperty(
@@ -205,6 +339,14 @@ class PhotonMapRenderSettings(bpy.types.PropertyGroup):
     def unregister(cls):
         del bpy.types.Scene.photon_map
 
+
+# Every setting a preset governs turns Quality to Custom when edited by hand.
+for _name in PRESET_FIELDS:
+    _deferred = PhotonMapRenderSettings.__annotations__[_name]
+    assert "update" not in _deferred.keywords, _name
+    PhotonMapRenderSettings.__annotations__[_name] = _deferred.function(
+        **_deferred.keywords, update=_governed_edited)
+del _name, _deferred
 
 classes = (PhotonMapRenderSettings,)
 
@@ -239,11 +381,22 @@ def to_core_settings(props):
         overlay_map=props.overlay_map,
         overlay_dot_radius=float(props.overlay_dot_radius),
         overlay_composite=bool(props.overlay_composite),
+        pass_emission=bool(props.pass_emission),
+        pass_environment=bool(props.pass_environment),
+        pass_direct=bool(props.pass_direct),
+        pass_specular=bool(props.pass_specular),
+        pass_caustics=bool(props.pass_caustics),
+        pass_indirect=bool(props.pass_indirect),
+        integrator=props.integrator,
+        progressive_passes=props.progressive_passes,
+        photons_per_pass=props.photons_per_pass,
+        time_budget=float(props.time_budget),
     )
 
 
 def setting_names():
     """Names of the user settings in ``scene.photon_map`` that reach the core (what the
-    CLI's ``--set`` accepts); the viewport-only ones (VIEWPORT_ONLY) are left out."""
+    CLI's ``--set`` accepts); the viewport-only ones (VIEWPORT_ONLY) and Quality
+    (UI_ONLY, the CLI's ``--quality``) are left out."""
     return tuple(p.identifier for p in PhotonMapRenderSettings.bl_rna.properties
-                 if p.identifier not in ("rna_type", "name") + VIEWPORT_ONLY)
+                 if p.identifier not in ("rna_type", "name") + VIEWPORT_ONLY + UI_ONLY)

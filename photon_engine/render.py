@@ -6,6 +6,13 @@ callback wired to Blender's progress bar, stats line and Esc, then write the pas
 the Render Result. Bad scenes and settings end as one ERROR report naming the problem
 (``bpy.ops.render.render`` raises ``RuntimeError("Error: <message>")``), never a traceback.
 
+The integrator is the setting's choice: photon maps + final gathering
+(``core.integrator.render``) or progressive SPPM (``core.sppm.render_progressive``, Combined
+only, passes until the pass count or the time budget is used). Long renders fill in: the
+Render Result is begun once (``ResultWriter``), partial images go to it with
+``engine.update_result`` (the integrator's throttled ``on_tile``; SPPM's ``on_pass``), and the
+final passes end it, also after Esc, which keeps what was rendered.
+
 Heavy imports (``core``: numba, embreex) happen inside the functions, at render time.
 """
 
@@ -26,19 +33,32 @@ EXTRA_PASSES = {
     "caustics": "Caustics",
     "indirect": "Indirect",
 }
-# The photon debug pass (core/debug_overlay.py): RGBA, registered only when switched on,
-# so it is not in EXTRA_PASSES (which are RGB and always there).
+# The photon debug pass (core/debug_overlay.py): RGBA, not part of Combined.
 DEBUG_PASS = ("photons", "Photons")
+
+PASS_UPDATE_SECONDS = 0.2
+"""Least time between two progressive images sent to Blender (very fast passes)."""
+
+
+def render_passes(props):
+    """The passes a render with settings ``props`` (``scene.photon_map``; None = defaults)
+    fills besides Combined: [(core name, Blender name, channels, channel ids)]. The light
+    passes switched on (``pass_*``), then Photons when the debug pass is on; none in
+    progressive mode, which produces Combined only."""
+    if props is not None and props.integrator == 'progressive':
+        return []
+    out = [(core_name, blender_name, 3, "RGB") for core_name, blender_name in EXTRA_PASSES.items()
+           if props is None or getattr(props, f"pass_{core_name}")]
+    if props is not None and props.photon_debug_pass:
+        out.append((*DEBUG_PASS, 4, "RGBA"))
+    return out
 
 
 def register_passes(engine, scene, view_layer):
     """``RenderEngine.update_render_passes``: declare the passes a render will fill."""
     engine.register_pass(scene, view_layer, "Combined", 4, "RGBA", 'COLOR')
-    for name in EXTRA_PASSES.values():
-        engine.register_pass(scene, view_layer, name, 3, "RGB", 'COLOR')
-    settings = getattr(scene, "photon_map", None)
-    if settings is not None and settings.photon_debug_pass:
-        engine.register_pass(scene, view_layer, DEBUG_PASS[1], 4, "RGBA", 'COLOR')
+    for _, name, channels, chan_id in render_passes(getattr(scene, "photon_map", None)):
+        engine.register_pass(scene, view_layer, name, channels, chan_id, 'COLOR')
 
 
 def render_frame(engine, depsgraph):
@@ -72,20 +92,96 @@ def _render(engine, depsgraph):
     for warning in exported.warnings:
         engine.report({'WARNING'}, warning)
 
-    output = integrator.render(exported.scene, settings, progress=progress_callback(engine))
-    show_in_viewport(output.photon_maps, settings.overlay_map)
-
-    # A cancelled render still delivers what it has, like Cycles.
-    write_passes(engine, depsgraph.view_layer.name, output.passes)
+    writer = ResultWriter(engine, depsgraph.view_layer.name)
+    try:
+        if settings.integrator == "progressive":
+            output = render_progressive(engine, exported.scene, settings, writer, started)
+        else:
+            output = integrator.render(exported.scene, settings,
+                                       progress=progress_callback(engine),
+                                       on_tile=lambda done, passes: writer.update(passes))
+            show_in_viewport(output.photon_maps, settings.overlay_map)
+        # A cancelled render still delivers what it has, like Cycles.
+        writer.finish(output.passes)
+    except BaseException:
+        writer.abort()
+        raise
     elapsed = time.perf_counter() - started
     state = "Cancelled" if output.cancelled else "Done"
-    summary = photon_summary(output.stats)
+    if settings.integrator == "progressive":
+        summary = progressive_report(output.stats, elapsed, settings.time_budget)
+        log = [summary]
+        engine.report({'INFO'}, f"Photon Map: {summary}")
+    else:
+        summary = photon_summary(output.stats)
+        log = photon_log(output.stats)
+        if settings.time_budget > 0:
+            log.append(f"time budget {settings.time_budget:g} s not used: the Photon Map "
+                       f"integrator's cost is set by its settings (Quality); the "
+                       f"Progressive integrator fits a time budget")
     engine.update_stats("", f"Photon Map | {state} in {elapsed:.2f} s | {summary}")
     print(f"Photon Map: {state.lower()} in {elapsed:.2f} s; {summary}")
-    for line in photon_log(output.stats):
+    for line in log:
         print(f"Photon Map: {line}")
     if not output.cancelled:
         engine.update_progress(1.0)
+
+
+def render_progressive(engine, scene, settings, writer, started):
+    """Progressive (SPPM) render of the exported ``scene``: each pass updates the image
+    (``writer``), the status shows "Pass k of n" and Esc stops after the pass running.
+
+    Without a time budget it runs ``settings.progressive_passes``. With one, the budget
+    counts from ``started`` (export included): SPPM gets what is left and runs passes
+    while the next one fits (judged by the mean pass time; at least one pass); the count
+    it reached is what the engine chose (``progressive_report``). Returns the RenderOutput.
+    """
+    from ..core import sppm
+    from ..core.settings import MAX_PROGRESSIVE_PASSES
+
+    budget = float(settings.time_budget)
+    if budget > 0:
+        passes = MAX_PROGRESSIVE_PASSES
+        remaining = max(budget - (time.perf_counter() - started), 1e-3)
+    else:
+        passes, remaining = settings.progressive_passes, None
+    seen = {"pass": 0, "shown": -float("inf")}
+
+    def on_pass(k, combined):
+        seen["pass"] = k
+        now = time.perf_counter()
+        if now - seen["shown"] >= PASS_UPDATE_SECONDS and k < passes:
+            writer.update({"combined": combined})
+            seen["shown"] = time.perf_counter()
+
+    def progress(fraction, _message):
+        k = seen["pass"]
+        if budget > 0:
+            elapsed = time.perf_counter() - started
+            fraction = min(elapsed / budget, 1.0)
+            # The passes that fit at the mean pass time so far: honest, and it settles.
+            fits = max(k, int(k * budget / max(elapsed, 1e-9)))
+            text = f"Pass {k} of ~{fits} (time budget {budget:g} s)"
+        else:
+            text = f"Pass {k} of {passes}"
+        engine.update_progress(fraction)
+        engine.update_stats("", f"Photon Map | Progressive: {text}")
+        return engine.test_break()
+
+    engine.update_stats("", "Photon Map | Progressive: pass 1 (visible points, photons)")
+    return sppm.render_progressive(scene, settings, passes, settings.photons_per_pass,
+                                   progress=progress, on_pass=on_pass, time_budget=remaining)
+
+
+def progressive_report(stats, elapsed, budget) -> str:
+    """What a progressive render chose and reached, for the status bar and the log:
+    "Progressive: 37 passes in 30.0 s (budget 30 s), radius 0.05 m -> 0.012 m (mean),
+    100,000 photons per pass". stats: ``core.sppm.render_progressive``'s."""
+    limit = f"budget {budget:g} s" if budget > 0 else "no time budget"
+    why = {"cancelled": ", stopped by Esc"}.get(stats.get("stopped_by"), "")
+    return (f"Progressive: {stats['passes']} passes in {elapsed:.1f} s ({limit}{why}), "
+            f"radius {stats['initial_radius']:.3g} m -> {stats['radius_mean']:.3g} m (mean), "
+            f"{stats['photons_per_pass']:,} photons per pass")
 
 
 def show_in_viewport(maps, which):
@@ -183,32 +279,58 @@ def progress_callback(engine):
     return progress
 
 
-def write_passes(engine, layer_name, passes):
-    """Write core images into a new Render Result for ``layer_name``.
+class ResultWriter:
+    """One render's Render Result for ``layer_name``: begun once (at the first image),
+    updated with partial images (``update`` -> ``engine.update_result``), ended once with
+    the final passes (``finish``) or discarded after an error (``abort``).
 
     passes: name -> (H, W, 3) float32 radiance, row 0 at the TOP (core convention);
-    "photons" (H, W, 4) RGBA goes to the Photons pass when that is registered.
+    "photons" (H, W, 4) RGBA goes to the Photons pass when that is registered; a pass
+    missing from ``passes`` (switched off, or not rendered yet) is left as it is.
     Blender's ``RenderPass.rect`` is (H*W, channels) with row 0 at the BOTTOM.
     """
-    combined = passes["combined"]
-    height, width = combined.shape[:2]
-    result = engine.begin_result(0, 0, width, height, layer=layer_name)
-    try:
-        layer = result.layers[0]
+
+    def __init__(self, engine, layer_name):
+        self.engine, self.layer_name, self.result = engine, layer_name, None
+
+    def update(self, passes):
+        """Show partial images (the unrendered pixels are 0)."""
+        self._write(passes)
+        self.engine.update_result(self.result)
+
+    def finish(self, passes):
+        """Write the final images and hand the result to Blender."""
+        self._write(passes)
+        result, self.result = self.result, None
+        self.engine.end_result(result)
+
+    def abort(self):
+        if self.result is not None:
+            result, self.result = self.result, None
+            self.engine.end_result(result, cancel=True)
+
+    def _write(self, passes):
+        combined = passes["combined"]
+        height, width = combined.shape[:2]
+        if self.result is None:
+            self.result = self.engine.begin_result(0, 0, width, height, layer=self.layer_name)
+        layer = self.result.layers[0]
         alpha = np.ones((height, width, 1), np.float32)
-        layer.passes["Combined"].rect = _to_rect(np.concatenate([combined, alpha], axis=2))
-        for core_name, blender_name in EXTRA_PASSES.items():
+        _set_rect(layer.passes["Combined"], np.concatenate([combined, alpha], axis=2))
+        for core_name, blender_name in (*EXTRA_PASSES.items(), DEBUG_PASS):
             if core_name in passes:
                 render_pass = layer.passes.get(blender_name)
                 if render_pass is not None:
-                    render_pass.rect = _to_rect(passes[core_name])
-        core_name, blender_name = DEBUG_PASS
-        if core_name in passes and layer.passes.get(blender_name) is not None:
-            layer.passes[blender_name].rect = _to_rect(passes[core_name])
-    finally:
-        engine.end_result(result)
+                    _set_rect(render_pass, passes[core_name])
 
 
-def _to_rect(image):
-    """(H, W, C) top-first image -> (H*W, C) contiguous float32, bottom row first."""
-    return np.ascontiguousarray(image[::-1], dtype=np.float32).reshape(-1, image.shape[2])
+def _set_rect(render_pass, image):
+    """Copy an (H, W, C) top-first image into ``render_pass.rect`` ((H*W, C), bottom row
+    first). ``rect.foreach_set`` copies the buffer in one go: measured with bpy 5.0.1 on a
+    640 x 480 RGBA pass, 0.8 ms against 0.5 s for ``rect = array`` (element by element)."""
+    rect = np.ascontiguousarray(image[::-1], dtype=np.float32).reshape(-1, image.shape[2])
+    target = render_pass.rect
+    if hasattr(target, "foreach_set"):
+        target.foreach_set(rect.ravel())
+    else:  # Blender before bpy_prop_array.foreach_set
+        render_pass.rect = rect

@@ -31,10 +31,54 @@ class PHOTON_MAP_RENDER_PT_sampling(PhotonMapPanel, bpy.types.Panel):
         layout.use_property_split = True
         layout.use_property_decorate = False
         settings = context.scene.photon_map
+        layout.prop(settings, "integrator")
+        layout.prop(settings, "quality")
         col = layout.column(align=True)
         col.prop(settings, "samples")
         col.prop(settings, "light_samples")
+        col.active = settings.integrator == 'photon_map'
         layout.prop(settings, "seed")
+
+
+class PHOTON_MAP_RENDER_PT_progressive(PhotonMapPanel, bpy.types.Panel):
+    """The progressive (SPPM) integrator: passes, photons per pass, time budget."""
+
+    bl_label = "Progressive"
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        settings = context.scene.photon_map
+        layout.active = settings.integrator == 'progressive'
+        col = layout.column(align=True)
+        col.prop(settings, "time_budget")
+        sub = col.column(align=True)
+        sub.prop(settings, "progressive_passes")
+        sub.active = settings.time_budget == 0.0
+        layout.prop(settings, "photons_per_pass")
+
+
+class PHOTON_MAP_VIEWLAYER_PT_passes(PhotonMapPanel, bpy.types.Panel):
+    """The passes a render produces, where Blender users look for them (View Layer
+    properties, as Cycles does). They are scene settings (``scene.photon_map.pass_*``),
+    shared by every view layer: one settings object, one translator, the CLI's --set."""
+
+    bl_label = "Passes"
+    bl_context = "view_layer"
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        settings = context.scene.photon_map
+        col = layout.column(heading="Light", align=True)
+        col.active = settings.integrator == 'photon_map'  # progressive: Combined only
+        for name in ("emission", "environment", "direct", "specular", "caustics", "indirect"):
+            col.prop(settings, f"pass_{name}")
+        col = layout.column(heading="Debug", align=True)
+        col.active = settings.integrator == 'photon_map'
+        col.prop(settings, "photon_debug_pass", text="Photons")
 
 
 class PHOTON_MAP_RENDER_PT_light_paths(PhotonMapPanel, bpy.types.Panel):
@@ -149,12 +193,14 @@ class PHOTON_MAP_OBJECT_PT_visibility(PhotonMapPanel, bpy.types.Panel):
 
 classes = (
     PHOTON_MAP_RENDER_PT_sampling,
+    PHOTON_MAP_RENDER_PT_progressive,
     PHOTON_MAP_RENDER_PT_light_paths,
     PHOTON_MAP_RENDER_PT_photons,
     PHOTON_MAP_RENDER_PT_indirect,
     PHOTON_MAP_RENDER_PT_performance,
     PHOTON_MAP_RENDER_PT_debug,
     PHOTON_MAP_OBJECT_PT_visibility,
+    PHOTON_MAP_VIEWLAYER_PT_passes,
 )
 
 # Engine-neutral panels (those listing 'BLENDER_RENDER') we do not want: previews need

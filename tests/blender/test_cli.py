@@ -100,3 +100,18 @@ def test_scene_error_exits_with_the_message(tmp_path):
     assert done.returncode == 1, done.stdout[-2000:]
     assert "Plane" in done.stderr and "Traceback" not in done.stderr
     assert not list(tmp_path.glob("nan_*"))
+
+
+def test_quality_and_progressive_settings_from_the_command_line(blend_file, tmp_path):
+    """--quality applies a preset, --set picks the progressive integrator and its pass
+    count, and the EXR then holds Combined only; the log says what the render chose."""
+    done = cli("render", blend_file, "-o", tmp_path / "p_####", "-f", 1, "--quality", "draft",
+               "--set", "integrator=progressive", "--set", "progressive_passes=2",
+               "--set", "photons_per_pass=1500")
+    assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
+    assert "Progressive: 2 passes in " in done.stdout and "1,500 photons per pass" in done.stdout
+    passes = scenes.read_multilayer_exr(tmp_path / "p_0001.exr")
+    assert set(passes) == {"Combined"} and passes["Combined"][..., :3].max() > 0
+    bad = cli("render", blend_file, "-o", tmp_path / "x_####", "--quality", "ultra", timeout=120)
+    assert bad.returncode == 1 and "--quality must be one of draft, preview, final, converged" in bad.stderr
+    assert "Traceback" not in bad.stderr

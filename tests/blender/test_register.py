@@ -91,6 +91,12 @@ def test_translator_carries_every_value(pm):
     assert (core.global_radius, core.caustic_radius) == (0.25, 0.125)
     assert (core.filter, core.indirect_mode, core.caustics, core.projection_map) == (
         'gaussian', 'preview', False, False)
+    props.pass_direct, props.pass_indirect, props.integrator = False, False, 'progressive'
+    props.progressive_passes, props.photons_per_pass, props.time_budget = 9, 321, 2.5
+    core = to_core_settings(props)
+    assert core.passes() == ("emission", "environment", "specular", "caustics")
+    assert (core.integrator, core.progressive_passes, core.photons_per_pass,
+            core.time_budget) == ('progressive', 9, 321, 2.5)
 
 
 def test_enum_items_are_the_core_choices(pm):
@@ -107,6 +113,16 @@ def test_enum_items_are_the_core_choices(pm):
     assert [i[3] for i in properties.INDIRECT_MODE_ITEMS] == [0, 1, 2]
     assert "Preview" in rna["indirect_mode"].enum_items["preview"].name
     assert properties.MAX_RADIUS == MAX_RADIUS
+    from photon_map.core import settings as core_settings, sppm
+
+    assert tuple(i.identifier for i in rna["integrator"].enum_items) == core_settings.INTEGRATORS
+    assert [i[3] for i in properties.INTEGRATOR_ITEMS] == [0, 1]
+    assert (properties.MAX_PROGRESSIVE_PASSES, properties.MAX_PHOTONS_PER_PASS,
+            properties.MAX_TIME_BUDGET) == (core_settings.MAX_PROGRESSIVE_PASSES,
+                                            core_settings.MAX_PHOTONS_PER_PASS,
+                                            core_settings.MAX_TIME_BUDGET)
+    assert (sppm.MAX_PASSES, sppm.MAX_PHOTONS_PER_PASS) == (
+        core_settings.MAX_PROGRESSIVE_PASSES, core_settings.MAX_PHOTONS_PER_PASS)
 
 
 def test_property_limits_are_the_core_limits(pm):
@@ -224,7 +240,7 @@ class RecordingLayout:
 
 def test_panels_draw_every_setting(pm):
     from photon_map.photon_engine import ui
-    from photon_map.photon_engine.properties import VIEWPORT_ONLY, setting_names
+    from photon_map.photon_engine.properties import UI_ONLY, VIEWPORT_ONLY, setting_names
 
     scene = bpy.context.scene
     light = scenes.add_light('POINT')
@@ -233,5 +249,5 @@ def test_panels_draw_every_setting(pm):
         context = _context('PHOTON_MAP', scene=scene, object=light)
         panel.draw(types.SimpleNamespace(layout=RecordingLayout(drawn)), context)
     shown = {name for data, name in drawn if data == scene.photon_map}
-    assert shown == set(setting_names()) | set(VIEWPORT_ONLY)
+    assert shown == set(setting_names()) | set(VIEWPORT_ONLY) | set(UI_ONLY)
     assert {"visible_camera", "visible_diffuse", "visible_glossy"} <= {n for _, n in drawn}

@@ -381,3 +381,83 @@ def test_emissive_panel_is_seen_and_lights_the_floor():
                 film_size=np.array([0.1, 0.1]), kind=CAMERA_ORTHOGRAPHIC)
     seen = integrator.render(Scene(scene.mesh, mats, Lights.empty(), up), RenderSettings(samples=1))
     np.testing.assert_allclose(seen.passes["emission"], np.broadcast_to([3.0, 2.0, 1.0], (2, 2, 3)))
+
+
+# --- pass selection and partial images (issue 6) -----------------------------------------------
+
+def test_switched_off_passes_are_neither_kept_nor_returned_but_stay_in_combined(cornell_render):
+    """Same seed, some passes off: the kept passes and combined are the very same images
+    (every term still reaches combined), the others are absent, and the tile loop kept
+    one accumulator for all of them instead of one each."""
+    off = ("emission", "specular", "indirect")
+    out = integrator.render(cornell(), RenderSettings(samples=8, seed=3).with_values(
+        **{f"pass_{name}": False for name in off}))
+    assert set(out.passes) == {"combined", "environment", "direct", "caustics"}
+    assert out.stats["passes_produced"] == ("environment", "direct", "caustics")
+    assert out.stats["pass_buffers"] == 4 and cornell_render.stats["pass_buffers"] == 6
+    for name in out.passes:
+        np.testing.assert_allclose(out.passes[name], cornell_render.passes[name],
+                                   rtol=1e-6, atol=1e-7, err_msg=name)
+    # Combined minus the kept passes is the sum of the switched-off ones.
+    rest = out.passes["combined"].astype(np.float64) - sum(
+        out.passes[k].astype(np.float64) for k in ("environment", "direct", "caustics"))
+    expected = sum(cornell_render.passes[k].astype(np.float64) for k in off)
+    np.testing.assert_allclose(rest, expected, rtol=1e-5, atol=1e-6)
+    assert "photons" not in out.passes and "time_overlay" not in out.stats
+
+
+def test_all_light_passes_off_keeps_only_combined():
+    scene = cornell(res=8)
+    base = RenderSettings(samples=2, seed=1, global_photons=2000, caustic_photons=2000,
+                          final_gather_rays=4)
+    none = integrator.render(scene, base.with_values(**{f"pass_{p}": False
+                                                        for p in integrator.PASSES}))
+    full = integrator.render(scene, base)
+    assert set(none.passes) == {"combined"} and none.stats["pass_buffers"] == 1
+    np.testing.assert_allclose(none.passes["combined"], full.passes["combined"], rtol=1e-6,
+                               atol=1e-7)
+
+
+def test_pass_switches_are_validated_by_name():
+    assert RenderSettings().passes() == integrator.PASSES
+    with pytest.raises(SettingsError, match='"pass_direct"'):
+        RenderSettings().with_values(pass_direct=1)
+    assert RenderSettings().with_strings({"pass_caustics": "off"}).passes() == (
+        "emission", "environment", "direct", "specular", "indirect")
+
+
+def test_on_tile_shows_the_image_filling_in(monkeypatch):
+    """Partial images: the rows done are the final pixels, the rest still 0; throttled
+    to one call per UPDATE_SECONDS and by the calls' cost (neither here: every tile but
+    the last)."""
+    monkeypatch.setattr(integrator, "TARGET_SAMPLES_PER_TILE", 64)
+    monkeypatch.setattr(integrator, "UPDATE_SECONDS", 0.0)
+    monkeypatch.setattr(integrator, "UPDATE_SHARE", float("inf"))  # no cost-based wait
+    scene = cornell(res=16)
+    settings = RenderSettings(samples=4, seed=2, global_photons=4000, caustic_photons=4000,
+                              final_gather_rays=8, pass_specular=False)
+    updates = []
+    out = integrator.render(scene, settings,
+                            on_tile=lambda done, passes: updates.append((done, passes)))
+    assert len(updates) == out.stats["tiles"] - 1 >= 2
+    assert [d for d, _ in updates] == sorted(d for d, _ in updates)
+    for done, passes in updates:
+        assert set(passes) == set(out.passes)
+        for name, image in passes.items():
+            flat, final = image.reshape(-1, 3), out.passes[name].reshape(-1, 3)
+            np.testing.assert_array_equal(flat[:done], final[:done], err_msg=name)
+            assert np.all(flat[done:] == 0), name
+    # Throttled by time: a long interval, no call in a quick render.
+    monkeypatch.setattr(integrator, "UPDATE_SECONDS", 3600.0)
+    few = []
+    integrator.render(scene, settings, on_tile=lambda d, p: few.append(d))
+    assert few == []
+    # ... and by cost: a callback taking 20 ms with a 50% share waits >= 40 ms after each.
+    monkeypatch.setattr(integrator, "UPDATE_SECONDS", 0.0)
+    monkeypatch.setattr(integrator, "UPDATE_SHARE", 0.5)
+    import time
+    stamps = []
+    out = integrator.render(scene, settings,
+                            on_tile=lambda d, p: stamps.append(time.perf_counter()) or time.sleep(0.02))
+    gaps = np.diff(stamps)
+    assert len(stamps) >= 2 and gaps.min() >= 0.04 - 1e-3, gaps
