@@ -179,7 +179,8 @@ def progressive_report(stats, elapsed, budget) -> str:
     100,000 photons per pass". stats: ``core.sppm.render_progressive``'s."""
     limit = f"budget {budget:g} s" if budget > 0 else "no time budget"
     why = {"cancelled": ", stopped by Esc"}.get(stats.get("stopped_by"), "")
-    return (f"Progressive: {stats['passes']} passes in {elapsed:.1f} s ({limit}{why}), "
+    count = f"{stats['passes']} pass{'' if stats['passes'] == 1 else 'es'}"
+    return (f"Progressive: {count} in {elapsed:.1f} s ({limit}{why}), "
             f"radius {stats['initial_radius']:.3g} m -> {stats['radius_mean']:.3g} m (mean), "
             f"{stats['photons_per_pass']:,} photons per pass")
 
