@@ -179,7 +179,8 @@ def progressive_report(stats, elapsed, budget) -> str:
     100,000 photons per pass". stats: ``core.sppm.render_progressive``'s."""
     limit = f"budget {budget:g} s" if budget > 0 else "no time budget"
     why = {"cancelled": ", stopped by Esc"}.get(stats.get("stopped_by"), "")
-    return (f"Progressive: {stats['passes']} passes in {elapsed:.1f} s ({limit}{why}), "
+    count = f"{stats['passes']} pass{'' if stats['passes'] == 1 else 'es'}"
+    return (f"Progressive: {count} in {elapsed:.1f} s ({limit}{why}), "
             f"radius {stats['initial_radius']:.3g} m -> {stats['radius_mean']:.3g} m (mean), "
             f"{stats['photons_per_pass']:,} photons per pass")
 
@@ -330,7 +331,9 @@ def _set_rect(render_pass, image):
     640 x 480 RGBA pass, 0.8 ms against 0.5 s for ``rect = array`` (element by element)."""
     rect = np.ascontiguousarray(image[::-1], dtype=np.float32).reshape(-1, image.shape[2])
     target = render_pass.rect
-    if hasattr(target, "foreach_set"):
+    try:
         target.foreach_set(rect.ravel())
-    else:  # Blender before bpy_prop_array.foreach_set
+    except (AttributeError, TypeError):
+        # Blender 3.4's foreach_set takes only the first dimension of a 2D array (it
+        # raises "expected sequence size H*W"); older ones have none: copy element-wise.
         render_pass.rect = rect

@@ -461,3 +461,14 @@ def test_on_tile_shows_the_image_filling_in(monkeypatch):
                             on_tile=lambda d, p: stamps.append(time.perf_counter()) or time.sleep(0.02))
     gaps = np.diff(stamps)
     assert len(stamps) >= 2 and gaps.min() >= 0.04 - 1e-3, gaps
+
+
+def test_progressive_settings_are_validated_by_name():
+    s = RenderSettings()
+    assert (s.integrator, s.time_budget) == ("photon_map", 0.0)
+    for name, bad in (("integrator", "sppm"), ("progressive_passes", 0),
+                      ("photons_per_pass", 1 << 27), ("time_budget", -1.0),
+                      ("time_budget", float("nan")), ("time_budget", True)):
+        with pytest.raises(SettingsError, match=f'"{name}"'):
+            s.with_values(**{name: bad})
+    assert s.with_strings({"integrator": "progressive", "time_budget": "2.5"}).time_budget == 2.5
