@@ -201,6 +201,36 @@ def test_alpha_quarter_plane_over_a_lit_floor_is_the_blend():
     np.testing.assert_allclose(beside, 0.8 * e, rtol=0.01)
 
 
+def test_image_alpha_into_principled_alpha_cuts_out():
+    """A 16 x 16 image, alpha 0 on its left half and 1 on its right, feeds both Base Color
+    and Alpha of a plane over a lit floor (sun straight down, E = 2): the floor shows,
+    fully lit, on the left; the plane's texel colour on the right."""
+    scene = scenes.reset()
+    scenes.set_resolution(RES, RES)
+    scenes.add_plane(size=4.0, material=scenes.diffuse_material("Floor", (0.8, 0.8, 0.8)))
+    img = bpy.data.images.new("Mask", 16, 16, alpha=True)
+    img.colorspace_settings.name = "Non-Color"
+    px = np.ones((16, 16, 4), np.float32)
+    px[..., :3] = (0.9, 0.3, 0.1)
+    px[:, :8, 3] = 0.0
+    img.pixels.foreach_set(px.ravel())
+    img.pixels.foreach_get(px.ravel())  # as stored (bytes / 255)
+    colour = px.reshape(16, 16, 4)[0, 15, :3].astype(np.float64)
+    mat = textured_material("Stencil", img, reroute=False)
+    nodes, links = mat.node_tree.nodes, mat.node_tree.links
+    links.new(nodes["Image Texture"].outputs["Alpha"], nodes["Principled BSDF"].inputs["Alpha"])
+    scenes.add_plane(size=2.0, location=(0.0, 0.0, 0.5), material=mat, name="Stencil")
+    sun = scenes.add_light('SUN', power=2.0)
+    sun.data.angle = 0.0
+    scenes.add_camera(location=(0.0, 0.0, 3.0), look_at=(0.0, 0.0, 0.0), ortho_scale=2.0)
+    im = render_photon_map(scene, samples=4, indirect_mode='off', caustics=False)
+    e = 2.0 / math.pi
+    # Columns 0..15 see x < 0 (alpha 0), 16..31 x > 0; bilinear blends around x = 0 and,
+    # by repeat wrapping, at the image's edges x = +-1: keep away from both.
+    np.testing.assert_allclose(im[:, 4:12].mean(axis=(0, 1)), 0.8 * e, rtol=1e-4)
+    np.testing.assert_allclose(im[:, 20:28].mean(axis=(0, 1)), colour * e, rtol=1e-4)
+
+
 def test_exporter_reports_unsupported_nodes_missing_images_and_reads_images_once():
     scene = scenes.reset()
     scenes.set_resolution(8, 8)
