@@ -39,6 +39,12 @@ hash of (seed, pixel, sample, dimension), and a pixel's samples are always trace
 tile and summed in sample order, so the image does not depend on tile sizes or threads.
 
 Ray offsets: ``geometry`` (eps proportional to the hit's coordinates plus the scene size).
+
+Textures and cut-outs (core/textures.py): the diffuse albedo at each batch of hits is
+``ctx.surfaces.albedo`` (textured where the material has an image, else the material's),
+passed as (N, 3) to the shading kernel and the photon terms. Camera rays pass cut-outs
+(opacity a < 1) with probability 1 - a without counting a bounce, so what is seen through
+a cut-out stays in its pass; shadow rays are attenuated by 1 - a per cut-out crossed.
 """
 
 from __future__ import annotations

@@ -51,6 +51,8 @@ statistics (N, R, tau, D: 8 float64 per pixel), whatever the number of passes.
 Determinism: camera numbers are hashes of (seed, pixel, pass, dimension) and photon
 numbers of (pass seed, photon, bounce, dimension) with pass seed a hash of (seed, pass).
 Glossy-only surfaces (no diffuse lobe) store no photons and end camera paths (black).
+Textures: the visible points carry the textured diffuse albedo of their hit; camera paths
+pass cut-outs stochastically like the integrator's (core/textures.py).
 """
 
 from __future__ import annotations

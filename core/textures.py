@@ -155,9 +155,8 @@ class SurfaceTextures:
         self.tex_of_mat = np.ascontiguousarray(mats.diffuse_texture_index(), np.int64)
         self.alpha_tex = np.ascontiguousarray(mats.alpha_texture_index(), np.int64)
         self.opacity_of_mat = np.ascontiguousarray(np.clip(mats.opacity(), 0.0, 1.0))
-        used = np.zeros(mats.count, bool)
-        if scene.mesh.triangle_count:
-            used[np.unique(scene.mesh.material_index)] = True
+        # Materials some triangle uses (bincount: O(T), no sort of millions of triangles).
+        used = np.bincount(scene.mesh.material_index, minlength=mats.count)[:mats.count] > 0
         self.textured = bool(np.any((self.tex_of_mat >= 0) & used))
         self.cutout = bool(np.any(((self.opacity_of_mat < 1.0) | (self.alpha_tex >= 0)) & used))
         self.tri_mat = np.ascontiguousarray(scene.mesh.material_index, np.int32)

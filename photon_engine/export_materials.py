@@ -430,12 +430,20 @@ class ImageTable:
 
     def index(self, image, where: str) -> int | None:
         if image is None:
-            self._warnings.append(f"{where} has no image; using grey {DEFAULT_GREY}")
+            msg = f"{where} has no image; using grey {DEFAULT_GREY}"
+            if msg not in self._warnings:
+                self._warnings.append(msg)
             return None
         image = getattr(image, "original", image) or image
         key = image.as_pointer()
         if key not in self._index:
             self._index[key] = self._read(image, where)
+        elif self._index[key] is None:
+            # Unreadable image used again: name this material and node too (once).
+            msg = (f'{where}: image "{image.name}" has no pixels (missing file?); '
+                   f"using grey {DEFAULT_GREY}")
+            if msg not in self._warnings:
+                self._warnings.append(msg)
         return self._index[key]
 
     def _read(self, image, where) -> int | None:
@@ -473,9 +481,8 @@ class ImageTable:
             rgba[..., :3] = srgb_to_linear(rgba[..., :3])
         np.clip(rgba, 0.0, None, out=rgba)
         rgba[~np.isfinite(rgba)] = 0.0
-        if getattr(image, "alpha_mode", "STRAIGHT") in ("NONE", "CHANNEL_PACKED") and channels == 4:
-            if image.alpha_mode == "NONE":
-                rgba[..., 3] = 1.0
+        if getattr(image, "alpha_mode", "STRAIGHT") == "NONE":
+            rgba[..., 3] = 1.0  # the image's alpha is ignored: opaque
         self._images.append(rgba)
         self._names.append(image.name)
         self._means.append(rgba[..., :3].reshape(-1, 3).mean(axis=0).astype(np.float64))

@@ -201,6 +201,36 @@ def test_alpha_quarter_plane_over_a_lit_floor_is_the_blend():
     np.testing.assert_allclose(beside, 0.8 * e, rtol=0.01)
 
 
+def test_image_alpha_into_principled_alpha_cuts_out():
+    """A 16 x 16 image, alpha 0 on its left half and 1 on its right, feeds both Base Color
+    and Alpha of a plane over a lit floor (sun straight down, E = 2): the floor shows,
+    fully lit, on the left; the plane's texel colour on the right."""
+    scene = scenes.reset()
+    scenes.set_resolution(RES, RES)
+    scenes.add_plane(size=4.0, material=scenes.diffuse_material("Floor", (0.8, 0.8, 0.8)))
+    img = bpy.data.images.new("Mask", 16, 16, alpha=True)
+    img.colorspace_settings.name = "Non-Color"
+    px = np.ones((16, 16, 4), np.float32)
+    px[..., :3] = (0.9, 0.3, 0.1)
+    px[:, :8, 3] = 0.0
+    img.pixels.foreach_set(px.ravel())
+    img.pixels.foreach_get(px.ravel())  # as stored (bytes / 255)
+    colour = px.reshape(16, 16, 4)[0, 15, :3].astype(np.float64)
+    mat = textured_material("Stencil", img, reroute=False)
+    nodes, links = mat.node_tree.nodes, mat.node_tree.links
+    links.new(nodes["Image Texture"].outputs["Alpha"], nodes["Principled BSDF"].inputs["Alpha"])
+    scenes.add_plane(size=2.0, location=(0.0, 0.0, 0.5), material=mat, name="Stencil")
+    sun = scenes.add_light('SUN', power=2.0)
+    sun.data.angle = 0.0
+    scenes.add_camera(location=(0.0, 0.0, 3.0), look_at=(0.0, 0.0, 0.0), ortho_scale=2.0)
+    im = render_photon_map(scene, samples=4, indirect_mode='off', caustics=False)
+    e = 2.0 / math.pi
+    # Columns 0..15 see x < 0 (alpha 0), 16..31 x > 0; bilinear blends around x = 0 and,
+    # by repeat wrapping, at the image's edges x = +-1: keep away from both.
+    np.testing.assert_allclose(im[:, 4:12].mean(axis=(0, 1)), 0.8 * e, rtol=1e-4)
+    np.testing.assert_allclose(im[:, 20:28].mean(axis=(0, 1)), colour * e, rtol=1e-4)
+
+
 def test_exporter_reports_unsupported_nodes_missing_images_and_reads_images_once():
     scene = scenes.reset()
     scenes.set_resolution(8, 8)
@@ -216,7 +246,10 @@ def test_exporter_reports_unsupported_nodes_missing_images_and_reads_images_once
     leaf.node_tree.links.new(noise.outputs["Color"], principled.inputs["Base Color"])
     leaf.node_tree.links.new(noise.outputs["Fac"], principled.inputs["Roughness"])
     missing = textured_material("Ghost", None)
-    for i, mat in enumerate((a, b, leaf, missing)):
+    lost = bpy.data.images.new("Lost", 4, 4)
+    lost.source, lost.filepath = 'FILE', "//no/such/lost.png"
+    lost_a, lost_b = textured_material("Lost A", lost), textured_material("Lost B", lost)
+    for i, mat in enumerate((a, b, leaf, missing, lost_a, lost_b)):
         scenes.add_plane(size=1.0, location=(2.0 * i, 0.0, 0.0), material=mat, name=f"P{i}")
     result = export(scene)
     tx = result.scene.textures
@@ -235,3 +268,45 @@ def test_exporter_reports_unsupported_nodes_missing_images_and_reads_images_once
     ghost = [w for w in result.warnings if "Ghost" in w]
     assert len(ghost) == 1 and 'node "Image Texture"' in ghost[0] and "no image" in ghost[0]
     assert not any("Bark" in w or "Moss" in w for w in result.warnings), result.warnings
+    for name in ("Lost A", "Lost B"):
+        msgs = [w for w in result.warnings if w.startswith(f'Material "{name}"')]
+        assert len(msgs) == 1 and 'image "Lost" has no pixels' in msgs[0], result.warnings
+        assert m.diffuse_texture[names.index(name)] == -1
+
+
+def test_transparent_mix_over_a_floor_matches_cycles():
+    """Mix Shader (Factor 0.25) of Transparent BSDF and a Diffuse BSDF on a plane over a lit
+    floor, sun straight down: the mean over the plane's pixels against Cycles (direct
+    light, transparent shadows) within 2 %."""
+    scene = scenes.reset()
+    scenes.set_resolution(RES, RES)
+    scenes.add_plane(size=4.0, material=scenes.diffuse_material("Floor", (0.8, 0.8, 0.8)))
+    mat = bpy.data.materials.new("Veil")
+    if mat.node_tree is None:
+        mat.use_nodes = True
+    nodes, links = mat.node_tree.nodes, mat.node_tree.links
+    nodes.clear()
+    clear = nodes.new('ShaderNodeBsdfTransparent')
+    diff = nodes.new('ShaderNodeBsdfDiffuse')
+    diff.inputs["Color"].default_value = (0.9, 0.3, 0.1, 1.0)
+    mix = nodes.new('ShaderNodeMixShader')
+    mix.inputs["Fac"].default_value = 0.25
+    out = nodes.new('ShaderNodeOutputMaterial')
+    links.new(clear.outputs[0], mix.inputs[1])
+    links.new(diff.outputs[0], mix.inputs[2])
+    links.new(mix.outputs[0], out.inputs["Surface"])
+    scenes.add_plane(size=1.0, location=(0.0, 0.0, 0.5), material=mat, name="Veil")
+    sun = scenes.add_light('SUN', power=2.0)
+    sun.data.angle = 0.0
+    scenes.add_camera(location=(0.0, 0.0, 3.0), look_at=(0.0, 0.0, 0.0), ortho_scale=2.0)
+    pm = render_photon_map(scene, samples=64, indirect_mode='off', caustics=False)
+    scene.render.engine = 'CYCLES'
+    c = scene.cycles
+    c.device, c.samples, c.use_denoising, c.use_adaptive_sampling = 'CPU', 64, False, False
+    c.diffuse_bounces = 0
+    scene.render.filter_size = 0.01
+    scene.view_settings.view_transform = 'Standard'
+    cy = scenes.render_passes(scene)["Combined"][..., :3].astype(np.float64)
+    a, b = pm[10:22, 10:22].mean(axis=(0, 1)), cy[10:22, 10:22].mean(axis=(0, 1))
+    print(f"\nthrough a 0.25 Transparent mix: PM {a}, Cycles {b}, ratio {np.round(a / b, 4)}")
+    np.testing.assert_allclose(a, b, rtol=0.02)

@@ -304,3 +304,23 @@ def test_cutout_with_photon_terms_matches_the_blend_in_sppm_and_final_gathering(
     a = fg.passes["combined"][:, 4:8].mean(axis=(0, 1))
     b = sp.passes["combined"][:, 4:8].mean(axis=(0, 1))
     np.testing.assert_allclose(a, b, rtol=0.05)
+
+
+def test_image_alpha_cuts_the_plane_out_where_it_is_zero():
+    """An 8 x 1 alpha mask (4 texels 0 for x < 0, 4 texels 1 for x > 0) on the green plane
+    of _cutout_scene: left of the blend zone the bare floor fully lit, right of it the
+    plane, all exact (no pass-through noise where the opacity is 0 or 1)."""
+    s = _cutout_scene()
+    mask = np.zeros((1, 8, 4), np.float32)
+    mask[..., 3] = [0, 0, 0, 0, 1, 1, 1, 1]
+    rows = [{"diffuse": [0.8] * 3}, {"diffuse": [0.9, 0.3, 0.1], "alpha_texture": 0}]
+    # the plane spans x in [-0.5, 0.5] -> u from texel centre 0 (1/16) to texel 7 (15/16)
+    mesh = planar_uvs(s.mesh, [-0.5 - 1 / 14, 0, 0], [8 / 7, 0, 0], [0, 1, 0])
+    scene = Scene(mesh, Materials.from_list(rows), s.lights, s.camera,
+                  textures=Textures.from_images([mask]))
+    d = integrator.render(scene, RenderSettings(samples=4, caustics=False,
+                                                indirect_mode="off")).passes["direct"]
+    e = 1.0 / np.pi
+    np.testing.assert_allclose(d[:, 4:7], np.broadcast_to(0.8 * e, d[:, 4:7].shape), rtol=1e-5)
+    np.testing.assert_allclose(d[:, 9:12], np.broadcast_to(np.array([0.9, 0.3, 0.1]) * e,
+                                                          d[:, 9:12].shape), rtol=1e-5)
