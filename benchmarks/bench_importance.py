@@ -51,12 +51,12 @@ def _with(scene: Scene, extra_parts=(), extra_lights=(), width=96, height=72) ->
                  Lights.from_list(rows), cam).validate()
 
 
-def scenes():
+def scenes(width=64, height=48):
     demo = demo_scene()
-    behind = _with(demo, extra_lights=[{"kind": LIGHT_POINT, "position": [0.3, -4.0, 1.5],
+    behind = _with(demo, width=width, height=height, extra_lights=[{"kind": LIGHT_POINT, "position": [0.3, -4.0, 1.5],
                                         "power": 20.0, "name": "Lamp behind the camera"}])
     room = shapes.box([2.5, -1, 0], [4.5, 1, 2], inward=True)
-    nextdoor = _with(demo, extra_parts=[(room, 0)],
+    nextdoor = _with(demo, width=width, height=height, extra_parts=[(room, 0)],
                      extra_lights=[{"kind": LIGHT_POINT, "position": [3.5, 0, 1.5], "power": 500.0,
                                     "name": "Lamp next room"}])
     return {"demo + lamp behind the camera": behind, "demo + lamp in the next room": nextdoor}
@@ -74,9 +74,13 @@ def main() -> None:
     ap.add_argument("--seeds", type=int, default=3)
     ap.add_argument("--pass-photons", type=int, default=1_000_000,
                     help="global photons of the cost measurement (caustic: a fifth)")
+    ap.add_argument("--scenes", default="behind,next", help="behind, next or both")
     args = ap.parse_args()
-    base = RenderSettings(samples=4, final_gather_rays=64, threads=2, seed=0)
-    for name, scene in scenes().items():
+    base = RenderSettings(samples=2, final_gather_rays=32, threads=2, seed=0)
+    wanted = args.scenes.split(",")
+    for key, (name, scene) in zip(("behind", "next"), scenes().items()):
+        if key not in wanted:
+            continue
         print(f"== {name}")
         # Cost: the pass with importance on, the pre-pass inside it.
         st = base.with_values(global_photons=args.pass_photons,
@@ -92,13 +96,13 @@ def main() -> None:
               f"{imp['time'] / work:.1%} of emission + tracing, "
               f"{imp['time'] / pm.stats['time_photons']:.1%} of the pass")
         for line in pm.stats["decisions"]:
-            print("   ", line)
+            print("   ", line, flush=True)
         # Gain: relMSE against the reference at equal photon count.
         t0 = time.perf_counter()
         ref = integrator.render(scene, base.with_values(
             global_photons=args.reference, caustic_photons=args.reference // 2,
             photon_importance=False)).passes["combined"]
-        print(f"reference ({args.reference:,} photons) {time.perf_counter() - t0:.1f} s")
+        print(f"reference ({args.reference:,} photons) {time.perf_counter() - t0:.1f} s", flush=True)
         errs = {True: [], False: []}
         for s in range(args.seeds):
             for on in (True, False):
@@ -106,8 +110,12 @@ def main() -> None:
                 # photons get a seed of their own through the map.
                 st = base.with_values(global_photons=args.photons,
                                       caustic_photons=args.photons // 2, photon_importance=on)
+                t0 = time.perf_counter()
                 out = integrator.render(scene, _photon_seed(st, s))
+                dt = time.perf_counter() - t0
                 errs[on].append(rel_mse(out.passes["combined"], ref))
+                print(f"  seed {s} importance {'on ' if on else 'off'}: relMSE {errs[on][-1]:.5f}, "
+                      f"{dt:.1f} s", flush=True)
         on, off = np.mean(errs[True]), np.mean(errs[False])
         print(f"relMSE at {args.photons:,} photons: importance on {on:.5f}, off {off:.5f} "
               f"(off / on = {off / on:.2f}); per seed on {np.round(errs[True], 5).tolist()}, "
