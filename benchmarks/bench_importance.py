@@ -1,19 +1,21 @@
 """What photon importance costs and what it gains (core/importance.py).
 
-    .venv/bin/python benchmarks/bench_importance.py [--photons 200000] [--reference 4000000]
+    .venv/bin/python benchmarks/bench_importance.py [--photons 100000] [--reference 2000000]
+        [--pass-photons 1000000] [--scenes behind,next]
 
-Scenes (arrays, no Blender):
-- demo: the demo's Cornell box (bench_photons.demo_scene) with a second light, a 20 W
-  point lamp behind the camera shining in through the open front: both lights matter.
-- next room: the demo plus a closed 2 m room 3 m to its right with a 500 W lamp inside
+Scenes (arrays, no Blender), 64 x 48, 2 samples, 32 final-gather rays:
+- behind: the demo's Cornell box (bench_photons.demo_scene) with a second light, a 20 W
+  point lamp behind the camera shining in through the open front;
+- next: the demo plus a closed 2 m room 1.5 m to its right with a 500 W lamp inside
   (light the camera never sees, ten times the demo light's power).
 
-For each: the photon pass with importance on (its pre-pass time: camera rays and pilot
-photons) against the pass itself; then renders at --photons global and caustic photons
-with importance on and off, and a reference at --reference photons (importance off),
-all with the same camera seed, so the differences are the photon maps' error:
-relMSE = mean((a - b)^2 / (b^2 + 0.01)) over pixels and channels of the combined image.
-Repeated over --seeds photon seeds (the relMSE is averaged).
+For each: the photon pass with importance on (--pass-photons global, a fifth as many
+caustic): its pre-pass time (camera rays, pilot photons) against the pass; then renders
+at --photons global photons (half as many caustic) with importance on and off and off
+at 4x the photons, against a reference at --reference photons (importance off), all
+with seed 0, so they differ from the reference by their photon maps only:
+relMSE = mean((a - b)^2 / (b^2 + 0.01)) over pixels and channels, for the combined image
+and the indirect and caustics passes.
 """
 
 from __future__ import annotations
@@ -71,7 +73,6 @@ def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--photons", type=int, default=200_000)
     ap.add_argument("--reference", type=int, default=4_000_000)
-    ap.add_argument("--seeds", type=int, default=3)
     ap.add_argument("--pass-photons", type=int, default=1_000_000,
                     help="global photons of the cost measurement (caustic: a fifth)")
     ap.add_argument("--scenes", default="behind,next", help="behind, next or both")
@@ -97,35 +98,23 @@ def main() -> None:
               f"{imp['time'] / pm.stats['time_photons']:.1%} of the pass")
         for line in pm.stats["decisions"]:
             print("   ", line, flush=True)
-        # Gain: relMSE against the reference at equal photon count.
+        # Gain: relMSE against the reference at equal photon count. The seed drives the
+        # camera samples too: seed 0 everywhere, so the renders differ from the reference
+        # by their photon maps only.
         t0 = time.perf_counter()
         ref = integrator.render(scene, base.with_values(
             global_photons=args.reference, caustic_photons=args.reference // 2,
-            photon_importance=False)).passes["combined"]
+            photon_importance=False)).passes
         print(f"reference ({args.reference:,} photons) {time.perf_counter() - t0:.1f} s", flush=True)
-        errs = {True: [], False: []}
-        for s in range(args.seeds):
-            for on in (True, False):
-                # The camera seed stays 0 (same camera samples as the reference); the
-                # photons get a seed of their own through the map.
-                st = base.with_values(global_photons=args.photons,
-                                      caustic_photons=args.photons // 2, photon_importance=on)
-                t0 = time.perf_counter()
-                out = integrator.render(scene, _photon_seed(st, s))
-                dt = time.perf_counter() - t0
-                errs[on].append(rel_mse(out.passes["combined"], ref))
-                print(f"  seed {s} importance {'on ' if on else 'off'}: relMSE {errs[on][-1]:.5f}, "
-                      f"{dt:.1f} s", flush=True)
-        on, off = np.mean(errs[True]), np.mean(errs[False])
-        print(f"relMSE at {args.photons:,} photons: importance on {on:.5f}, off {off:.5f} "
-              f"(off / on = {off / on:.2f}); per seed on {np.round(errs[True], 5).tolist()}, "
-              f"off {np.round(errs[False], 5).tolist()}")
-
-
-def _photon_seed(st: RenderSettings, s: int) -> RenderSettings:
-    """The settings with photon seed s: the seed drives camera and photons alike, so the
-    camera noise changes too; s = 0 keeps the reference's camera samples."""
-    return st.with_values(seed=s)
+        for n, on in ((args.photons, True), (args.photons, False), (4 * args.photons, False)):
+            st = base.with_values(global_photons=n, caustic_photons=n // 2, photon_importance=on)
+            t0 = time.perf_counter()
+            out = integrator.render(scene, st)
+            dt = time.perf_counter() - t0
+            errs = ", ".join(f"{p} {rel_mse(out.passes[p], ref[p]):.5f}"
+                             for p in ("combined", "indirect", "caustics"))
+            print(f"  {n:,} + {n // 2:,} photons, importance {'on ' if on else 'off'}: relMSE "
+                  f"{errs}; {dt:.1f} s", flush=True)
 
 
 if __name__ == "__main__":
