@@ -1,19 +1,21 @@
 """What photon importance costs and what it gains (core/importance.py).
 
-    .venv/bin/python benchmarks/bench_importance.py [--photons 200000] [--reference 4000000]
+    .venv/bin/python benchmarks/bench_importance.py [--photons 100000] [--reference 2000000]
+        [--pass-photons 1000000] [--scenes behind,next]
 
-Scenes (arrays, no Blender):
-- demo: the demo's Cornell box (bench_photons.demo_scene) with a second light, a 20 W
-  point lamp behind the camera shining in through the open front: both lights matter.
-- next room: the demo plus a closed 2 m room 3 m to its right with a 500 W lamp inside
+Scenes (arrays, no Blender), 64 x 48, 2 samples, 32 final-gather rays:
+- behind: the demo's Cornell box (bench_photons.demo_scene) with a second light, a 20 W
+  point lamp behind the camera shining in through the open front;
+- next: the demo plus a closed 2 m room 1.5 m to its right with a 500 W lamp inside
   (light the camera never sees, ten times the demo light's power).
 
-For each: the photon pass with importance on (its pre-pass time: camera rays and pilot
-photons) against the pass itself; then renders at --photons global and caustic photons
-with importance on and off, and a reference at --reference photons (importance off),
-all with the same camera seed, so the differences are the photon maps' error:
-relMSE = mean((a - b)^2 / (b^2 + 0.01)) over pixels and channels of the combined image.
-Repeated over --seeds photon seeds (the relMSE is averaged).
+For each: the photon pass with importance on (--pass-photons global, a fifth as many
+caustic): its pre-pass time (camera rays, pilot photons) against the pass; then renders
+at --photons global photons (half as many caustic) with importance on and off and off
+at 4x the photons, against a reference at --reference photons (importance off), all
+with seed 0, so they differ from the reference by their photon maps only:
+relMSE = mean((a - b)^2 / (b^2 + 0.01)) over pixels and channels, for the combined image
+and the indirect and caustics passes.
 """
 
 from __future__ import annotations
@@ -51,12 +53,12 @@ def _with(scene: Scene, extra_parts=(), extra_lights=(), width=96, height=72) ->
                  Lights.from_list(rows), cam).validate()
 
 
-def scenes():
+def scenes(width=64, height=48):
     demo = demo_scene()
-    behind = _with(demo, extra_lights=[{"kind": LIGHT_POINT, "position": [0.3, -4.0, 1.5],
+    behind = _with(demo, width=width, height=height, extra_lights=[{"kind": LIGHT_POINT, "position": [0.3, -4.0, 1.5],
                                         "power": 20.0, "name": "Lamp behind the camera"}])
     room = shapes.box([2.5, -1, 0], [4.5, 1, 2], inward=True)
-    nextdoor = _with(demo, extra_parts=[(room, 0)],
+    nextdoor = _with(demo, width=width, height=height, extra_parts=[(room, 0)],
                      extra_lights=[{"kind": LIGHT_POINT, "position": [3.5, 0, 1.5], "power": 500.0,
                                     "name": "Lamp next room"}])
     return {"demo + lamp behind the camera": behind, "demo + lamp in the next room": nextdoor}
@@ -71,12 +73,15 @@ def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--photons", type=int, default=200_000)
     ap.add_argument("--reference", type=int, default=4_000_000)
-    ap.add_argument("--seeds", type=int, default=3)
     ap.add_argument("--pass-photons", type=int, default=1_000_000,
                     help="global photons of the cost measurement (caustic: a fifth)")
+    ap.add_argument("--scenes", default="behind,next", help="behind, next or both")
     args = ap.parse_args()
-    base = RenderSettings(samples=4, final_gather_rays=64, threads=2, seed=0)
-    for name, scene in scenes().items():
+    base = RenderSettings(samples=2, final_gather_rays=32, threads=2, seed=0)
+    wanted = args.scenes.split(",")
+    for key, (name, scene) in zip(("behind", "next"), scenes().items()):
+        if key not in wanted:
+            continue
         print(f"== {name}")
         # Cost: the pass with importance on, the pre-pass inside it.
         st = base.with_values(global_photons=args.pass_photons,
@@ -92,32 +97,24 @@ def main() -> None:
               f"{imp['time'] / work:.1%} of emission + tracing, "
               f"{imp['time'] / pm.stats['time_photons']:.1%} of the pass")
         for line in pm.stats["decisions"]:
-            print("   ", line)
-        # Gain: relMSE against the reference at equal photon count.
+            print("   ", line, flush=True)
+        # Gain: relMSE against the reference at equal photon count. The seed drives the
+        # camera samples too: seed 0 everywhere, so the renders differ from the reference
+        # by their photon maps only.
         t0 = time.perf_counter()
         ref = integrator.render(scene, base.with_values(
             global_photons=args.reference, caustic_photons=args.reference // 2,
-            photon_importance=False)).passes["combined"]
-        print(f"reference ({args.reference:,} photons) {time.perf_counter() - t0:.1f} s")
-        errs = {True: [], False: []}
-        for s in range(args.seeds):
-            for on in (True, False):
-                # The camera seed stays 0 (same camera samples as the reference); the
-                # photons get a seed of their own through the map.
-                st = base.with_values(global_photons=args.photons,
-                                      caustic_photons=args.photons // 2, photon_importance=on)
-                out = integrator.render(scene, _photon_seed(st, s))
-                errs[on].append(rel_mse(out.passes["combined"], ref))
-        on, off = np.mean(errs[True]), np.mean(errs[False])
-        print(f"relMSE at {args.photons:,} photons: importance on {on:.5f}, off {off:.5f} "
-              f"(off / on = {off / on:.2f}); per seed on {np.round(errs[True], 5).tolist()}, "
-              f"off {np.round(errs[False], 5).tolist()}")
-
-
-def _photon_seed(st: RenderSettings, s: int) -> RenderSettings:
-    """The settings with photon seed s: the seed drives camera and photons alike, so the
-    camera noise changes too; s = 0 keeps the reference's camera samples."""
-    return st.with_values(seed=s)
+            photon_importance=False)).passes
+        print(f"reference ({args.reference:,} photons) {time.perf_counter() - t0:.1f} s", flush=True)
+        for n, on in ((args.photons, True), (args.photons, False), (4 * args.photons, False)):
+            st = base.with_values(global_photons=n, caustic_photons=n // 2, photon_importance=on)
+            t0 = time.perf_counter()
+            out = integrator.render(scene, st)
+            dt = time.perf_counter() - t0
+            errs = ", ".join(f"{p} {rel_mse(out.passes[p], ref[p]):.5f}"
+                             for p in ("combined", "indirect", "caustics"))
+            print(f"  {n:,} + {n // 2:,} photons, importance {'on ' if on else 'off'}: relMSE "
+                  f"{errs}; {dt:.1f} s", flush=True)
 
 
 if __name__ == "__main__":

@@ -9,12 +9,17 @@ runs per photon.
 Maps (flux in watts per stored photon: a map's flux summed over a region / area =
 irradiance, W/m^2):
 - global: photons emitted unaimed (``global_photons`` of them, shared between the sources
-  in proportion to their power), stored at every hit on a surface with a diffuse lobe;
+  in proportion to their power, times their importance), stored at every hit on a surface with a diffuse lobe;
   with ``include_direct=False`` only after at least one diffuse bounce.
 - caustic: photons aimed at the specular objects (projection map, ``caustic_photons``),
   stored at the first diffuse hit of paths light -> specular+ -> diffuse.
 
-What is skipped and why is listed in ``stats["decisions"]``.
+With more than one source, each map's photons are shared by power x visual importance
+(``photon_importance``; core/importance.py: a camera pre-pass and pilot photons), still
+unbiased: every photon's flux is divided by its own source's count.
+
+What is skipped and why, and how many photons each source gets, is listed in
+``stats["decisions"]``, one line each (the render log prints them).
 
 Determinism: a photon's random numbers are counter hashes of (seed, map, source, photon
 index, bounce), so the maps do not depend on chunk sizes or threads; the stored photons

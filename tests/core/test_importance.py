@@ -164,3 +164,23 @@ def test_importance_does_not_bias_the_image(term):
     noise_mean = abs(off.mean() - off2.mean())
     assert abs(on.mean() - off.mean()) <= max(2 * noise_mean, 0.02 * off.mean())
     assert block_rms(on, off) <= 2 * block_rms(off, off2)
+
+
+def test_view_grid_matches_brute_force():
+    # The hash-grid neighbour test against all pairs: within the radius and on the
+    # visible side of at least one visible point.
+    rng = np.random.default_rng(5)
+    vp = rng.uniform(-1, 1, (400, 3))
+    ng = rng.normal(size=(400, 3))
+    ng /= np.linalg.norm(ng, axis=1, keepdims=True)
+    ph = rng.uniform(-1.2, 1.2, (3000, 3))
+    wd = rng.normal(size=(3000, 3))
+    wd /= np.linalg.norm(wd, axis=1, keepdims=True)
+    r = 0.15
+    grid = importance.ViewGrid(importance.VisibleView(vp, ng, 400, 0.0), r)
+    got = grid.near(ph, wd)
+    d2 = np.sum((ph[:, None, :] - vp[None, :, :]) ** 2, axis=2)
+    front = wd @ ng.T > 0
+    want = np.any((d2 <= r * r) & front, axis=1)
+    assert want.sum() > 100 and (~want).sum() > 100
+    np.testing.assert_array_equal(got, want)
