@@ -221,7 +221,9 @@ def photon_log(stats) -> list[str]:
     """Lines for the render log: the tracer's decisions, the radii, the photon timings."""
     lines = list(stats.get("photon_maps", {}).get("decisions", []))
     for term, why in stats.get("skipped", {}).items():
-        lines.append(f"{term} not rendered: {why}")
+        # The tracer already logged most reasons ("caustic map: skipped, <why>"): once is enough.
+        if not any(why in line for line in lines):
+            lines.append(f"{term} not rendered: {why}")
     for key, label in (("caustic", "caustic"), ("global", "global")):
         if stats.get(f"{key}_photons_stored"):
             lines.append(f"{label} map: {stats[f'{key}_photons_stored']:,} photons stored, "
