@@ -313,6 +313,7 @@ def load_reference(name, resolution) -> dict | None:
 
 def make_reference(name, resolution, pm: PhotonMap) -> dict:
     t0 = time.perf_counter()
+    stamp = fingerprint(name, resolution)  # before the long render (the source may change)
     scene = SCENES[name](resolution)
     extra = {}
     if name == "caustic":
@@ -339,7 +340,7 @@ def make_reference(name, resolution, pm: PhotonMap) -> dict:
         extra = dict(method=np.str_(f"Cycles 2 x {REF_SAMPLES} samples, {BOUNCES} bounces"))
     data = dict(image=image.astype(np.float32), image_a=a.astype(np.float32),
                 image_b=b.astype(np.float32),
-                fingerprint=np.str_(fingerprint(name, resolution)),
+                fingerprint=np.str_(stamp),
                 command=np.str_(regenerate_command(name, resolution)),
                 blender=np.str_(bpy.app.version_string),
                 seconds=np.float64(time.perf_counter() - t0), **extra)
@@ -475,10 +476,16 @@ def write_docs(rows, refs, command, seconds):
     import os
 
     load = os.getloadavg()
+    cpu = platform.machine()
+    try:
+        cpu = next(line.split(":", 1)[1].strip() for line in open("/proc/cpuinfo")
+                   if line.startswith("model name"))
+    except (OSError, StopIteration):
+        pass
     lines = [BEGIN, "",
              f"Command: `{command}`  ",
              f"Date: {datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M} UTC; "
-             f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores "
+             f"machine: {cpu}, {os.cpu_count()} cores "
              f"shared with other jobs (load average at the end "
              f"{load[0]:.1f} / {load[1]:.1f} / {load[2]:.1f}), Blender {bpy.app.version_string}; "
              f"the run took {seconds / 60:.0f} min.",
@@ -544,8 +551,9 @@ def main(argv=None):
     samples = QUICK_CYCLES_SAMPLES if args.quick else CYCLES_SAMPLES
     refs, rows = {}, []
     print("| scene | method | wall s | relMSE | mean ratio |\n|---|---|---:|---:|---:|", flush=True)
-    for n in names:
+    for n in names:  # all first: fingerprints read this file's source, which may change later
         refs[n] = reference(n, res[n], pm, make=not args.no_make)
+    for n in names:
         rows += measure_scene(n, res[n], pm, qualities, marks, samples, refs[n])
     print()
     print(table(rows))
