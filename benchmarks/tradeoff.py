@@ -5,7 +5,8 @@ measured against converged references on four scenes built with bpy.
     .venv/bin/python benchmarks/tradeoff.py --scenes demo --quick # a short development run
     .venv/bin/python benchmarks/tradeoff.py --make-references [--scenes ...] [--resolution WxH]
 
---write-docs rewrites the generated block of docs/tradeoff.md and docs/images/tradeoff_*.png.
+--write-docs rewrites the generated block of docs/tradeoff.md and docs/images/tradeoff_<scene>.png;
+--strip draws docs/images/tradeoff_presets.png (each preset's image beside the reference).
 
 Scenes (SCENES): ``demo`` (the Cornell box of examples/cornell_box.py: mirror and glass
 spheres, a small area light), ``caustic`` (a glass sphere on a floor under a small area
@@ -467,6 +468,32 @@ def figure(rows, name, ref, path):
     plt.close(fig)
 
 
+def preset_strip(names, res, pm, path):
+    """One row per scene: every preset's image and the reference, the same exposure
+    (the reference's 99th percentile -> white, gamma 2.2), nearest-neighbour pixels."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    qualities = pm.presets.QUALITIES
+    fig, axs = plt.subplots(len(names), len(qualities) + 1, squeeze=False,
+                            figsize=(2.6 * (len(qualities) + 1), 2.2 * len(names)))
+    for row, name in zip(axs, names):
+        ref = reference(name, res[name], pm, make=False)
+        SCENES[name](res[name])
+        images = [(q.title(), pm.preset(q)[0]) for q in qualities]
+        images.append(("reference", ref["image"]))
+        white = float(np.percentile(ref["image"], 99))
+        for ax, (title, image) in zip(row, images):
+            ax.imshow(np.clip(image / white, 0, 1) ** (1 / 2.2), interpolation="nearest")
+            ax.set_title(f"{name}: {title}", fontsize=8)
+            ax.axis("off")
+    fig.tight_layout()
+    fig.savefig(path, dpi=80)
+    plt.close(fig)
+
+
 BEGIN, END = "<!-- tradeoff:begin (benchmarks/tradeoff.py --write-docs) -->", \
     "<!-- tradeoff:end -->"
 
@@ -531,6 +558,9 @@ def main(argv=None):
     ap.add_argument("--write-docs", action="store_true",
                     help="write docs/tradeoff.md's table and docs/images/tradeoff_*.png")
     ap.add_argument("--json", default=None, help="also save the rows as JSON here")
+    ap.add_argument("--strip", action="store_true",
+                    help="only draw docs/images/tradeoff_presets.png (each preset's image "
+                         "and the reference, per scene), then stop")
     args = ap.parse_args(argv)
     names = [n for n in args.scenes.split(",") if n]
     for n in names:
@@ -541,6 +571,9 @@ def main(argv=None):
     started = time.perf_counter()
     pm = PhotonMap()
     pm.warm_up()
+    if args.strip:
+        preset_strip(names, res, pm, DOCS / "images" / "tradeoff_presets.png")
+        return
     if args.make_references:
         for n in names:
             reference(n, res[n], pm, force=True)
