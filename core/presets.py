@@ -28,9 +28,9 @@ PRESETS: dict[str, dict] = {
     "final": dict(samples=32, global_photons=500_000, caustic_photons=500_000, global_k=100,
                   caustic_k=100, global_radius=0.0, caustic_radius=0.0, final_gather_rays=256,
                   indirect_mode="final_gather"),
-    "converged": dict(samples=128, global_photons=2_000_000, caustic_photons=2_000_000,
-                      global_k=200, caustic_k=200, global_radius=0.0, caustic_radius=0.0,
-                      final_gather_rays=1024, indirect_mode="final_gather"),
+    "converged": dict(samples=64, global_photons=1_000_000, caustic_photons=1_000_000,
+                      global_k=150, caustic_k=150, global_radius=0.0, caustic_radius=0.0,
+                      final_gather_rays=512, indirect_mode="final_gather"),
 }
 """name -> the RenderSettings values the preset sets (every preset sets the same keys)."""
 
