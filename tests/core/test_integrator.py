@@ -452,15 +452,33 @@ def test_on_tile_shows_the_image_filling_in(monkeypatch):
     few = []
     integrator.render(scene, settings, on_tile=lambda d, p: few.append(d))
     assert few == []
-    # ... and by cost: a callback taking 20 ms with a 50% share waits >= 40 ms after each.
+    # ... and by cost: a callback taking 50 ms with a 50% share waits >= 100 ms after each.
+    # On a clock of the test's own (each reading 0.1 ms later, a few ms a tile; the
+    # callback 50 ms more), so the gaps do not depend on how fast this machine renders.
+    # Unthrottled by cost, a gap would be one callback and one tile: well under 100 ms.
+    class Clock:
+        now = 0.0
+
+        def perf_counter(self):
+            self.now += 1e-4
+            return self.now
+
+    clock = Clock()
+    monkeypatch.setattr(integrator, "time", clock)
     monkeypatch.setattr(integrator, "UPDATE_SECONDS", 0.0)
     monkeypatch.setattr(integrator, "UPDATE_SHARE", 0.5)
-    import time
+    monkeypatch.setattr(integrator, "TARGET_SAMPLES_PER_TILE", 8)  # tiles of <= 8 pixels: many
     stamps = []
-    out = integrator.render(scene, settings,
-                            on_tile=lambda d, p: stamps.append(time.perf_counter()) or time.sleep(0.02))
+
+    def slow_callback(done, passes):
+        stamps.append(clock.perf_counter())
+        clock.now += 0.05
+
+    out = integrator.render(scene, settings, on_tile=slow_callback)
     gaps = np.diff(stamps)
-    assert len(stamps) >= 2 and gaps.min() >= 0.04 - 1e-3, gaps
+    assert len(stamps) >= 2 and gaps.min() >= 0.1, gaps
+    # ... and not a second wait longer.
+    assert gaps.max() < 0.2, gaps
 
 
 def test_progressive_settings_are_validated_by_name():
