@@ -63,7 +63,12 @@ CONE_K = 1.1
 QUERY_CHUNK = 1 << 16
 """Queries per nearest-neighbour call (bounds the (M, k) neighbour arrays)."""
 CACHE_FRACTION = 0.25
-"""Radiance-cache points per stored global photon (Christensen's precomputation)."""
+"""Most radiance-cache points per stored global photon (Christensen's precomputation)."""
+CACHE_POINTS_PER_DISC = 50.0
+"""Radiance-cache points per gather disc (area pi r^2 of the global radius): about r/4
+apart. The cached estimate is smooth at the scale r, so a denser cache only costs k-NN
+searches; with the automatic radius this is CACHE_FRACTION x stored photons at k = 50
+and falls as 1/k above it."""
 CACHE_NEIGHBOURS = 4
 """Cache entries examined per gather hit (the nearest with a compatible normal is used)."""
 CACHE_MIN_COS = 0.5
@@ -225,10 +230,19 @@ def _cache_points_kernel(tri_v, cdf, u0, u1, u2, pos, nrm, tri, bu, bv):
         tri[i] = t
 
 
+def cache_point_count(stored: int, diffuse_area: float, radius: float) -> int:
+    """Surface points of the radiance cache (each holds both sides): CACHE_POINTS_PER_DISC
+    per gather disc of ``radius`` (metres) over ``diffuse_area`` (m^2), at most
+    CACHE_FRACTION x ``stored`` global photons, at least 1."""
+    per_disc = CACHE_POINTS_PER_DISC * diffuse_area / (math.pi * radius * radius) \
+        if radius > 0.0 else math.inf
+    return max(1, int(min(CACHE_FRACTION * stored, per_disc)))
+
+
 def build_radiance_cache(terms: "PhotonTerms", ctx) -> RadianceCache | None:
-    """Precompute the global map's radiance at CACHE_FRACTION x its photon count points
-    spread uniformly over the diffuse surfaces (both sides of each). Deterministic: the
-    points are counter hashes of (seed, point index)."""
+    """Precompute the global map's radiance at ``cache_point_count`` points spread
+    uniformly over the diffuse surfaces (both sides of each). Deterministic: the points
+    are counter hashes of (seed, point index)."""
     mats = ctx.materials
     diffuse_tri = np.flatnonzero(np.any(mats["diffuse"] > 0, axis=1)[ctx.tri_material])
     if terms.global_map is None or diffuse_tri.size == 0:
@@ -240,7 +254,7 @@ def build_radiance_cache(terms: "PhotonTerms", ctx) -> RadianceCache | None:
     v, tri_ids, area = v[keep], diffuse_tri[keep], area[keep]
     if v.shape[0] == 0:
         return None
-    m = max(1, int(CACHE_FRACTION * len(terms.global_map)))
+    m = cache_point_count(len(terms.global_map), float(area.sum()), terms.global_radius)
     seed = ctx.settings.seed
     ids = np.arange(m, dtype=np.int64)
     zero = np.zeros(m, np.int64)

@@ -101,7 +101,7 @@ def run(ctx, maps, progress, share: float) -> tuple[dict, bool]:
         mode=st.indirect_mode, gather_rays=max(1, st.final_gather_rays // st.samples))
     if global_map is not None and st.indirect_mode == "final_gather" and not cancelled:
         if progress is not None:
-            points = 2 * int(gather.CACHE_FRACTION * n_g)
+            points = 2 * gather.cache_point_count(n_g, diffuse_area, r_g)
             cancelled = bool(progress(share, f"Precomputing the radiance cache ({points:,} points)"))
         if not cancelled:
             ctx.terms.use_cache(gather.build_radiance_cache(ctx.terms, ctx))
