@@ -47,6 +47,7 @@ import inspect
 import json
 import math
 import pathlib
+import os
 import platform
 import sys
 import time
@@ -79,7 +80,7 @@ CAUSTIC_REF_PHOTONS = 100_000
 SPPM_PHOTONS = 50_000
 """Photons per SPPM pass in the measurements."""
 SPPM_MARKS = (1, 4, 16, 64, 256)
-CYCLES_SAMPLES = (1, 4, 16, 64, 256, 1024)
+CYCLES_SAMPLES = (1, 4, 16, 64, 256, 1024, 4096)
 QUICK_SPPM_MARKS = (1, 4, 16, 64)
 QUICK_CYCLES_SAMPLES = (1, 4, 16, 64, 256)
 REGENERATE = ".venv/bin/python benchmarks/tradeoff.py --make-references --scenes {scene} " \
@@ -458,7 +459,7 @@ def figure(rows, name, ref, path):
                label="reference noise (from its two halves)")
     ax.set_xscale("log")
     ax.set_yscale("log")
-    ax.set_xlabel("wall time, s (2 shared cores)")
+    ax.set_xlabel(f"wall time, s ({os.cpu_count()} cores)")
     ax.set_ylabel("relMSE vs reference")
     ax.set_title(f"{name}: error vs time ({ref['image'].shape[1]}x{ref['image'].shape[0]})")
     ax.grid(True, which="both", alpha=0.3)
@@ -500,8 +501,6 @@ BEGIN, END = "<!-- tradeoff:begin (benchmarks/tradeoff.py --write-docs) -->", \
 
 def write_docs(rows, refs, command, seconds):
     """The generated block of docs/tradeoff.md (between BEGIN and END; the rest is prose)."""
-    import os
-
     load = os.getloadavg()
     cpu = platform.machine()
     try:
@@ -513,7 +512,7 @@ def write_docs(rows, refs, command, seconds):
              f"Command: `{command}`  ",
              f"Date: {datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M} UTC; "
              f"machine: {cpu}, {os.cpu_count()} cores "
-             f"shared with other jobs (load average at the end "
+             f"(load average at the end, other jobs included: "
              f"{load[0]:.1f} / {load[1]:.1f} / {load[2]:.1f}), Blender {bpy.app.version_string}; "
              f"the run took {seconds / 60:.0f} min.",
              "", "References:", ""]
