@@ -129,3 +129,53 @@ def test_update_render_passes_registers_the_switched_on_passes_only(every_term):
     finally:
         for key in ("pass_specular", "pass_emission", "photon_debug_pass", "integrator"):
             props.property_unset(key)
+
+
+def compositor(scene, pass_name):
+    """A Blender 5.0 compositor: Render Layers' ``pass_name`` output -> the group's Image."""
+    tree = bpy.data.node_groups.new("Passes", "CompositorNodeTree")
+    tree.interface.new_socket("Image", in_out="OUTPUT", socket_type="NodeSocketColor")
+    layers = tree.nodes.new("CompositorNodeRLayers")
+    layers.scene = scene
+    out = tree.nodes.new("NodeGroupOutput")
+    tree.links.new(layers.outputs[pass_name], out.inputs["Image"])
+    return tree, layers
+
+
+@pytest.mark.skipif("compositing_node_group" not in bpy.types.Scene.bl_rna.properties,
+                    reason="Blender < 5.0 keeps the compositor in scene.node_tree")
+def test_the_compositor_gets_the_switched_on_passes(every_term, all_on, tmp_path):
+    """What a compositing artist sees: the Render Layers node offers exactly the passes
+    switched on, and a pass wired to the output is what the saved image holds."""
+    from photon_map.photon_engine.cli import set_format
+
+    import OpenEXR
+
+    tree, layers = compositor(every_term, "Caustics")
+    every_term.compositing_node_group = tree
+    settings = every_term.render.image_settings
+    saved = (settings.media_type, settings.file_format, settings.color_depth,
+             every_term.render.filepath, every_term.render.use_compositing)
+    try:
+        enabled = {o.name for o in layers.outputs if o.enabled}
+        assert enabled == {"Image", "Alpha", *LIGHT.values()}
+        every_term.photon_map.pass_direct = False
+        every_term.view_layers[0].update()
+        enabled = {o.name for o in layers.outputs if o.enabled}
+        assert enabled == {"Image", "Alpha", *LIGHT.values()} - {"Direct"}
+        # A single-layer EXR holds the composite: here the Caustics pass alone.
+        set_format(settings, "OPEN_EXR")
+        every_term.render.use_compositing = True
+        every_term.render.filepath = str(tmp_path / "composite.exr")
+        bpy.ops.render.render(write_still=True)
+        with OpenEXR.File(str(tmp_path / "composite.exr"), separate_channels=True) as exr:
+            channels = exr.parts[0].channels
+            image = np.stack([np.asarray(channels[c].pixels) for c in "RGB"], axis=-1)
+        assert image.max() > 0
+        np.testing.assert_allclose(image, all_on["Caustics"], rtol=1e-6, atol=1e-7)
+    finally:
+        every_term.photon_map.property_unset("pass_direct")
+        every_term.compositing_node_group = None
+        bpy.data.node_groups.remove(tree)
+        (settings.media_type, settings.file_format, settings.color_depth,
+         every_term.render.filepath, every_term.render.use_compositing) = saved
