@@ -22,6 +22,9 @@ ROOT = pathlib.Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
+GATHER_RAYS = 128
+"""Final-gather rays per pixel in every row (the table varies photons and k only)."""
+
 
 def _ints(text):
     return [int(v) for v in text.split(",")]
@@ -53,12 +56,12 @@ def main(argv=None):
     def render(photons, k):
         st = settings_mod.RenderSettings(
             samples=args.samples, global_photons=photons, caustic_photons=photons // 2,
-            global_k=k, caustic_k=k, final_gather_rays=cornell_box.DEMO_GATHER_RAYS)
+            global_k=k, caustic_k=k, final_gather_rays=GATHER_RAYS)
         return integrator.render(exported, st).stats
 
     render(20_000, 20)  # warm-up: numba caches, Embree
     print(f"Demo scene, {w}x{h}, {args.samples} samples/pixel, "
-          f"{cornell_box.DEMO_GATHER_RAYS} gather rays/pixel (seconds, one run each)\n")
+          f"{GATHER_RAYS} gather rays/pixel (seconds, one run each)\n")
     print("| global / caustic photons emitted | k | stored global / caustic | photon pass "
           "| camera pass | total |")
     print("|---:|---:|---:|---:|---:|---:|")

@@ -281,7 +281,7 @@ def fingerprint(name, resolution) -> str:
              inspect.getsource(cref.configure_cycles),
              repr((resolution, BOUNCES, REF_SAMPLES))]
     if name == "demo":
-        parts.append((ROOT / "examples" / "cornell_box.py").read_text())
+        parts += cref.cornell_box_sources()
     if name == "caustic":
         parts += [inspect.getsource(caustic_ref.glass_sphere_scene),
                   repr((CAUSTIC_REF_PASSES, CAUSTIC_REF_PHOTONS))]

@@ -2,9 +2,14 @@
 
 As a script, from the repository root (renders with Photon Map, writes OUT.exr and OUT.png):
 
-    .venv/bin/python examples/cornell_box.py -o out/demo [--samples 16] [--resolution 320x240]
-        [--global-photons 200000] [--caustic-photons 200000] [--gather-rays 128]
-        [--indirect final_gather|preview|off] [--save-blend out/demo.blend]
+    .venv/bin/python examples/cornell_box.py -o out/demo [--quality final]
+        [--resolution 320x240] [--samples N] [--global-photons N] [--caustic-photons N]
+        [--gather-rays N] [--indirect final_gather|preview|off] [--save-blend out/demo.blend]
+
+The settings are the Quality dial's (Render Properties > Quality; default Final: 32
+samples, 500,000 + 500,000 photons, k 100, 256 gather rays); any of --samples,
+--global-photons, --caustic-photons, --gather-rays or --indirect changes that value only,
+and the dial reads Custom, as it does in Blender.
 
 As a module (the tests build it for Cycles and Photon Map alike):
 
@@ -48,11 +53,9 @@ MIRROR_CENTRE = (-0.45, 0.35, SPHERE_RADIUS)
 GLASS_CENTRE = (0.45, -0.35, SPHERE_RADIUS)
 CAMERA_LOCATION = (0.0, -3.0, 1.0)
 
-# The demo's photon settings (the script's defaults): about 20 s at 320 x 240 and 16
-# samples on 2 cores, with visible caustics and colour bleeding (docs/photon_rendering.md).
-DEMO_GLOBAL_PHOTONS = 200_000
-DEMO_CAUSTIC_PHOTONS = 200_000
-DEMO_GATHER_RAYS = 128
+DEMO_QUALITY = "final"
+"""The demo's Quality preset: smooth indirect light and caustics at 320 x 240 in about
+30 s on 2 cores (docs/photon_rendering.md)."""
 
 
 def _material(name, idname, color, **inputs):
@@ -202,15 +205,16 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description="Render Jensen's Cornell box with Photon Map.")
     parser.add_argument("-o", "--output", default="out/demo",
                         help="output path without extension: writes OUTPUT.exr and OUTPUT.png")
-    parser.add_argument("--samples", type=int, default=16, help="camera samples per pixel")
-    parser.add_argument("--global-photons", type=int, default=DEMO_GLOBAL_PHOTONS,
+    parser.add_argument("--quality", choices=("draft", "preview", "final", "converged"),
+                        default=DEMO_QUALITY, help=f"the Quality preset (default {DEMO_QUALITY})")
+    parser.add_argument("--samples", type=int, help="camera samples per pixel")
+    parser.add_argument("--global-photons", type=int,
                         help="photons emitted for the global map (indirect light)")
-    parser.add_argument("--caustic-photons", type=int, default=DEMO_CAUSTIC_PHOTONS,
+    parser.add_argument("--caustic-photons", type=int,
                         help="photons aimed at the spheres for the caustic map")
-    parser.add_argument("--gather-rays", type=int, default=DEMO_GATHER_RAYS,
-                        help="final-gather rays per pixel")
+    parser.add_argument("--gather-rays", type=int, help="final-gather rays per pixel")
     parser.add_argument("--indirect", choices=("final_gather", "preview", "off"),
-                        default="final_gather", help="indirect light mode")
+                        help="indirect light mode")
     parser.add_argument("--resolution", type=_resolution, default=(320, 240),
                         help="WIDTHxHEIGHT in pixels (default 320x240)")
     parser.add_argument("--save-blend", metavar="PATH",
@@ -222,11 +226,14 @@ def main(argv=None):
     scene = build_cornell_box(resolution=args.resolution)
     scene.render.engine = 'PHOTON_MAP'
     settings = scene.photon_map
-    settings.samples = args.samples
-    settings.global_photons = args.global_photons
-    settings.caustic_photons = args.caustic_photons
-    settings.final_gather_rays = args.gather_rays
-    settings.indirect_mode = args.indirect
+    settings.quality = args.quality
+    # Each value given by hand overrides the preset's (the dial then reads Custom).
+    for name, value in (("samples", args.samples), ("global_photons", args.global_photons),
+                        ("caustic_photons", args.caustic_photons),
+                        ("final_gather_rays", args.gather_rays),
+                        ("indirect_mode", args.indirect)):
+        if value is not None:
+            setattr(settings, name, value)
     if args.save_blend:
         path = pathlib.Path(args.save_blend).resolve()
         path.parent.mkdir(parents=True, exist_ok=True)
@@ -251,7 +258,8 @@ def main(argv=None):
         result.save_render(filepath=str(out) + ext, scene=scene)
         print(f"wrote {out}{ext}")
     w, h = args.resolution
-    print(f"rendered {w}x{h} at {args.samples} samples/pixel in {elapsed:.2f} s")
+    print(f"rendered {w}x{h} at {settings.samples} samples/pixel (quality "
+          f"{settings.quality}) in {elapsed:.2f} s")
     return 0
 
 

@@ -237,20 +237,28 @@ def compare(image, reference, sigma=None, block=8, floor=0.02) -> dict:
             "noisy_blocks": float(np.nanmean(np.where(counted, 3.0 * sigma > 0.05 * safe, np.nan)))}
 
 
+def cornell_box_sources() -> list[str]:
+    """The code and constants of examples/cornell_box.py that build the demo scene (not its
+    command line or render settings): what a demo reference's fingerprint covers."""
+    import inspect
+
+    from examples import cornell_box
+
+    return [inspect.getsource(cornell_box.build_cornell_box),
+            inspect.getsource(cornell_box._material), inspect.getsource(cornell_box._sphere),
+            repr({k: getattr(cornell_box, k) for k in
+                  ("WHITE", "RED", "GREEN", "MIRROR", "LIGHT_SIZE", "LIGHT_POWER",
+                   "SPHERE_RADIUS", "MIRROR_CENTRE", "GLASS_CENTRE", "CAMERA_LOCATION")})]
+
+
 def scene_fingerprint(name) -> str:
     """Hash of the code that builds scene ``name`` and sets Cycles up: a cached reference
     made from other code is stale."""
     import hashlib
     import inspect
 
-    from examples import cornell_box
-
     if name == "demo":
-        parts = [inspect.getsource(cornell_box.build_cornell_box),
-                 inspect.getsource(cornell_box._material), inspect.getsource(cornell_box._sphere),
-                 repr({k: getattr(cornell_box, k) for k in
-                       ("WHITE", "RED", "GREEN", "MIRROR", "LIGHT_SIZE", "LIGHT_POWER",
-                        "SPHERE_RADIUS", "MIRROR_CENTRE", "GLASS_CENTRE", "CAMERA_LOCATION")})]
+        parts = cornell_box_sources()
     elif name == "visible_lights":
         parts = [inspect.getsource(visible_lights_scene)]
     else:
