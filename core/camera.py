@@ -19,7 +19,7 @@ import numpy as np
 from numba import njit, prange
 
 from . import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
-from .scene import CAMERA_ORTHOGRAPHIC, Camera
+from .scene import CAMERA_ORTHOGRAPHIC, CAMERA_PERSPECTIVE, Camera
 
 
 class CameraRays(NamedTuple):
@@ -115,3 +115,48 @@ def project(camera: Camera, points: np.ndarray) -> np.ndarray:
     fx = (x - shift[0]) / size[0] + 0.5
     fy = 0.5 - (y - shift[1]) / size[1]
     return np.stack([fx * camera.width, fy * camera.height], axis=1)
+
+
+def camera_from_projection(to_world: np.ndarray, projection: np.ndarray, width: int,
+                           height: int, name: str = "Viewport") -> Camera:
+    """The Camera whose rays are those of an OpenGL-style view: ``to_world`` (4, 4) the
+    view's camera-to-world matrix (the inverse of a view matrix, looking along -Z),
+    ``projection`` (4, 4) its projection matrix (perspective when its last row is
+    (0, 0, -1, 0), orthographic when (0, 0, 0, 1)), ``width`` x ``height`` pixels covering
+    normalised device coordinates [-1, 1]^2. Used for Blender's 3D viewport, whose
+    ``window_matrix`` already holds the zoom, the pan and the camera-view frame.
+
+    Perspective, at depth 1: x = (x_ndc + P[0, 2]) / P[0, 0], so the film is 2 / P[0, 0]
+    wide with its centre at P[0, 2] / P[0, 0]; the near and far planes are
+    P[2, 3] / (P[2, 2] -+ 1). Orthographic: x = (x_ndc - P[0, 3]) / P[0, 0] metres, planes
+    at (P[2, 3] +- 1) / P[2, 2]; a near plane behind the eye (Blender's orthographic
+    viewport sees both sides of its pivot) moves the origin back to it, which changes no
+    orthographic ray. Raises ValueError for another matrix.
+    """
+    p = np.asarray(projection, np.float64)
+    m = np.array(to_world, np.float64)
+    if p.shape != (4, 4) or m.shape != (4, 4) or not (np.isfinite(p).all() and np.isfinite(m).all()):
+        raise ValueError("to_world and projection must be finite (4, 4) matrices")
+    if p[0, 0] == 0.0 or p[1, 1] == 0.0 or p[2, 2] == 0.0:
+        raise ValueError(f"projection matrix has a zero scale: {p.tolist()}")
+    size = np.array([2.0 / abs(p[0, 0]), 2.0 / abs(p[1, 1])])
+    if np.allclose(p[3], (0.0, 0.0, -1.0, 0.0)):
+        kind = CAMERA_PERSPECTIVE
+        shift = np.array([p[0, 2] / p[0, 0], p[1, 2] / p[1, 1]])
+        near, far = p[2, 3] / (p[2, 2] - 1.0), p[2, 3] / (p[2, 2] + 1.0)
+    elif np.allclose(p[3], (0.0, 0.0, 0.0, 1.0)):
+        kind = CAMERA_ORTHOGRAPHIC
+        shift = np.array([-p[0, 3] / p[0, 0], -p[1, 3] / p[1, 1]])
+        near, far = (p[2, 3] + 1.0) / p[2, 2], (p[2, 3] - 1.0) / p[2, 2]
+    else:
+        raise ValueError(f"not a perspective or orthographic projection: {p.tolist()}")
+    near, far = float(near), float(far)
+    if kind == CAMERA_ORTHOGRAPHIC and near < 0.0:
+        back = m[:3, 2] / np.linalg.norm(m[:3, 2])
+        m[:3, 3] -= near * back
+        near, far = 0.0, far - near
+    near = max(0.0, near)
+    if not near < far:
+        raise ValueError(f"projection gives clipping planes {near} .. {far}")
+    return Camera(to_world=m, width=int(width), height=int(height), film_size=size,
+                  film_shift=shift, kind=kind, clip_start=near, clip_end=far, name=name)

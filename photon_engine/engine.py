@@ -2,6 +2,7 @@
 
 import bpy
 
+from . import viewport
 from .render import register_passes, render_frame
 
 
@@ -10,7 +11,8 @@ class PhotonMapRenderEngine(bpy.types.RenderEngine):
     bl_label = "Photon Map"
     bl_use_preview = False  # no material/light preview renders yet
     bl_use_postprocess = True  # compositor and sequencer run on our result
-    # Solid and Material Preview viewport modes use EEVEE, as with Cycles.
+    # Solid and Material Preview viewport modes use EEVEE, as with Cycles; Rendered
+    # shading is ours (view_update / view_draw).
     bl_use_eevee_viewport = True
     # We read Blender's own shader nodes (Principled, Diffuse, Glass, ...): keep the
     # Shader Editor attached to materials instead of a custom node system.
@@ -18,6 +20,13 @@ class PhotonMapRenderEngine(bpy.types.RenderEngine):
 
     def render(self, depsgraph):
         render_frame(self, depsgraph)
+
+    # Rendered shading in the 3D viewport (viewport.py: progressive passes between draws).
+    def view_update(self, context, depsgraph):
+        viewport.view_update(self, depsgraph)
+
+    def view_draw(self, context, depsgraph):
+        viewport.view_draw(self, context, depsgraph)
 
     def update_render_passes(self, scene=None, renderlayer=None):
         register_passes(self, scene, renderlayer)

@@ -37,14 +37,17 @@ class ExportResult:
     warnings: list[str] = field(default_factory=list)
 
 
-def export_scene(depsgraph) -> ExportResult:
+def export_scene(depsgraph, camera=None) -> ExportResult:
     """Build the core scene from an evaluated depsgraph (render or viewport).
 
-    Raises NoCameraError without a scene camera and ExportError (a core SceneError) for
-    data that cannot be rendered, e.g. a NaN in an object's transform.
+    ``camera``: a core Camera to render through instead of the scene camera (the 3D
+    viewport's view, photon_engine/viewport.py). Raises NoCameraError without either and
+    ExportError (a core SceneError) for data that cannot be rendered, e.g. a NaN in an
+    object's transform.
     """
     warnings: list[str] = []
-    camera = export_camera(depsgraph, warnings)  # fail fast, before reading geometry
+    if camera is None:
+        camera = export_camera(depsgraph, warnings)  # fail fast, before reading geometry
     materials = _MaterialTable(warnings)
     geometry = _Geometry(warnings)
     light_rows = []

@@ -84,7 +84,7 @@ MAX_RADIUS = 1e9  # core.settings.MAX_RADIUS (imported lazily there; kept equal 
 MAX_DOT_RADIUS_PX = 32.0  # core.settings.MAX_DOT_RADIUS_PX (kept equal by a test)
 
 # Properties of scene.photon_map that the core never sees (not in setting_names()).
-VIEWPORT_ONLY = ("show_photons_in_viewport",)
+VIEWPORT_ONLY = ("show_photons_in_viewport", "viewport_passes")
 UI_ONLY = ("quality",)  # its values are in the governed settings the core does see
 
 
@@ -318,6 +318,13 @@ class PhotonMapRenderSettings(bpy.types.PropertyGroup):
         description="Photons emitted in each progressive pass; memory grows with this, "
                     "not with the number of passes",
         min=1, max=MAX_PHOTONS_PER_PASS, soft_max=2_000_000, default=100_000,
+    )
+    viewport_passes: IntProperty(
+        name="Viewport Passes",
+        description="Progressive passes the 3D viewport's Rendered shading runs before it "
+                    "stops refining (it restarts when the view or the scene changes); each "
+                    "traces Photons per Pass photons",
+        min=1, max=MAX_PROGRESSIVE_PASSES, soft_max=4096, default=256,
     )
     time_budget: FloatProperty(
         name="Time Budget",

@@ -41,7 +41,8 @@ class PHOTON_MAP_RENDER_PT_sampling(PhotonMapPanel, bpy.types.Panel):
 
 
 class PHOTON_MAP_RENDER_PT_progressive(PhotonMapPanel, bpy.types.Panel):
-    """The progressive (SPPM) integrator: passes, photons per pass, time budget."""
+    """The progressive (SPPM) integrator: passes, photons per pass, time budget; and the
+    viewport's Rendered shading, which is progressive whatever the integrator."""
 
     bl_label = "Progressive"
 
@@ -50,12 +51,14 @@ class PHOTON_MAP_RENDER_PT_progressive(PhotonMapPanel, bpy.types.Panel):
         layout.use_property_split = True
         layout.use_property_decorate = False
         settings = context.scene.photon_map
-        layout.active = settings.integrator == 'progressive'
         col = layout.column(align=True)
+        col.active = settings.integrator == 'progressive'
         col.prop(settings, "time_budget")
         sub = col.column(align=True)
         sub.prop(settings, "progressive_passes")
         sub.active = settings.time_budget == 0.0
+        # The viewport's Rendered shading is always progressive: these two apply to it too.
+        layout.prop(settings, "viewport_passes")
         layout.prop(settings, "photons_per_pass")
 
 

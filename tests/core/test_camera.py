@@ -92,3 +92,63 @@ def test_a_marker_renders_at_its_projected_pixel():
     # The marker covers 0.3 x 0.3 of the pixel.
     assert img[row, col] == pytest.approx(0.09, abs=0.05)
     np.testing.assert_allclose(camera.project(cam, target[None])[0], [col + 0.5, row + 0.5], atol=1e-9)
+
+
+def _frustum(l, r, b, t, n, f):
+    """OpenGL's glFrustum matrix."""
+    return np.array([[2 * n / (r - l), 0, (r + l) / (r - l), 0],
+                     [0, 2 * n / (t - b), (t + b) / (t - b), 0],
+                     [0, 0, -(f + n) / (f - n), -2 * f * n / (f - n)],
+                     [0, 0, -1, 0]])
+
+
+def _ortho(l, r, b, t, n, f):
+    """OpenGL's glOrtho matrix."""
+    return np.array([[2 / (r - l), 0, 0, -(r + l) / (r - l)],
+                     [0, 2 / (t - b), 0, -(t + b) / (t - b)],
+                     [0, 0, -2 / (f - n), -(f + n) / (f - n)],
+                     [0, 0, 0, 1]])
+
+
+@pytest.mark.parametrize("projection", [
+    _frustum(-0.3, 0.5, -0.2, 0.25, 0.1, 50.0),   # off-centre (a panned / shifted view)
+    _frustum(-1.0, 1.0, -0.75, 0.75, 0.01, 1e3),
+    _ortho(-2.0, 3.0, -1.0, 2.5, 0.5, 40.0),
+    _ortho(-2.0, 3.0, -1.0, 2.5, -30.0, 40.0),   # Blender's ortho viewport: both sides
+])
+def test_camera_from_projection_sends_each_sample_where_the_matrix_projects_it(projection, rng):
+    """A view given as OpenGL matrices (Blender's viewport): the ray of a sample at pixel
+    (c + jx, r + jy) is the set of points the matrices put there, from the near plane
+    (z_ndc = -1) to the far plane (z_ndc = +1)."""
+    angle = 0.7
+    to_world = np.eye(4)
+    to_world[:3, :3] = [[np.cos(angle), 0, np.sin(angle)], [0, 1, 0],
+                        [-np.sin(angle), 0, np.cos(angle)]]
+    to_world[:3, 3] = [3.0, -2.0, 1.5]
+    w, h = 40, 30
+    cam = camera.camera_from_projection(to_world, projection, w, h)
+    pixel = rng.integers(0, w * h, 200)
+    jitter = rng.random((200, 2))
+    rays = camera.generate_rays(cam, pixel, jitter)
+    clip = projection @ np.linalg.inv(to_world)
+    for t, z_expected in ((0.0, -1.0), (0.37, None), (1.0, 1.0)):
+        points = rays.origins + (t * rays.tmax)[:, None] * rays.directions
+        h4 = np.c_[points, np.ones(len(points))] @ clip.T
+        ndc = h4[:, :3] / h4[:, 3:]
+        np.testing.assert_allclose((ndc[:, 0] + 1) / 2 * w, pixel % w + jitter[:, 0], atol=1e-6)
+        np.testing.assert_allclose((1 - ndc[:, 1]) / 2 * h, pixel // w + jitter[:, 1], atol=1e-6)
+        if z_expected is not None:
+            np.testing.assert_allclose(ndc[:, 2], z_expected, atol=1e-6)
+
+
+def test_camera_from_projection_refuses_other_matrices():
+    with pytest.raises(ValueError, match="not a perspective or orthographic"):
+        camera.camera_from_projection(np.eye(4), np.eye(4) * 2 + np.eye(4, k=1), 4, 4)
+    with pytest.raises(ValueError, match="zero scale"):
+        camera.camera_from_projection(np.eye(4), np.zeros((4, 4)), 4, 4)
+    with pytest.raises(ValueError, match="finite"):
+        camera.camera_from_projection(np.full((4, 4), np.nan), np.eye(4), 4, 4)
+    # An orthographic viewport's near plane behind the eye: the origin moves back to it.
+    cam = camera.camera_from_projection(np.eye(4), _ortho(-1, 1, -1, 1, -10.0, 10.0), 4, 4)
+    assert (cam.clip_start, cam.clip_end) == (0.0, 20.0)
+    np.testing.assert_allclose(cam.to_world[:3, 3], [0.0, 0.0, 10.0])

@@ -1,0 +1,193 @@
+"""Rendered shading in the 3D viewport: progressive photon mapping (SPPM) through the view,
+refined while the view stays still.
+
+Blender calls ``RenderEngine.view_update`` when the scene changes and ``view_draw`` to
+draw a view (photon_engine/engine.py). ``ViewportRender`` holds one view's state: the
+exported scene and a ``core.sppm.progressive_passes`` run through the view's camera
+(``view_camera``: Blender's view and window matrices, so zoom, pan, orthographic views
+and the camera view with its frame all come for free).
+
+- A scene change (``view_update``: geometry, materials, lights, world, settings)
+  re-exports on the next draw and restarts the passes.
+- A view change (orbit, zoom, pan, resize, Viewport Pixel Size) keeps the exported
+  scene and restarts the passes with the new camera.
+- Each draw runs passes for at most STEP_SECONDS (at least one), shows the image and asks
+  for another draw (``tag_redraw``) until ``viewport_passes`` passes are done.
+
+Everything runs on Blender's main thread, between draws, as small slices: no render
+thread to stop and no data shared with one. The progressive integrator is the natural
+fit for a view that keeps changing: its first pass is cheap, each further pass refines,
+and it needs no photon map built up front.
+
+A scene the core refuses (a SceneError or SettingsError) shows its message in the
+viewport's status text and stops the passes until the next change. The image goes to
+the GPU as a float texture drawn with Blender's display-space shader, so the scene's
+view transform and look apply as in the Image Editor.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+
+import numpy as np
+
+STEP_SECONDS = 0.1
+"""Longest time one draw spends on passes (at least one pass runs): the view's latency."""
+
+
+def view_camera(region_data, width: int, height: int):
+    """The core Camera of a 3D view (``RegionView3D``) rendered at ``width`` x ``height``."""
+    from ..core.camera import camera_from_projection
+
+    to_world = np.array(region_data.view_matrix.inverted(), np.float64)
+    projection = np.array(region_data.window_matrix, np.float64)
+    return camera_from_projection(to_world, projection, width, height, name="Viewport")
+
+
+def _view_key(camera) -> tuple:
+    return (camera.to_world.tobytes(), np.asarray(camera.film_size).tobytes(),
+            np.asarray(camera.film_shift).tobytes(), camera.kind, camera.width,
+            camera.height, camera.clip_start, camera.clip_end)
+
+
+class ViewportRender:
+    """One 3D view's progressive render (see the module doc)."""
+
+    def __init__(self):
+        self.scene = None        # core.Scene exported for this view
+        self.state = None        # core.sppm.SPPMState after the latest pass
+        self.error = None        # message of a scene the core refused
+        self.target = 0          # passes to run
+        self._passes = None      # the running progressive_passes generator
+        self._view = None        # _view_key of the camera the passes run through
+        self._stale = True       # the scene changed since it was exported
+        self._texture = None     # (passes shown, GPUTexture)
+
+    def scene_changed(self) -> None:
+        """``view_update``: re-export on the next ``sync``."""
+        self._stale = True
+
+    def sync(self, depsgraph, camera) -> None:
+        """Restart the passes if the scene or the view changed since the last call."""
+        from ..core.scene import SceneError
+        from ..core.settings import SettingsError
+        from .export import export_scene
+        from .properties import to_core_settings
+
+        if not self._stale and _view_key(camera) == self._view:
+            return
+        self.close()
+        self._view, self.state, self.error, self._texture = _view_key(camera), None, None, None
+        try:
+            if self._stale or self.scene is None:
+                self.scene = export_scene(depsgraph, camera=camera).scene
+            else:
+                self.scene = dataclasses.replace(self.scene, camera=camera)
+            props = depsgraph.scene.photon_map
+            settings = to_core_settings(props)
+            self.target = int(props.viewport_passes)
+            self._passes = _progressive(self.scene, settings, self.target)
+        except (SceneError, SettingsError) as error:
+            self.error = str(error)
+        self._stale = False
+
+    def step(self, seconds: float = STEP_SECONDS) -> bool:
+        """Run passes for up to ``seconds`` (at least one); True while more are to come."""
+        from ..core.scene import SceneError
+        from ..core.settings import SettingsError
+
+        if self._passes is None:
+            return False
+        started = time.perf_counter()
+        try:
+            while True:
+                self.state = next(self._passes)
+                if self.state.passes >= self.target or time.perf_counter() - started >= seconds:
+                    break
+        except StopIteration:
+            self._passes = None
+        except (SceneError, SettingsError) as error:
+            self.error, self._passes = str(error), None
+        if self.state is not None and self.state.passes >= self.target:
+            self.close()
+        return self._passes is not None
+
+    def image(self) -> np.ndarray | None:
+        """(H, W, 3) float32 radiance after the latest pass, row 0 at the top; None before."""
+        return None if self.state is None else self.state.radiance()
+
+    def status(self) -> str:
+        if self.error:
+            return f"Photon Map: {self.error}"
+        if self.state is None:
+            return "Photon Map | Viewport: starting"
+        done = "" if self._passes is not None else " (done)"
+        return f"Photon Map | Viewport: pass {self.state.passes} of {self.target}{done}"
+
+    def texture(self):
+        """The latest image as a GPU texture (made again only after a new pass)."""
+        import gpu
+
+        passes = self.state.passes
+        if self._texture is None or self._texture[0] != passes:
+            image = self.image()
+            h, w = image.shape[:2]
+            rgba = np.ones((h, w, 4), np.float32)
+            rgba[..., :3] = image[::-1]  # GPU textures start at the bottom row
+            data = gpu.types.Buffer('FLOAT', rgba.size, rgba.ravel())
+            self._texture = (passes, gpu.types.GPUTexture((w, h), format='RGBA16F', data=data))
+        return self._texture[1]
+
+    def close(self) -> None:
+        """Stop the running passes (closes their Embree scene)."""
+        if self._passes is not None:
+            self._passes.close()
+            self._passes = None
+
+
+def _progressive(scene, settings, passes):
+    from ..core import sppm
+
+    return sppm.progressive_passes(scene, settings, settings.photons_per_pass,
+                                   max_passes=passes)
+
+
+def view_update(engine, depsgraph) -> None:
+    """``RenderEngine.view_update``: the scene changed."""
+    viewport = getattr(engine, "photon_viewport", None)
+    if viewport is None:
+        engine.photon_viewport = viewport = ViewportRender()
+    viewport.scene_changed()
+
+
+def view_draw(engine, context, depsgraph) -> None:
+    """``RenderEngine.view_draw``: refine for a slice of time, then draw the image."""
+    import gpu
+    from gpu_extras.presets import draw_texture_2d
+
+    from .render import load_embree_isolated
+
+    viewport = getattr(engine, "photon_viewport", None)
+    if viewport is None:
+        engine.photon_viewport = viewport = ViewportRender()
+    region = context.region
+    scale = max(1, int(engine.get_preview_pixel_size(depsgraph.scene)))
+    width, height = max(1, region.width // scale), max(1, region.height // scale)
+    load_embree_isolated()
+    try:
+        camera = view_camera(context.region_data, width, height)
+    except ValueError as error:  # a degenerate view matrix: nothing to render through
+        engine.update_stats("", f"Photon Map: viewport: {error}")
+        return
+    viewport.sync(depsgraph, camera)
+    more = viewport.step()
+    engine.update_stats("", viewport.status())
+    if viewport.state is not None:
+        gpu.state.blend_set('ALPHA_PREMULT')
+        engine.bind_display_space_shader(depsgraph.scene)
+        draw_texture_2d(viewport.texture(), (0, 0), region.width, region.height)
+        engine.unbind_display_space_shader()
+        gpu.state.blend_set('NONE')
+    if more:
+        engine.tag_redraw()
