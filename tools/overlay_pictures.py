@@ -160,9 +160,6 @@ bpy.app.timers.register(save, first_interval=4.0)
 
 
 def viewport_screenshot(scene, positions, colors, png):
-    import os
-    import signal
-    import subprocess
     import tempfile
 
     sys.path.insert(0, str(ROOT))
@@ -177,26 +174,12 @@ def viewport_screenshot(scene, positions, colors, png):
                                          * 0.6, 0, 1) ** (1 / 2.2),
                  positions=positions, colors=colors)
         (tmp / "shot.py").write_text(VIEWPORT_SCRIPT)
-        env = dict(os.environ, BLENDER_USER_SCRIPTS=str(debian_blender.user_scripts(tmp)),
-                   BLENDER_USER_CONFIG=str(tmp / "config"))
-        env.pop("PYTHONPATH", None)
         args = ["--python", tmp / "shot.py", "--", tmp / "photons.npz", tmp / "room.blend", png]
-        build = subprocess.run([debian_blender.executable(), "-b", "--factory-startup", *args],
-                               cwd=tmp, env=env, capture_output=True, text=True, timeout=120)
+        build = debian_blender.run(["-b", "--factory-startup", *args], tmp, timeout=120)
         if build.returncode != 0:
             raise RuntimeError(build.stdout[-2000:] + build.stderr[-2000:])
-        # Its own process group, so that a hang takes Xvfb and Blender down with it.
-        process = subprocess.Popen(
-            ["xvfb-run", "-a", "-s", "-screen 0 1400x1000x24", debian_blender.executable(),
-             tmp / "room.blend", "-p", "0", "0", "1400", "1000", *args],
-            cwd=tmp, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-            start_new_session=True)
-        try:
-            log, _ = process.communicate(timeout=180)
-        finally:
-            if process.poll() is None:
-                os.killpg(process.pid, signal.SIGKILL)
-                process.wait()
+        log = debian_blender.run_with_window([tmp / "room.blend", "-p", "0", "0", "1400", "1000",
+                                              *args], tmp, screen=(1400, 1000))
     print(log[-1500:])
 
 if __name__ == "__main__":

@@ -18,6 +18,7 @@ import importlib.util
 import os
 import pathlib
 import shutil
+import signal
 import subprocess
 
 import pytest
@@ -68,15 +69,40 @@ def user_scripts(folder: pathlib.Path) -> pathlib.Path:
     return scripts
 
 
-def run(args, folder: pathlib.Path, timeout=300) -> subprocess.CompletedProcess:
-    """``blender <args>`` with Photon Map available as a legacy add-on and user folders
-    (scripts, config) isolated in ``folder``; ``cwd`` is ``folder``."""
+def _environment(folder: pathlib.Path) -> dict:
     env = dict(os.environ,
                BLENDER_USER_SCRIPTS=str(user_scripts(folder)),
                BLENDER_USER_CONFIG=str(folder / "config"))
     env.pop("PYTHONPATH", None)
-    return subprocess.run([executable(), *map(str, args)], cwd=folder, env=env,
+    return env
+
+
+def run(args, folder: pathlib.Path, timeout=300) -> subprocess.CompletedProcess:
+    """``blender <args>`` with Photon Map available as a legacy add-on and user folders
+    (scripts, config) isolated in ``folder``; ``cwd`` is ``folder``."""
+    return subprocess.run([executable(), *map(str, args)], cwd=folder, env=_environment(folder),
                           capture_output=True, text=True, timeout=timeout)
+
+
+def run_with_window(args, folder: pathlib.Path, screen=(640, 480), timeout=180) -> str:
+    """``blender <args>`` as ``run`` does, but with a window on a virtual X server
+    (``xvfb-run``; there the gpu module works, on Mesa's software OpenGL); returns what
+    Blender printed. Skips the calling test without xvfb-run. The script must end Blender
+    itself (``os._exit``): a hang is killed after ``timeout`` seconds, Xvfb with it."""
+    if shutil.which("xvfb-run") is None:
+        pytest.skip("needs xvfb-run (apt-get install xvfb) to give Blender a window and a GPU context")
+    # Its own process group, so that a hang takes Xvfb and Blender down with it.
+    process = subprocess.Popen(
+        ["xvfb-run", "-a", "-s", f"-screen 0 {screen[0]}x{screen[1]}x24", executable(),
+         *map(str, args)], cwd=folder, env=_environment(folder), stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT, text=True, start_new_session=True)
+    try:
+        log, _ = process.communicate(timeout=timeout)
+    finally:
+        if process.poll() is None:
+            os.killpg(process.pid, signal.SIGKILL)
+            process.wait()
+    return log
 
 
 def check(done: subprocess.CompletedProcess) -> str:

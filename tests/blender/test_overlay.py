@@ -291,38 +291,17 @@ def _expected_pixel(point):
 
 
 def test_real_draw_into_an_offscreen_buffer(tmp_path):
-    import os
-    import shutil
-    import signal
-    import subprocess
-
     from tests.blender import debian_blender
 
-    if shutil.which("xvfb-run") is None:
-        pytest.skip("needs xvfb-run (apt-get install xvfb) to give Blender a window and a GPU context")
-    blender = debian_blender.executable()
     view, proj = _matrices()
     script = (DRAW_SCRIPT.replace("VIEW", repr(view.tolist())).replace("PROJ", repr(proj.tolist()))
               .replace("POINTS", repr(GRID)).replace("COLORS", repr(GRID_COLORS))
               .replace("OCCLUDER", repr(OCCLUDER_QUAD)))
     (tmp_path / "draw.py").write_text(script)
     out = tmp_path / "pixels.npy"
-    env = dict(debian_blender.os.environ,
-               BLENDER_USER_SCRIPTS=str(debian_blender.user_scripts(tmp_path)),
-               BLENDER_USER_CONFIG=str(tmp_path / "config"))
-    env.pop("PYTHONPATH", None)
-    # Its own process group, so that a hang takes Xvfb and Blender down with it.
-    process = subprocess.Popen(["xvfb-run", "-a", "-s", "-screen 0 640x480x24", blender,
-                                "--factory-startup", "--python-exit-code", "1",
-                                "--python", tmp_path / "draw.py", "--", out],
-                               cwd=tmp_path, env=env, stdout=subprocess.PIPE,
-                               stderr=subprocess.STDOUT, text=True, start_new_session=True)
-    try:
-        log, _ = process.communicate(timeout=120)
-    finally:
-        if process.poll() is None:
-            os.killpg(process.pid, signal.SIGKILL)
-            process.wait()
+    log = debian_blender.run_with_window(["--factory-startup", "--python-exit-code", "1",
+                                          "--python", tmp_path / "draw.py", "--", out],
+                                         tmp_path, timeout=120)
     assert out.is_file(), log[-3000:]
     assert "DREW True" in log
     image = np.load(out)

@@ -89,6 +89,16 @@ def test_a_view_change_restarts_the_passes_and_a_scene_change_re_exports(lit_pla
     np.testing.assert_allclose(viewport.image(), 2.0 * before, rtol=1e-5, atol=1e-7)
 
 
+def test_render_size_keeps_the_pixel_size_and_caps_the_pixels():
+    from photon_map.photon_engine.viewport import MAX_PIXELS, render_size
+
+    assert render_size(300, 200) == (300, 200)
+    assert render_size(300, 200, pixel_size=2) == (150, 100)
+    w, h = render_size(1920, 1080)
+    assert w * h <= MAX_PIXELS and (w, h) == (1920 // 5, 1080 // 5)  # 4 would be 129,600
+    assert render_size(0, 0) == (1, 1)
+
+
 def test_a_refused_scene_shows_its_error_and_runs_nothing(lit_plane):
     from photon_map.photon_engine.viewport import ViewportRender
 
@@ -193,36 +203,17 @@ bpy.app.timers.register(poll, first_interval=1.0)
 
 def test_rendered_shading_in_a_real_viewport(tmp_path):
     import json
-    import os
-    import shutil
-    import signal
-    import subprocess
 
     import matplotlib.image
 
     from tests.blender import debian_blender
 
-    if shutil.which("xvfb-run") is None:
-        pytest.skip("needs xvfb-run (apt-get install xvfb) to give Blender a window and a GPU context")
     (tmp_path / "view.py").write_text(VIEW_SCRIPT)
     blend, png = tmp_path / "square.blend", tmp_path / "view.png"
     args = ["--addons", "photon_map", "--python", tmp_path / "view.py", "--", blend, png]
     debian_blender.check(debian_blender.run(["-b", "--factory-startup", *args], tmp_path))
-    env = dict(os.environ, BLENDER_USER_SCRIPTS=str(debian_blender.user_scripts(tmp_path)),
-               BLENDER_USER_CONFIG=str(tmp_path / "config"))
-    env.pop("PYTHONPATH", None)
-    # Its own process group, so that a hang takes Xvfb and Blender down with it.
-    process = subprocess.Popen(
-        ["xvfb-run", "-a", "-s", "-screen 0 800x600x24", debian_blender.executable(),
-         "--factory-startup", blend, "-p", "0", "0", "800", "600", *args],
-        cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-        start_new_session=True)
-    try:
-        log, _ = process.communicate(timeout=240)
-    finally:
-        if process.poll() is None:
-            os.killpg(process.pid, signal.SIGKILL)
-            process.wait()
+    log = debian_blender.run_with_window(["--factory-startup", blend, "-p", "0", "0", "800",
+                                          "600", *args], tmp_path, screen=(800, 600))
     line = next((l for l in log.splitlines() if l.startswith("VIEWPORT ")), None)
     assert line is not None, log[-3000:]
     seen = json.loads(line.split(" ", 1)[1])
