@@ -6,8 +6,9 @@
 The scene (also built by tests/core/test_sppm.py, keep them equal): a 4 x 4 m diffuse floor
 (albedo 0.8), a glass sphere (radius 0.5 m, ior 1.5) 0.1 m above it, a 200 W point light
 (radius 0) at (0.3, 0, 2.5) m, a 32 x 32 pinhole camera. The reference is SPPM itself with
-1024 passes of 32 000 photons and another seed (about 25 s on one core); the test's
-independent oracle is the diffuse-only check against the integrator (test_sppm.py).
+1024 passes of 32 000 photons and another seed, direct light by photons (about 25 s on
+one core); the test's independent oracle is the diffuse-only check against the
+integrator (test_sppm.py). The table shows both forms (``sppm.DIRECT_MODES``).
 relMSE = mean((a - b)^2 / (b^2 + 0.01)) over pixels and channels.
 """
 
@@ -50,8 +51,9 @@ def rel_mse(a: np.ndarray, b: np.ndarray) -> float:
 
 def make_reference() -> None:
     t0 = time.perf_counter()
+    # Standard SPPM (direct light by photons): the form the stored reference was made with.
     out = sppm.render_progressive(caustic_scene(), RenderSettings().with_values(
-        seed=REF_SEED, threads=1), REF_PASSES, REF_PHOTONS)
+        seed=REF_SEED, threads=1), REF_PASSES, REF_PHOTONS, direct="photons")
     REFERENCE.parent.mkdir(parents=True, exist_ok=True)
     np.savez_compressed(REFERENCE, image=out.passes["combined"],
                         command="benchmarks/sppm_convergence.py --make-reference",
@@ -60,21 +62,28 @@ def make_reference() -> None:
 
 
 def table(max_passes: int, seed: int) -> None:
+    """Both forms of SPPM, side by side: direct light by shadow rays (the default) and
+    standard SPPM (direct light by photons)."""
     ref = np.load(REFERENCE)["image"]
     settings = RenderSettings().with_values(seed=seed, threads=1)
-    # Load the numba kernels once so the first row does not include compilation.
-    sppm.render_progressive(caustic_scene(8, 8), settings, 1, 100)
-    print(f"| passes | photons | wall s | relMSE | mean ratio |")
-    print(f"|---:|---:|---:|---:|---:|")
-    t0 = time.perf_counter()
     marks = {1, 4, 16, 64, 256, 1024}
-    for state in sppm.progressive_passes(caustic_scene(), settings, PHOTONS_PER_PASS,
-                                         max_passes=max_passes):
-        if state.passes in marks:
-            img = state.radiance()
-            wall = time.perf_counter() - t0
-            print(f"| {state.passes} | {state.passes * PHOTONS_PER_PASS:,} | {wall:.2f} | "
-                  f"{rel_mse(img, ref):.4f} | {img.mean() / ref.mean():.3f} |")
+    rows = {}
+    for direct in sppm.DIRECT_MODES:
+        # Load the numba kernels once so the first row does not include compilation.
+        sppm.render_progressive(caustic_scene(8, 8), settings, 1, 100, direct=direct)
+        t0 = time.perf_counter()
+        for state in sppm.progressive_passes(caustic_scene(), settings, PHOTONS_PER_PASS,
+                                             max_passes=max_passes, direct=direct):
+            if state.passes in marks:
+                img = state.radiance()
+                rows.setdefault(state.passes, []).append(
+                    f"{time.perf_counter() - t0:.2f} | {rel_mse(img, ref):.4f} | "
+                    f"{img.mean() / ref.mean():.3f}")
+    print("| passes | photons | shadow-ray direct: wall s | relMSE | mean ratio "
+          "| photon direct: wall s | relMSE | mean ratio |")
+    print("|---:|---:|---:|---:|---:|---:|---:|---:|")
+    for k, cells in rows.items():
+        print(f"| {k} | {k * PHOTONS_PER_PASS:,} | " + " | ".join(cells) + " |")
 
 
 def main() -> None:

@@ -131,7 +131,9 @@ class _Context:
     outputs: tuple = PASSES
 
 
-def _prepare(scene: Scene, settings: RenderSettings) -> _Context:
+def _prepare(scene: Scene, settings: RenderSettings, accel: Accelerator | None = None) -> _Context:
+    """The render's context; ``accel``: an Accelerator over ``scene.mesh`` to share (its
+    owner closes it), else a new one that ``render`` closes."""
     mesh = scene.mesh
     mats = bsdf.material_table(scene.materials)
     singular = mats["alpha"] <= np.sqrt(bsdf.SINGULAR_ALPHA2)
@@ -143,7 +145,8 @@ def _prepare(scene: Scene, settings: RenderSettings) -> _Context:
     numba.set_num_threads(max(1, min(threads, numba.config.NUMBA_NUM_THREADS)))
     tri_vertices = np.ascontiguousarray(mesh.triangle_vertices(), np.float32)
     return _Context(
-        scene=scene, settings=settings, accel=Accelerator(tri_vertices, threads=threads),
+        scene=scene, settings=settings,
+        accel=accel if accel is not None else Accelerator(tri_vertices, threads=threads),
         tri_vertices=tri_vertices,
         tri_normals=np.ascontiguousarray(mesh.normals, np.float32),
         tri_material=np.ascontiguousarray(mesh.material_index, np.int32),
@@ -342,6 +345,27 @@ def _direct_light(ctx: _Context, hit: dict, pixel, sample, depth, target):
             _gather_kernel(target, hit["rows"], contrib, idx[:c], occ)
             ctx.stats["time_shading"] += t1 - t0 + time.perf_counter() - t2
             ctx.stats["time_shadow"] += t2 - t1
+
+
+def direct_light_context(scene: Scene, settings: RenderSettings, accel: Accelerator) -> _Context:
+    """What ``direct_light`` needs, for another integrator (core/sppm.py) sharing its
+    Accelerator. ``settings.samples`` sizes the sample index (SPPM: its pass count)."""
+    return _prepare(scene, settings, accel)
+
+
+def direct_light(ctx: _Context, position, ng, ns, incident, material, eps, weight, albedo,
+                 pixel, sample, target) -> None:
+    """Shadow-ray direct light at surface points, as this integrator's camera pass computes
+    it at its first hits: target[pixel] += weight * (light reflected towards -incident).
+
+    position (N, 3) metres; ng, ns (N, 3) unit normals on the viewer's side; incident (N, 3)
+    unit directions the points were reached along; material (N,) int32; eps (N,) ray
+    offsets (core/geometry.py); weight, albedo (N, 3); pixel, sample (N,) int64, one
+    (pixel, sample) pair per point (they key the random numbers); target (P, 3) float64.
+    """
+    hit = {"pos": position, "ngf": ng, "nsf": ns, "d": incident, "mat": material, "eps": eps,
+           "thr": weight, "rows": pixel, "albedo": albedo}
+    _direct_light(ctx, hit, pixel, sample, 0, target)
 
 
 def _photon_terms(ctx: _Context, rows, pos, ngf, nsf, eps, mat, thr, pixel, sample, depth,

@@ -5,8 +5,9 @@ One numba kernel handles a whole wavefront (all photons of one bounce). Per phot
 1. Surface point and normals (``geometry.surface_point``), flipped to the side the photon
    arrives on.
 2. Storage: at a material with a diffuse lobe (albedo > 0), before the bounce is chosen
-   (Jensen). Global map: always when ``include_direct``, else only after at least one
-   diffuse bounce. Caustic map: only photons that made one or more specular/glossy
+   (Jensen). Global map, by ``store_rule``: STORE_ALL always; STORE_BOUNCED only after at
+   least one diffuse bounce; STORE_NOT_DIRECT always but at the first hit of a photon
+   straight from its source (the light a shadow ray finds). Caustic map: only photons that made one or more specular/glossy
    bounces and no diffuse one (light -> S+ -> D); a caustic photon ends where it is
    stored, and one whose first surface has no specular lobe is dropped.
 3. Russian roulette: lobe x (diffuse, specular, transmission) is chosen with probability
@@ -40,6 +41,10 @@ from . import bsdf, geometry, sampling
 
 MODE_GLOBAL = 0
 MODE_CAUSTIC = 1
+# Global-map storage rules (the module doc, step 2).
+STORE_ALL = 0         # every diffuse hit: final gathering's map, standard SPPM
+STORE_BOUNCED = 1     # after >= 1 diffuse bounce: Jensen's map for the preview
+STORE_NOT_DIRECT = 2  # every diffuse hit but light -> diffuse: SPPM with shadow-ray direct light
 # Photons per parallel task of scatter_kernel.
 _BLOCK = 4096
 
@@ -53,7 +58,7 @@ def _max3(a, b, c):
 def _scatter_range(tri_v, tri_n, tri_mat, extent, diffuse, specular, transmission, alpha, ior,
                    albedo, opacity,
                    prim, hu, hv, d, flux, pid, n_diff, n_spec, seed, dims, bounce, mode,
-                   include_direct, last,
+                   store_rule, last,
                    store, s_pos, s_flux, s_dir, alive, o_new, d_new, f_new, lo, hi):
     """Photons [lo, hi) of scatter_kernel, as a plain serial loop: numba compiles it
     about twice as fast as the same body inside a prange loop."""
@@ -101,7 +106,8 @@ def _scatter_range(tri_v, tri_n, tri_mat, extent, diffuse, specular, transmissio
                 continue  # first surface not specular: not a caustic path
             if kd_lobe > 0.0 and ns > 0:
                 store[i] = True
-        elif kd_lobe > 0.0 and (include_direct or nd > 0):
+        elif kd_lobe > 0.0 and (store_rule == STORE_ALL or nd > 0
+                                or (store_rule == STORE_NOT_DIRECT and ns > 0)):
             store[i] = True
         if store[i]:
             s_pos[i, 0], s_pos[i, 1], s_pos[i, 2] = px, py, pz
@@ -203,7 +209,7 @@ def _scatter_range(tri_v, tri_n, tri_mat, extent, diffuse, specular, transmissio
 def scatter_kernel(tri_v, tri_n, tri_mat, extent, diffuse, specular, transmission, alpha, ior,
                    albedo, opacity,
                    prim, hu, hv, d, flux, pid, n_diff, n_spec, seed, dims, bounce, mode,
-                   include_direct, last,
+                   store_rule, last,
                    store, s_pos, s_flux, s_dir, alive, o_new, d_new, f_new):
     """Store and scatter one wavefront of N photons (see the module doc).
 
@@ -222,7 +228,7 @@ def scatter_kernel(tri_v, tri_n, tri_mat, extent, diffuse, specular, transmissio
     for b in prange(blocks):
         _scatter_range(tri_v, tri_n, tri_mat, extent, diffuse, specular, transmission, alpha,
                        ior, albedo, opacity, prim, hu, hv, d, flux, pid, n_diff, n_spec, seed, dims, bounce,
-                       mode, include_direct, last, store, s_pos, s_flux, s_dir, alive, o_new,
+                       mode, store_rule, last, store, s_pos, s_flux, s_dir, alive, o_new,
                        d_new, f_new, b * _BLOCK, min(n, (b + 1) * _BLOCK))
 
 

@@ -11,9 +11,14 @@ Each pass k = 1, 2, ...:
    delta lobe the path stops at the diffuse lobe with probability
    p = mean(diffuse) / (mean(diffuse) + delta weight) and beta is divided by p (or by
    1 - p when it goes on), so there is one visible point per pixel and pass.
+   Direct light at the visible point comes from shadow rays to every light, emissive
+   triangle and the world (``integrator.direct_light``, the photon-map integrator's own
+   estimator, one sample per light and pass), added to D times beta_k.
 2. Photons. ``photons_per_pass`` photons are traced with the global map's rules
-   (``tracing.trace_stored_photons``: stored at every diffuse hit, first hits included,
-   so direct light too comes from photons), with a fresh counter-based seed per pass.
+   (``tracing.trace_stored_photons``), stored at every diffuse hit except the first hit
+   of a photon straight from its source (``scatter.STORE_NOT_DIRECT``: that light is the
+   shadow rays'), so caustics (light -> specular -> diffuse) and indirect light come from
+   photons; with a fresh counter-based seed per pass.
    Each stored photon p has flux Phi_p (watts, already divided by photons_per_pass) and
    incident direction w_p (towards where it came from).
 3. Gathering. For every visible point i (radius R_i), over the photons of this pass with
@@ -31,11 +36,13 @@ Each pass k = 1, 2, ...:
    tau / k is the flux estimate per pass (each pass's photon flux is normalised by its
    own photon count, so pbrt's N_emitted = k passes x photons_per_pass becomes k here).
 
-All light reaching a visible point is counted by photons, direct light included (the
-standard SPPM): one code path, no shadow rays, and the result converges to the full
-solution without the split of the final-gather integrator. A hybrid (direct light by
-shadow rays, photons of >= 1 bounce) would converge faster on directly lit diffuse
-surfaces; it is left for later (docs/sppm.md).
+Direct light by shadow rays, everything else by photons (a hybrid; standard SPPM counts
+direct light by photons too): directly lit diffuse surfaces are then exact in
+expectation from the first pass on, without the blotches of a photon estimate, at the
+cost of one shadow ray per light and visible point per pass; the photon estimate is
+left with the paths only photons find well (caustics) and the smooth indirect light.
+Both converge to the same image (tests/core/test_sppm.py checks the split against the
+all-photon form).
 
 Initial radius (when not given): R_0 = sqrt(K0 A_d / (pi photons_per_pass)) with A_d the
 area of the triangles with a diffuse lobe and K0 = INITIAL_PHOTONS: about K0 photons per
@@ -66,7 +73,7 @@ import numpy as np
 from numba import njit, prange
 
 from . import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
-from . import bsdf, camera, geometry, lights, sampling, tracing
+from . import bsdf, camera, geometry, integrator, lights, sampling, scatter, tracing
 from .accel import Accelerator, default_threads
 from .integrator import RenderOutput
 from .scene import Scene
@@ -311,6 +318,7 @@ class _Context:
     seed: int
     max_depth: int
     max_bounces: int
+    direct: object = None    # integrator.direct_light_context: shadow rays at visible points
 
 
 @dataclass
@@ -318,7 +326,7 @@ class VisiblePoints:
     """One pass's visible points (V of them), float64: pixel (V,) int64, position (V, 3)
     metres, ng / ns (V, 3) unit normals facing the viewer, wo (V, 3) unit towards the
     viewer, material (V,) int32, weight (V, 3) path throughput, albedo (V, 3) the
-    diffuse albedo there (textured)."""
+    diffuse albedo there (textured), eps (V,) metres, the ray offset there."""
 
     pixel: np.ndarray
     position: np.ndarray
@@ -328,6 +336,7 @@ class VisiblePoints:
     material: np.ndarray
     weight: np.ndarray
     albedo: np.ndarray
+    eps: np.ndarray
 
 
 _CUTOUT_CHOICE = 19  # random purpose of the pass-through choices (as integrator's)
@@ -412,7 +421,7 @@ def _camera_pass(ctx: _Context, k: int, direct: np.ndarray) -> VisiblePoints:
         s = np.flatnonzero(vp)
         if s.size:
             out.append((rows[s], sp.position[s], ng[s], ns[s], -d[s], sp.material[s], new_thr[s],
-                        albedo[s]))
+                        albedo[s], sp.eps[s]))
         if depth == ctx.max_depth:
             break
         g = np.flatnonzero(go_on)
@@ -420,7 +429,8 @@ def _camera_pass(ctx: _Context, k: int, direct: np.ndarray) -> VisiblePoints:
         thr, transmitted, tmax = new_thr[g], new_tr[g], None
     if not out:
         z3 = np.zeros((0, 3))
-        return VisiblePoints(np.zeros(0, np.int64), z3, z3, z3, z3, np.zeros(0, np.int32), z3, z3)
+        return VisiblePoints(np.zeros(0, np.int64), z3, z3, z3, z3, np.zeros(0, np.int32), z3, z3,
+                             np.zeros(0))
     cols = [np.concatenate(c) for c in zip(*out)]
     return VisiblePoints(*[np.ascontiguousarray(c) for c in cols])
 
@@ -479,15 +489,24 @@ def _check(passes, photons_per_pass, alpha, initial_radius):
                                 f'got {initial_radius!r}')
 
 
+DIRECT_MODES = ("shadow_rays", "photons")
+"""How SPPM gets direct light: shadow rays (the default, the module doc) or photons
+(standard SPPM, kept to check the hybrid against)."""
+
+
 def progressive_passes(scene: Scene, settings: RenderSettings, photons_per_pass: int, *,
                        alpha: float = 2.0 / 3.0, initial_radius: float | None = None,
-                       max_passes: int = MAX_PASSES) -> Iterator[SPPMState]:
+                       max_passes: int = MAX_PASSES,
+                       direct: str = "shadow_rays") -> Iterator[SPPMState]:
     """Run SPPM passes, yielding the (live, updated in place) state after each one.
 
     Stops after ``max_passes`` or when the caller stops iterating (the Accelerator is
-    closed when the generator is closed or garbage-collected).
+    closed when the generator is closed or garbage-collected). ``direct``: one of
+    DIRECT_MODES.
     """
     _check(max_passes, photons_per_pass, alpha, initial_radius)
+    if direct not in DIRECT_MODES:
+        raise SettingsError(f'"direct" must be one of {DIRECT_MODES}, got {direct!r}')
     scene.validate()
     settings = (settings or RenderSettings()).validated()
     threads = default_threads(settings.threads)
@@ -502,20 +521,31 @@ def progressive_passes(scene: Scene, settings: RenderSettings, photons_per_pass:
     st = state.stats
     st.update({"alpha": float(alpha), "initial_radius": r0, "photons_per_pass": photons_per_pass,
                "photons_emitted": 0, "photons_stored": [], "photons_alive_max": 0,
-               "photon_bytes_max": 0, "visible_points": [], "rays_photon": 0,
+               "photon_bytes_max": 0, "visible_points": [], "rays_photon": 0, "rays_shadow": 0,
                "time_camera": 0.0, "time_photons": 0.0, "time_gather": 0.0,
-               "direct_light": "photons (standard SPPM: no shadow rays)"})
+               "direct_light": "shadow rays at the visible points; photons for the rest"
+               if direct == "shadow_rays" else "photons (standard SPPM: no shadow rays)"})
     accel = Accelerator(setup.tri_v, threads=threads) if scene.mesh.triangle_count else None
     ctx = _Context(scene=scene, setup=setup, accel=accel,
                    sources=tracing.photon_sources(setup), seed=int(settings.seed),
                    max_depth=int(settings.max_specular_depth),
                    max_bounces=int(settings.photon_max_bounces))
+    if accel is not None and direct == "shadow_rays":
+        # The sample index of the shadow rays' random numbers is the pass.
+        ctx.direct = integrator.direct_light_context(
+            scene, settings.with_values(samples=max(1, min(max_passes, MAX_PASSES))), accel)
     try:
         for k in range(max_passes):
             t0 = time.perf_counter()
             # Create visible points
             if accel is not None:
                 vps = _camera_pass(ctx, k, state.direct_sum)
+                # Direct light by shadow rays (the photons below leave it out)
+                if vps.pixel.size and ctx.direct is not None:
+                    integrator.direct_light(ctx.direct, vps.position, vps.ng, vps.ns, -vps.wo,
+                                            vps.material, vps.eps, vps.weight, vps.albedo,
+                                            vps.pixel, np.full(vps.pixel.size, k, np.int64),
+                                            state.direct_sum)
             else:
                 vps = None
                 if np.any(setup.world > 0) and scene.world.visible_to_camera:
@@ -525,7 +555,8 @@ def progressive_passes(scene: Scene, settings: RenderSettings, photons_per_pass:
             if vps is not None and vps.pixel.size:
                 pos, flux, wdir, counters = tracing.trace_stored_photons(
                     setup, accel, ctx.sources, photons_per_pass, seed=pass_seed(ctx.seed, k),
-                    max_bounces=ctx.max_bounces)
+                    max_bounces=ctx.max_bounces,
+                    store_rule=scatter.STORE_NOT_DIRECT if ctx.direct else scatter.STORE_ALL)
                 st["rays_photon"] += counters["rays"]
                 t2 = time.perf_counter()
                 phi, count = gather_photons(vps.position, vps.ng, vps.ns, vps.wo, vps.material,
@@ -544,7 +575,9 @@ def progressive_passes(scene: Scene, settings: RenderSettings, photons_per_pass:
             st["photons_stored"].append(stored)
             st["photons_alive_max"] = max(st["photons_alive_max"], stored)
             st["visible_points"].append(0 if vps is None else int(vps.pixel.size))
-            st["time_camera"] += t1 - t0
+            st["time_camera"] += t1 - t0  # the shadow rays included
+            if ctx.direct is not None:
+                st["rays_shadow"] = int(ctx.direct.stats["rays_shadow"])
             st["time_photons"] += t2 - t1
             st["time_gather"] += t3 - t2
             state.passes = k + 1
@@ -558,7 +591,8 @@ def render_progressive(scene: Scene, settings: RenderSettings | None, passes: in
                        photons_per_pass: int, *, alpha: float = 2.0 / 3.0,
                        initial_radius: float | None = None, progress: ProgressFn | None = None,
                        on_pass: PassFn | None = None,
-                       time_budget: float | None = None) -> RenderOutput:
+                       time_budget: float | None = None,
+                       direct: str = "shadow_rays") -> RenderOutput:
     """Render ``scene`` with ``passes`` SPPM passes of ``photons_per_pass`` photons each.
 
     alpha in (0, 1): the fraction of new photons kept per pass (radius shrink rate);
@@ -569,13 +603,14 @@ def render_progressive(scene: Scene, settings: RenderSettings | None, passes: in
     time_budget: seconds, or None; ``passes`` is then an upper bound and the render stops
     (not cancelled) before the pass that would end past the budget, judged by the mean
     pass time so far (at least one pass is made); stats["stopped_by"] says why it ended.
-    settings used: seed, threads, max_specular_depth, photon_max_bounces.
+    settings used: seed, threads, max_specular_depth, photon_max_bounces, light_samples.
+    direct: "shadow_rays" or "photons" (DIRECT_MODES).
 
     Returns RenderOutput with passes {"combined": (H, W, 3) float32 radiance W/(m^2 sr)}
     and stats: passes, alpha, initial_radius, radius_min / radius_mean / radius_max
     (metres, final), photons_per_pass, photons_emitted, photons_stored (list, one count
     per pass), photons_alive_max (most photons held at once), photon_bytes_max,
-    visible_points (list per pass), rays_photon, time_camera / time_photons /
+    visible_points (list per pass), rays_photon, rays_shadow, time_camera / time_photons /
     time_gather / time_total (s).
     Raises SettingsError for bad passes / photons_per_pass / alpha / initial_radius and
     SceneError for a bad scene.
@@ -591,7 +626,7 @@ def render_progressive(scene: Scene, settings: RenderSettings | None, passes: in
     stopped_by = "passes"
     state = None
     runner = progressive_passes(scene, settings, photons_per_pass, alpha=alpha,
-                                initial_radius=initial_radius, max_passes=passes)
+                                initial_radius=initial_radius, max_passes=passes, direct=direct)
     try:
         for state in runner:
             k = state.passes

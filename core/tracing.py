@@ -10,7 +10,7 @@ Maps (flux in watts per stored photon: a map's flux summed over a region / area 
 irradiance, W/m^2):
 - global: photons emitted unaimed (``global_photons`` of them, shared between the sources
   in proportion to their power, times their importance), stored at every hit on a surface with a diffuse lobe;
-  with ``include_direct=False`` only after at least one diffuse bounce.
+  with ``include_direct=False`` only after at least one diffuse bounce (``scatter.STORE_*``).
 - caustic: photons aimed at the specular objects (projection map, ``caustic_photons``),
   stored at the first diffuse hit of paths light -> specular+ -> diffuse.
 
@@ -140,7 +140,7 @@ class _Store:
 
 
 def _trace_chunk(setup: _Setup, accel, em: emission.Emitted, pid: np.ndarray, mode: int,
-                 include_direct: bool, max_bounces: int, seed: int, map_id: int,
+                 store_rule: int, max_bounces: int, seed: int, map_id: int,
                  store: _Store, counters: dict) -> None:
     """Trace one chunk of emitted photons through every bounce into ``store``."""
     keep = np.any(em.flux > 0, axis=1)
@@ -178,14 +178,14 @@ def _trace_chunk(setup: _Setup, accel, em: emission.Emitted, pid: np.ndarray, mo
                                surf.photon_albedo(hits.prim, hits.u, hits.v),
                                surf.photon_opacity(hits.prim, hits.u, hits.v),
                                hits.prim, hits.u, hits.v, d, f, pid, n_diff, n_spec,
-                               np.int64(seed), dims, np.int64(bounce), mode, include_direct,
+                               np.int64(seed), dims, np.int64(bounce), mode, np.int64(store_rule),
                                bounce == max_bounces, s_flag, s_pos, s_flux, s_dir, alive, o2, d2, f2)
         store.add(*scatter.compact_stored(s_flag, s_pos, s_flux, s_dir))
         o, d, f, pid, n_diff, n_spec = scatter.compact_alive(alive, o2, d2, f2, pid, n_diff, n_spec)
         counters["time_scatter"] += time.perf_counter() - t1
 
 
-def _trace_map(setup, accel, sources, counts, targets_per_source, mode, include_direct,
+def _trace_map(setup, accel, sources, counts, targets_per_source, mode, store_rule,
                settings, map_id, counters, progress, done_before, total_work, flux_out=None):
     """Emit counts[s] photons from each source and trace them; returns (store, cancelled).
     flux_out: optional (S, 3) float64 array, += the flux each source emitted (watts)."""
@@ -209,7 +209,7 @@ def _trace_map(setup, accel, sources, counts, targets_per_source, mode, include_
                 flux_out[slot] += em.flux.sum(axis=0)
             pid = np.arange(first_id + first, first_id + first + count, dtype=np.int64)
             t1 = time.perf_counter()
-            _trace_chunk(setup, accel, em, pid, mode, include_direct, max_bounces, seed, map_id,
+            _trace_chunk(setup, accel, em, pid, mode, store_rule, max_bounces, seed, map_id,
                          store, counters)
             counters["time_tracing"] += time.perf_counter() - t1
             done += count
@@ -249,12 +249,12 @@ def photon_sources(setup: _Setup, with_world: bool = True) -> list:
 
 
 def trace_stored_photons(setup: _Setup, accel, sources: list, n_photons: int, *, seed: int,
-                         max_bounces: int, include_direct: bool = True):
+                         max_bounces: int, store_rule: int = scatter.STORE_ALL):
     """Trace ``n_photons`` unaimed photons (shared between ``sources`` by power) and return
     the photons stored at diffuse hits as raw arrays, without building a PhotonMap.
 
-    The global map's rules (``scatter.MODE_GLOBAL``); for progressive passes that need one
-    batch of photons at a time. Returns (positions (M, 3) float32 metres, flux (M, 3)
+    The global map's rules (``scatter.MODE_GLOBAL``, stored by ``store_rule``); for
+    progressive passes that need one batch of photons at a time. Returns (positions (M, 3) float32 metres, flux (M, 3)
     float32 watts already divided by the photons emitted, incident directions (M, 3)
     float32 pointing back towards where each photon came from, counters dict).
     """
@@ -267,7 +267,7 @@ def trace_stored_photons(setup: _Setup, accel, sources: list, n_photons: int, *,
                                int(n_photons))
     params = _PassSettings(seed=int(seed), photon_max_bounces=int(max_bounces))
     store, _ = _trace_map(setup, accel, sources, counts, [(None, None)] * len(sources),
-                          scatter.MODE_GLOBAL, include_direct, params, MAP_GLOBAL, counters,
+                          scatter.MODE_GLOBAL, store_rule, params, MAP_GLOBAL, counters,
                           None, 0, int(counts.sum()))
     pos, flux, direction = store.take()
     return pos, flux, direction, counters
@@ -285,7 +285,7 @@ def _source_label(src, light_set: LightSet) -> str:
     return f"{src.name} ({kind}, {watts})"
 
 
-def _pilot_fractions(setup, accel, sources, targets_per_source, power_lum, mode, include_direct,
+def _pilot_fractions(setup, accel, sources, targets_per_source, power_lum, mode, store_rule,
                      seed, max_bounces, map_id, n_pilot, grid, counters):
     """Step 2-3 of core/importance.py: per source, the fraction f_s of its power (luminance)
     that its n_pilot pilot photons store near the visible points (``grid``). (S,) float64."""
@@ -298,7 +298,7 @@ def _pilot_fractions(setup, accel, sources, targets_per_source, power_lum, mode,
         params = _PassSettings(seed=sppm.pass_seed(seed, (1 << 20) + 2 * slot + map_id),
                                photon_max_bounces=max_bounces)
         store, _ = _trace_map(setup, accel, [src], np.array([n_pilot]), [targets_per_source[slot]],
-                              mode, include_direct, params, importance.MAP_PILOT + map_id, counters,
+                              mode, store_rule, params, importance.MAP_PILOT + map_id, counters,
                               None, 0, n_pilot)
         pos, flux, direction = store.take()
         if pos.shape[0] and power_lum[slot] > 0:
@@ -322,6 +322,7 @@ def trace_photons(scene: Scene, settings: RenderSettings, accel: Accelerator | N
     decisions: list[str] = []
     counters = {"rays": 0, "time_emission": 0.0, "time_tracing": 0.0, "time_intersect": 0.0,
                 "time_scatter": 0.0, "time_balancing": 0.0}
+    global_rule = scatter.STORE_ALL if include_direct else scatter.STORE_BOUNCED
     setup = _prepare(scene)
     threads = default_threads(int(_setting(settings, "threads", 0)))
     numba.set_num_threads(max(1, min(threads, numba.config.NUMBA_NUM_THREADS)))
@@ -450,19 +451,19 @@ def trace_photons(scene: Scene, settings: RenderSettings, accel: Accelerator | N
             t1 = time.perf_counter()
             if view.position.shape[0] == 0:
                 imp["reason"] = "the camera sees no diffuse surface: photons shared by power"
-            for multi, name, srcs, tps, power, total, mode, direct, map_id in (
+            for multi, name, srcs, tps, power, total, mode, rule, map_id in (
                     (g_multi, "global", sources, [(None, None)] * len(sources), global_power,
-                     n_global, scatter.MODE_GLOBAL, include_direct, MAP_GLOBAL),
+                     n_global, scatter.MODE_GLOBAL, global_rule, MAP_GLOBAL),
                     (c_multi, "caustic", caustic_sources, caustic_targets,
                      caustic_power if build_caustic else None, n_caustic, scatter.MODE_CAUSTIC,
-                     False, MAP_CAUSTIC)):
+                     scatter.STORE_ALL, MAP_CAUSTIC)):
                 n_pilot = importance.pilot_count(total, len(srcs))
                 if not multi or view.position.shape[0] == 0 or n_pilot < importance.MIN_PILOT:
                     continue
                 k = int(_setting(settings, f"{name}_k", 50))
                 radius = importance.view_radius(area, view.position.shape[0], k, total)
                 grid = importance.ViewGrid(view, radius)
-                frac = _pilot_fractions(setup, accel, srcs, tps, power, mode, direct, seed,
+                frac = _pilot_fractions(setup, accel, srcs, tps, power, mode, rule, seed,
                                         max_bounces, map_id, n_pilot, grid, pilot_counters)
                 weight = importance.weights(power, importance.importance_of(frac))
                 counts = importance.allocate(weight, total)
@@ -510,7 +511,7 @@ def trace_photons(scene: Scene, settings: RenderSettings, accel: Accelerator | N
         if build_global:
             g_store, cancelled = _trace_map(
                 setup, accel, sources, global_counts, [(None, None)] * len(sources),
-                scatter.MODE_GLOBAL, include_direct, settings, MAP_GLOBAL, counters, progress,
+                scatter.MODE_GLOBAL, global_rule, settings, MAP_GLOBAL, counters, progress,
                 0, total_work, g_flux)
         if build_caustic and not cancelled:
             t0 = time.perf_counter()

@@ -141,7 +141,8 @@ class PhotonMapRenderSettings(bpy.types.PropertyGroup):
     )
     light_samples: IntProperty(
         name="Light Samples",
-        description="Shadow rays per light for each camera sample at each diffuse hit",
+        description="Shadow rays per light for each camera sample at each diffuse hit (in "
+                    "progressive mode and the viewport: per pass at each visible point)",
         min=1, max=1024, soft_max=64, default=1,
     )
     seed: IntProperty(

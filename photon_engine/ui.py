@@ -35,8 +35,9 @@ class PHOTON_MAP_RENDER_PT_sampling(PhotonMapPanel, bpy.types.Panel):
         layout.prop(settings, "quality")
         col = layout.column(align=True)
         col.prop(settings, "samples")
-        col.prop(settings, "light_samples")
         col.active = settings.integrator == 'photon_map'
+        col = layout.column(align=True)
+        col.prop(settings, "light_samples")  # both integrators' shadow rays
         layout.prop(settings, "seed")
 
 

@@ -50,10 +50,14 @@ def _finite_nonnegative(img):
     assert img.min() >= 0.0, f"negative radiance {img.min()}"
 
 
-def test_caustic_converges_to_the_reference():
+@pytest.mark.parametrize("direct", sppm.DIRECT_MODES)
+def test_caustic_converges_to_the_reference(direct):
+    """Both forms (direct light by shadow rays, the default; and standard SPPM, all by
+    photons) converge to the same reference (rendered by the photon form)."""
     ref = np.load(DATA / "sppm_caustic_ref.npz")["image"]
     errors = {}
-    for state in sppm.progressive_passes(caustic_scene(), SETTINGS, 25_000, max_passes=64):
+    for state in sppm.progressive_passes(caustic_scene(), SETTINGS, 25_000, max_passes=64,
+                                         direct=direct):
         if state.passes in (1, 4, 16, 64):
             img = state.radiance()
             _finite_nonnegative(img)
@@ -64,27 +68,47 @@ def test_caustic_converges_to_the_reference():
     assert e[-1] < 0.02, e
     # The image's mean is right, not just its noise low.
     assert abs(img.mean() / ref.mean() - 1.0) < 0.03
+    CAUSTIC_ERRORS[direct] = e
 
 
-def test_floor_converges_to_the_integrators_direct_light():
-    """Independent oracle: the integrator's shadow rays (different code, no photons)."""
+CAUSTIC_ERRORS: dict = {}
+
+
+def test_shadow_ray_direct_light_converges_faster():
+    """The hybrid's point: at every pass count its error is below standard SPPM's."""
+    if len(CAUSTIC_ERRORS) < 2:
+        pytest.skip("needs both test_caustic_converges_to_the_reference runs")
+    hybrid, photons = CAUSTIC_ERRORS["shadow_rays"], CAUSTIC_ERRORS["photons"]
+    assert all(h < p for h, p in zip(hybrid, photons)), (hybrid, photons)
+
+
+@pytest.mark.parametrize("direct", sppm.DIRECT_MODES)
+def test_floor_converges_to_the_integrators_direct_light(direct):
+    """Independent oracle for the photon form: the integrator's shadow rays (different
+    code, no photons). The default form uses those shadow rays itself (one per pass):
+    there it must agree too, and store no photon (a floor alone has no other path)."""
     scene = floor_scene()
     oracle = integrator.render(scene, RenderSettings().with_values(
         threads=1, samples=64, indirect_mode="off", caustics=False)).passes["combined"]
-    out = sppm.render_progressive(scene, SETTINGS, 48, 20_000)
+    out = sppm.render_progressive(scene, SETTINGS, 48, 20_000, direct=direct)
     img = out.passes["combined"]
     _finite_nonnegative(img)
     assert oracle.mean() > 0.05
     for c in range(3):
         assert abs(img[..., c].mean() / oracle[..., c].mean() - 1.0) < 0.03, c
     assert rel_mse(img, oracle) < 0.01
+    if direct == "shadow_rays":
+        assert sum(out.stats["photons_stored"]) == 0 and out.stats["rays_shadow"] > 0
+    else:
+        assert min(out.stats["photons_stored"]) > 0 and out.stats["rays_shadow"] == 0
 
 
 def test_radius_shrinks_and_count_grows_per_pixel():
     prev_r = prev_n = None
     alpha = 2.0 / 3.0
+    # Standard SPPM (direct photons too), so that every lit floor pixel catches photons.
     for state in sppm.progressive_passes(caustic_scene(1.0, 16, 16), SETTINGS, 5_000,
-                                         alpha=alpha, max_passes=12):
+                                         alpha=alpha, max_passes=12, direct="photons"):
         r, n = state.radius.copy(), state.n.copy()
         assert np.all(np.isfinite(r)) and np.all(r > 0)
         if prev_r is not None:
@@ -190,7 +214,8 @@ def test_bad_input_raises_errors_naming_the_parameter():
     for kwargs, name in (({"passes": 0}, "passes"), ({"photons_per_pass": -1}, "photons_per_pass"),
                          ({"alpha": 1.0}, "alpha"), ({"alpha": 0.0}, "alpha"),
                          ({"initial_radius": 0.0}, "initial_radius"),
-                         ({"initial_radius": float("nan")}, "initial_radius")):
+                         ({"initial_radius": float("nan")}, "initial_radius"),
+                         ({"direct": "both"}, '"direct"')):
         args = {"passes": 2, "photons_per_pass": 100, **kwargs}
         with pytest.raises(SettingsError, match=name):
             sppm.render_progressive(s, SETTINGS, args.pop("passes"), args.pop("photons_per_pass"),

@@ -5,7 +5,7 @@ projection map, skipped maps, determinism, and leaks through a thin wall."""
 import numpy as np
 import pytest
 
-from core import shapes, tracing
+from core import bsdf, scatter, shapes, tracing
 from core.scene import LIGHT_POINT, Lights, Materials, Scene
 from core.settings import RenderSettings
 
@@ -380,7 +380,6 @@ def test_emissive_triangles_do_not_stop_their_own_photons():
 def _scatter_once(material, theta, n=200_000):
     """Send n photons of flux 1 at angle theta onto one triangle in z = 0 (normal +Z) and
     return (alive, new directions, new flux) of the scatter kernel's bounce."""
-    from core import bsdf, scatter
     tri_v = np.array([[[-10, -10, 0], [10, -10, 0], [0, 10, 0]]], np.float32)
     tri_n = np.array([[[0, 0, 1]] * 3], np.float32)
     m = bsdf.material_table(Materials.from_list([material]))
@@ -394,7 +393,7 @@ def _scatter_once(material, theta, n=200_000):
                            np.full(n, 0.3, np.float32), np.full(n, 0.3, np.float32), d,
                            np.ones((n, 3)), np.arange(n, dtype=np.int64), np.zeros(n, np.int32),
                            np.zeros(n, np.int32), np.int64(5), np.arange(4, dtype=np.int64),
-                           np.int64(0), scatter.MODE_GLOBAL, True, False, *out)
+                           np.int64(0), scatter.MODE_GLOBAL, scatter.STORE_ALL, False, *out)
     alive, d_new, f_new = out[4], out[6].astype(np.float64), out[7]
     return alive, d_new, np.where(alive[:, None], f_new, 0.0)
 
@@ -460,3 +459,32 @@ def test_lambert_bounce_is_cosine_distributed_with_the_albedo():
     assert np.all(cz > 0)
     assert cz.mean() == pytest.approx(2 / 3, abs=0.003)
     assert np.mean(cz ** 2) == pytest.approx(0.5, abs=0.003)  # E[cos^2] under cos/pi
+
+
+@pytest.mark.parametrize("rule, stored_for", [
+    (scatter.STORE_ALL, {(0, 0), (0, 1), (1, 0), (2, 3)}),
+    (scatter.STORE_BOUNCED, {(1, 0), (2, 3)}),
+    (scatter.STORE_NOT_DIRECT, {(0, 1), (1, 0), (2, 3)}),   # all but light -> diffuse
+])
+def test_global_store_rules_by_path(rule, stored_for):
+    """Which photons the global map stores at a diffuse plane, by the (diffuse, specular)
+    bounces they made before it."""
+    paths = [(0, 0), (0, 1), (1, 0), (2, 3)]
+    n = len(paths)
+    tri_v = np.array([[[-10, -10, 0], [10, -10, 0], [0, 10, 0]]], np.float32)
+    tri_n = np.array([[[0, 0, 1]] * 3], np.float32)
+    m = bsdf.material_table(Materials.from_list([{"diffuse": [0.5] * 3}]))
+    d = np.tile(np.array([0.0, 0.0, -1.0], np.float32), (n, 1))
+    out = [np.zeros(n, bool), np.zeros((n, 3), np.float32), np.zeros((n, 3), np.float32),
+           np.zeros((n, 3), np.float32), np.zeros(n, bool), np.zeros((n, 3), np.float32),
+           np.zeros((n, 3), np.float32), np.zeros((n, 3))]
+    n_diff = np.array([p[0] for p in paths], np.int32)
+    n_spec = np.array([p[1] for p in paths], np.int32)
+    scatter.scatter_kernel(tri_v, tri_n, np.zeros(1, np.int32), 20.0, m["diffuse"], m["specular"],
+                           m["transmission"], m["alpha"], m["ior"], np.zeros((0, 3)), np.zeros(0),
+                           np.zeros(n, np.int32), np.full(n, 0.3, np.float32),
+                           np.full(n, 0.3, np.float32), d, np.ones((n, 3)),
+                           np.arange(n, dtype=np.int64), n_diff, n_spec, np.int64(5),
+                           np.arange(4, dtype=np.int64), np.int64(0), scatter.MODE_GLOBAL,
+                           np.int64(rule), False, *out)
+    assert {p for p, s in zip(paths, out[0]) if s} == stored_for
