@@ -2,9 +2,9 @@
 photon terms at the diffuse surfaces it reaches (the seed lecture's split).
 
 Wavefront: a tile of pixels x samples becomes one batch of camera rays; each bounce
-intersects the whole batch in Embree, shades it in numba kernels (emission, one shadow ray
-per light per light sample, the photon estimates of core/gather.py), and spawns at most
-one specular ray per path.
+intersects the whole batch in Embree, shades it in numba kernels (emission, the direct
+light of core/direct.py: one shadow ray per light per light sample, the photon estimates
+of core/gather.py), and spawns at most one specular ray per path.
 
 Passes (each (H, W, 3) float32, radiance W/(m^2 sr), row 0 at the top):
 - emission: emitters seen by camera rays (emissive triangles, visible lights);
@@ -58,8 +58,8 @@ import numpy as np
 from numba import njit, prange
 
 from . import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
-from . import (bsdf, camera, debug_overlay, gather, geometry, light_kernels, lights,
-               photon_pass, sampling, textures)
+from . import (bsdf, camera, debug_overlay, direct, gather, geometry, lights, photon_pass,
+               sampling, textures)
 from .accel import Accelerator, default_threads
 from .passes import BLENDER_PASS_NAMES, PASSES  # noqa: F401  (re-exported)
 from .scene import Scene
@@ -118,12 +118,11 @@ class _Context:
     nondelta: np.ndarray
     has_delta: np.ndarray
     light_set: lights.LightSet
-    emissive: lights.EmissiveTriangles
     world: np.ndarray
     extent: float
     stats: dict
     light_shows: np.ndarray     # (L,) the light has a surface a ray can see
-    no_light: np.ndarray        # a dummy parameter row for non-analytic sources
+    direct: direct.DirectLighting  # the shadow rays (core/direct.py), sharing accel and stats
     has_diffuse: np.ndarray = None   # (M,) the material has a diffuse lobe
     terms: "gather.PhotonTerms | None" = None
     surfaces: "textures.SurfaceTextures | None" = None  # textured albedo, cut-outs
@@ -131,143 +130,44 @@ class _Context:
     outputs: tuple = PASSES
 
 
-def _prepare(scene: Scene, settings: RenderSettings, accel: Accelerator | None = None) -> _Context:
-    """The render's context; ``accel``: an Accelerator over ``scene.mesh`` to share (its
-    owner closes it), else a new one that ``render`` closes."""
+def _prepare(scene: Scene, settings: RenderSettings) -> _Context:
     mesh = scene.mesh
     mats = bsdf.material_table(scene.materials)
     singular = mats["alpha"] <= np.sqrt(bsdf.SINGULAR_ALPHA2)
     nondelta = np.any(mats["diffuse"] > 0, axis=1) | (np.any(mats["specular"] > 0, axis=1) & ~singular)
     has_delta = np.any(mats["transmission"] > 0, axis=1) | (np.any(mats["specular"] > 0, axis=1) & singular)
     lo, hi = scene.bounds()
+    extent = geometry.scene_extent(lo, hi)
     light_set = lights.LightSet.from_lights(scene.lights)
     threads = default_threads(settings.threads)
     numba.set_num_threads(max(1, min(threads, numba.config.NUMBA_NUM_THREADS)))
     tri_vertices = np.ascontiguousarray(mesh.triangle_vertices(), np.float32)
+    accel = Accelerator(tri_vertices, threads=threads)
+    surfaces = textures.SurfaceTextures(scene, mats["diffuse"])
+    stats = {"rays_camera": 0, "rays_specular": 0, "rays_shadow": 0,
+             "time_intersect": 0.0, "time_shadow": 0.0, "time_shading": 0.0}
     return _Context(
-        scene=scene, settings=settings,
-        accel=accel if accel is not None else Accelerator(tri_vertices, threads=threads),
-        tri_vertices=tri_vertices,
+        scene=scene, settings=settings, accel=accel, tri_vertices=tri_vertices,
         tri_normals=np.ascontiguousarray(mesh.normals, np.float32),
         tri_material=np.ascontiguousarray(mesh.material_index, np.int32),
         materials=mats, nondelta=nondelta, has_delta=has_delta,
         light_set=light_set,
-        emissive=lights.EmissiveTriangles.from_mesh(mesh, scene.materials),
         world=np.asarray(scene.world.radiance, np.float64).reshape(3),
-        extent=geometry.scene_extent(lo, hi),
-        stats={"rays_camera": 0, "rays_specular": 0, "rays_shadow": 0,
-               "time_intersect": 0.0, "time_shadow": 0.0, "time_shading": 0.0},
+        extent=extent, stats=stats,
         light_shows=np.any(light_set.radiance > 0, axis=1),
-        no_light=np.zeros(light_kernels.P_COUNT),
+        direct=direct.prepare(scene, settings, accel, materials=mats, light_set=light_set,
+                              surfaces=surfaces, tri_vertices=tri_vertices, extent=extent,
+                              stats=stats),
         has_diffuse=np.any(mats["diffuse"] > 0, axis=1),
-        surfaces=textures.SurfaceTextures(scene, mats["diffuse"]),
+        surfaces=surfaces,
         outputs=settings.passes() + ((REST,) if len(settings.passes()) < len(PASSES) else ()),
     )
 
 
 # --- kernels --------------------------------------------------------------------------------
 
-SOURCE_LIGHT, SOURCE_TRIANGLES, SOURCE_WORLD = 0, 1, 2
 CUTOUT_CHOICE = 19
 """Random-number purpose (sampling.stream) of the camera rays' pass-through choices."""
-
-
-@njit(cache=True, parallel=True, error_model="numpy")
-def _shade_kernel(source, q, tris_cdf, tris_prob, tris_v0, tris_e1, tris_e2, tris_n, tris_area,
-                  tris_rad, world, pos, ngf, nsf, d, mat, eps, thr, pixel, sample, seed, dim,
-                  pick_dim, k, k_count, bits, albedo, specular, alpha, use_diffuse,
-                  use_glossy, extent, contrib, sh_o, sh_d, sh_t, need):
-    """One light sample per point: unshadowed contribution f |cos| L / pdf / k_count and
-    the shadow ray that decides it (need[i]). Light samples are stratified over the
-    pixel's samples x light samples (index sample * k_count + k). albedo (N, 3): the
-    diffuse albedo at each point (textured, ``textures.SurfaceTextures.albedo``)."""
-    fmax = 3.0e38
-    scale = 1.0 / k_count
-    for i in prange(pos.shape[0]):
-        need[i] = False
-        contrib[i, 0] = 0.0
-        contrib[i, 1] = 0.0
-        contrib[i, 2] = 0.0
-        u1, u2 = sampling.sobol2(sample[i] * k_count + k, bits, sampling.pattern(seed, pixel[i], dim))
-        px, py, pz = pos[i, 0], pos[i, 1], pos[i, 2]
-        if source == SOURCE_LIGHT:
-            wx, wy, wz, dist, l0, l1, l2, cl, ok = light_kernels.sample_light(q, px, py, pz, u1, u2)
-        elif source == SOURCE_TRIANGLES:
-            u0 = sampling.hash_uniform(seed, pixel[i], sample[i], pick_dim)
-            wx, wy, wz, dist, l0, l1, l2, cl, ok = light_kernels.sample_triangles(
-                tris_cdf, tris_prob, tris_v0, tris_e1, tris_e2, tris_n, tris_area, tris_rad,
-                px, py, pz, u0, u1, u2)
-        else:
-            wx, wy, wz, dist, l0, l1, l2, cl, ok = light_kernels.sample_world(
-                world[0], world[1], world[2], nsf[i, 0], nsf[i, 1], nsf[i, 2], u1, u2)
-        if not ok:
-            continue
-        # Reflection only: the light must be on the viewer's side of the surface.
-        if ngf[i, 0] * wx + ngf[i, 1] * wy + ngf[i, 2] * wz <= 0.0:
-            continue
-        m = mat[i]
-        kd, ks = bsdf.eval_reflection(0.0, 0.0, alpha[m], nsf[i, 0], nsf[i, 1], nsf[i, 2],
-                                      -d[i, 0], -d[i, 1], -d[i, 2], wx, wy, wz)
-        cos = nsf[i, 0] * wx + nsf[i, 1] * wy + nsf[i, 2] * wz
-        if cos <= 0.0:
-            continue
-        kd *= use_diffuse * cos * scale
-        ks *= use_glossy * cos * scale
-        c0 = (albedo[i, 0] * kd + specular[m, 0] * ks) * l0 * thr[i, 0]
-        c1 = (albedo[i, 1] * kd + specular[m, 1] * ks) * l1 * thr[i, 1]
-        c2 = (albedo[i, 2] * kd + specular[m, 2] * ks) * l2 * thr[i, 2]
-        if c0 <= 0.0 and c1 <= 0.0 and c2 <= 0.0:
-            continue
-        contrib[i, 0] = c0
-        contrib[i, 1] = c1
-        contrib[i, 2] = c2
-        e = eps[i]
-        if np.isinf(dist):
-            tf = fmax
-        else:
-            qx, qy, qz = px + wx * dist, py + wy * dist, pz + wz * dist
-            tf = dist - e - geometry.offset_eps(qx, qy, qz, extent) / max(cl, 1e-3)
-            if tf <= 0.0:
-                continue  # the light touches the surface: nothing can come in between
-        sh_o[i, 0] = px + e * ngf[i, 0]
-        sh_o[i, 1] = py + e * ngf[i, 1]
-        sh_o[i, 2] = pz + e * ngf[i, 2]
-        sh_d[i, 0] = wx
-        sh_d[i, 1] = wy
-        sh_d[i, 2] = wz
-        sh_t[i] = min(tf, fmax)
-        need[i] = True
-
-
-@njit(cache=True, error_model="numpy")
-def _compact_kernel(need, sh_o, sh_d, sh_t, idx, o, d, t):
-    """Pack the shadow rays that are needed (one sequential pass); returns their count."""
-    c = 0
-    for i in range(need.shape[0]):
-        if need[i]:
-            idx[c] = i
-            for k in range(3):
-                o[c, k] = sh_o[i, k]
-                d[c, k] = sh_d[i, k]
-            t[c] = sh_t[i]
-            c += 1
-    return c
-
-
-@njit(cache=True, parallel=True, error_model="numpy")
-def _gather_kernel(target, rows, contrib, need_idx, occluded):
-    """target[rows] += contrib, except the points whose shadow ray was blocked."""
-    for j in prange(need_idx.shape[0]):
-        if occluded[j]:
-            i = need_idx[j]
-            contrib[i, 0] = 0.0
-            contrib[i, 1] = 0.0
-            contrib[i, 2] = 0.0
-    for i in prange(rows.shape[0]):
-        r = rows[i]
-        target[r, 0] += contrib[i, 0]
-        target[r, 1] += contrib[i, 1]
-        target[r, 2] += contrib[i, 2]
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
@@ -293,79 +193,6 @@ def _add(acc, rows, values):
     """acc[rows] += values for unique rows (one path per camera sample)."""
     if rows.shape[0]:
         acc[rows] += values
-
-
-def _direct_light(ctx: _Context, hit: dict, pixel, sample, depth, target):
-    """Shadow-ray direct lighting at the hits from every light, the emissive triangles and
-    the world; adds f |cos| L / pdf where the shadow ray is clear to target[rows]."""
-    ls, tris, m = ctx.light_set, ctx.emissive, ctx.materials
-    k_count = ctx.settings.light_samples
-    bits = sampling.index_bits(ctx.settings.samples * k_count)
-    n = hit["pos"].shape[0]
-    contrib = np.empty((n, 3))
-    sh_o = np.empty((n, 3), np.float32)
-    sh_d = np.empty((n, 3), np.float32)
-    sh_t = np.empty(n, np.float32)
-    need = np.empty(n, bool)
-    idx = np.empty(n, np.int64)
-    pk_o, pk_d, pk_t = np.empty_like(sh_o), np.empty_like(sh_d), np.empty_like(sh_t)
-    sources = [(SOURCE_LIGHT, i) for i in range(ls.count) if ls.emits(i)]
-    if tris.count:
-        sources.append((SOURCE_TRIANGLES, ls.count))
-    if np.any(ctx.world > 0):
-        sources.append((SOURCE_WORLD, -1))
-    for source, i in sources:
-        q = ls.params[i] if source == SOURCE_LIGHT else ctx.no_light
-        use_d = float(ls.visible_diffuse[i]) if source == SOURCE_LIGHT else 1.0
-        use_g = float(ls.visible_glossy[i]) if source == SOURCE_LIGHT else 1.0
-        shadows = bool(ls.cast_shadow[i]) if source == SOURCE_LIGHT else True
-        dim = sampling.stream(sampling.LIGHT_SAMPLE, depth, i + 1)
-        for k in range(k_count):
-            t0 = time.perf_counter()
-            _shade_kernel(source, q, tris.cdf, tris.probability, tris.v0, tris.e1, tris.e2,
-                          tris.normal, tris.area, tris.radiance, ctx.world, hit["pos"], hit["ngf"],
-                          hit["nsf"], hit["d"], hit["mat"], hit["eps"], hit["thr"], pixel, sample,
-                          ctx.settings.seed, dim, sampling.stream(sampling.LIGHT_PICK, depth, k),
-                          k, k_count, bits, hit["albedo"], m["specular"], m["alpha"], use_d, use_g,
-                          ctx.extent, contrib, sh_o, sh_d, sh_t, need)
-            t1 = time.perf_counter()
-            c = _compact_kernel(need, sh_o, sh_d, sh_t, idx, pk_o, pk_d, pk_t) if shadows else 0
-            occ = np.zeros(0, bool)
-            if c and ctx.surfaces.cutout:
-                # Shadows through cut-outs: the light times the product of (1 - opacity).
-                trans = ctx.surfaces.transmittance(ctx.accel, ctx.tri_vertices, ctx.tri_normals,
-                                                   ctx.extent, pk_o[:c], pk_d[:c], pk_t[:c])
-                contrib[idx[:c]] *= trans[:, None]
-                occ = trans <= 0.0
-                ctx.stats["rays_shadow"] += c
-            elif c:
-                occ = ctx.accel.occluded(pk_o[:c], pk_d[:c], pk_t[:c])
-                ctx.stats["rays_shadow"] += c
-            t2 = time.perf_counter()
-            _gather_kernel(target, hit["rows"], contrib, idx[:c], occ)
-            ctx.stats["time_shading"] += t1 - t0 + time.perf_counter() - t2
-            ctx.stats["time_shadow"] += t2 - t1
-
-
-def direct_light_context(scene: Scene, settings: RenderSettings, accel: Accelerator) -> _Context:
-    """What ``direct_light`` needs, for another integrator (core/sppm.py) sharing its
-    Accelerator. ``settings.samples`` sizes the sample index (SPPM: its pass count)."""
-    return _prepare(scene, settings, accel)
-
-
-def direct_light(ctx: _Context, position, ng, ns, incident, material, eps, weight, albedo,
-                 pixel, sample, target) -> None:
-    """Shadow-ray direct light at surface points, as this integrator's camera pass computes
-    it at its first hits: target[pixel] += weight * (light reflected towards -incident).
-
-    position (N, 3) metres; ng, ns (N, 3) unit normals on the viewer's side; incident (N, 3)
-    unit directions the points were reached along; material (N,) int32; eps (N,) ray
-    offsets (core/geometry.py); weight, albedo (N, 3); pixel, sample (N,) int64, one
-    (pixel, sample) pair per point (they key the random numbers); target (P, 3) float64.
-    """
-    hit = {"pos": position, "ngf": ng, "nsf": ns, "d": incident, "mat": material, "eps": eps,
-           "thr": weight, "rows": pixel, "albedo": albedo}
-    _direct_light(ctx, hit, pixel, sample, 0, target)
 
 
 def _photon_terms(ctx: _Context, rows, pos, ngf, nsf, eps, mat, thr, pixel, sample, depth,
@@ -488,7 +315,7 @@ def _render_tile(ctx: _Context, pix: np.ndarray) -> dict[str, np.ndarray]:
             r = rows[sel]
             hit_data = {"pos": pos[sel], "ngf": ngf[sel], "nsf": nsf[sel], "d": d[sel], "mat": mat[sel],
                         "eps": eps[sel], "thr": thr[sel], "rows": r, "albedo": albedo[sel]}
-            _direct_light(ctx, hit_data, pixel[r], sample[r], depth,
+            direct.shade(ctx.direct, hit_data, pixel[r], sample[r], depth,
                           acc["direct"] if first else acc["specular"])
 
         # Caustics and indirect light at the hits' diffuse lobes
@@ -642,7 +469,7 @@ def render(scene: Scene, settings: RenderSettings | None = None,
         "time_render": t_end - t_photons, "time_total": t_end - t_start,
         "rays_per_second": rays / max(t_end - t_photons, 1e-12),  # over the camera pass
         "triangles": scene.mesh.triangle_count, "lights": scene.lights.count,
-        "emissive_triangles": ctx.emissive.count,
+        "emissive_triangles": ctx.direct.emissive.count,
     })
     return RenderOutput(passes=passes, stats=stats, cancelled=cancelled, photon_maps=used)
 

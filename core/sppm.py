@@ -12,8 +12,8 @@ Each pass k = 1, 2, ...:
    p = mean(diffuse) / (mean(diffuse) + delta weight) and beta is divided by p (or by
    1 - p when it goes on), so there is one visible point per pixel and pass.
    Direct light at the visible point comes from shadow rays to every light, emissive
-   triangle and the world (``integrator.direct_light``, the photon-map integrator's own
-   estimator, one sample per light and pass), added to D times beta_k.
+   triangle and the world (``direct.shade``, the photon-map integrator's own estimator,
+   ``light_samples`` per light and pass), added to D times beta_k.
 2. Photons. ``photons_per_pass`` photons are traced with the global map's rules
    (``tracing.trace_stored_photons``), stored at every diffuse hit except the first hit
    of a photon straight from its source (``scatter.STORE_NOT_DIRECT``: that light is the
@@ -73,7 +73,8 @@ import numpy as np
 from numba import njit, prange
 
 from . import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
-from . import bsdf, camera, geometry, integrator, lights, sampling, scatter, tracing
+from . import bsdf, camera, geometry, lights, sampling, scatter, tracing
+from . import direct as direct_light
 from .accel import Accelerator, default_threads
 from .integrator import RenderOutput
 from .scene import Scene
@@ -318,7 +319,7 @@ class _Context:
     seed: int
     max_depth: int
     max_bounces: int
-    direct: object = None    # integrator.direct_light_context: shadow rays at visible points
+    direct: object = None    # direct.DirectLighting: shadow rays at the visible points
 
 
 @dataclass
@@ -532,8 +533,10 @@ def progressive_passes(scene: Scene, settings: RenderSettings, photons_per_pass:
                    max_bounces=int(settings.photon_max_bounces))
     if accel is not None and direct == "shadow_rays":
         # The sample index of the shadow rays' random numbers is the pass.
-        ctx.direct = integrator.direct_light_context(
-            scene, settings.with_values(samples=max(1, min(max_passes, MAX_PASSES))), accel)
+        ctx.direct = direct_light.prepare(
+            scene, settings.with_values(samples=max(1, min(max_passes, MAX_PASSES))), accel,
+            materials=setup.mats, light_set=setup.light_set, surfaces=setup.surfaces,
+            tri_vertices=setup.tri_v, extent=setup.extent)
     try:
         for k in range(max_passes):
             t0 = time.perf_counter()
@@ -542,10 +545,12 @@ def progressive_passes(scene: Scene, settings: RenderSettings, photons_per_pass:
                 vps = _camera_pass(ctx, k, state.direct_sum)
                 # Direct light by shadow rays (the photons below leave it out)
                 if vps.pixel.size and ctx.direct is not None:
-                    integrator.direct_light(ctx.direct, vps.position, vps.ng, vps.ns, -vps.wo,
-                                            vps.material, vps.eps, vps.weight, vps.albedo,
-                                            vps.pixel, np.full(vps.pixel.size, k, np.int64),
-                                            state.direct_sum)
+                    hit = {"pos": vps.position, "ngf": vps.ng, "nsf": vps.ns, "d": -vps.wo,
+                           "mat": vps.material, "eps": vps.eps, "thr": vps.weight,
+                           "albedo": vps.albedo, "rows": vps.pixel}
+                    direct_light.shade(ctx.direct, hit, vps.pixel,
+                                       np.full(vps.pixel.size, k, np.int64), 0,
+                                       state.direct_sum)
             else:
                 vps = None
                 if np.any(setup.world > 0) and scene.world.visible_to_camera:

@@ -453,14 +453,14 @@ def test_on_tile_shows_the_image_filling_in(monkeypatch):
     integrator.render(scene, settings, on_tile=lambda d, p: few.append(d))
     assert few == []
     # ... and by cost: a callback taking 50 ms with a 50% share waits >= 100 ms after each.
-    # On a clock of the test's own (each reading 0.1 ms later, a few ms a tile; the
+    # On a clock of the test's own (each reading 1 ms later, ~10 ms a tile; the
     # callback 50 ms more), so the gaps do not depend on how fast this machine renders.
     # Unthrottled by cost, a gap would be one callback and one tile: well under 100 ms.
     class Clock:
         now = 0.0
 
         def perf_counter(self):
-            self.now += 1e-4
+            self.now += 1e-3
             return self.now
 
     clock = Clock()

@@ -1,0 +1,235 @@
+"""Direct illumination by shadow rays: the seed lecture's first term, L_direct, at surface
+points, from every light, the emissive triangles and the world.
+
+For each source and light sample, one numba kernel (``_shade_kernel``) samples a point
+on the source (core/light_kernels.py), evaluates the reflection lobes there (diffuse and
+rough glossy, core/bsdf.py) and writes the unshadowed contribution f |cos| L / pdf with
+the shadow ray that decides it; the needed shadow rays are packed and sent to Embree in
+one batch (``Accelerator.occluded``, or the cut-out transmittance of core/textures.py);
+the clear ones are added to the target. Light samples are stratified over a pixel's
+samples x light samples (scrambled Sobol), keyed by (seed, pixel, sample).
+
+Users: the camera pass (core/integrator.py) at its first hits and behind mirrors and
+glass, and SPPM (core/sppm.py) at its visible points, both through ``shade``.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+from numba import njit, prange
+
+from . import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
+from . import bsdf, geometry, light_kernels, lights, sampling, textures
+from .accel import Accelerator
+from .scene import Scene
+from .settings import RenderSettings
+
+SOURCE_LIGHT, SOURCE_TRIANGLES, SOURCE_WORLD = 0, 1, 2
+@njit(cache=True, parallel=True, error_model="numpy")
+def _shade_kernel(source, q, tris_cdf, tris_prob, tris_v0, tris_e1, tris_e2, tris_n, tris_area,
+                  tris_rad, world, pos, ngf, nsf, d, mat, eps, thr, pixel, sample, seed, dim,
+                  pick_dim, k, k_count, bits, albedo, specular, alpha, use_diffuse,
+                  use_glossy, extent, contrib, sh_o, sh_d, sh_t, need):
+    """One light sample per point: unshadowed contribution f |cos| L / pdf / k_count and
+    the shadow ray that decides it (need[i]). Light samples are stratified over the
+    pixel's samples x light samples (index sample * k_count + k). albedo (N, 3): the
+    diffuse albedo at each point (textured, ``textures.SurfaceTextures.albedo``)."""
+    fmax = 3.0e38
+    scale = 1.0 / k_count
+    for i in prange(pos.shape[0]):
+        need[i] = False
+        contrib[i, 0] = 0.0
+        contrib[i, 1] = 0.0
+        contrib[i, 2] = 0.0
+        u1, u2 = sampling.sobol2(sample[i] * k_count + k, bits, sampling.pattern(seed, pixel[i], dim))
+        px, py, pz = pos[i, 0], pos[i, 1], pos[i, 2]
+        if source == SOURCE_LIGHT:
+            wx, wy, wz, dist, l0, l1, l2, cl, ok = light_kernels.sample_light(q, px, py, pz, u1, u2)
+        elif source == SOURCE_TRIANGLES:
+            u0 = sampling.hash_uniform(seed, pixel[i], sample[i], pick_dim)
+            wx, wy, wz, dist, l0, l1, l2, cl, ok = light_kernels.sample_triangles(
+                tris_cdf, tris_prob, tris_v0, tris_e1, tris_e2, tris_n, tris_area, tris_rad,
+                px, py, pz, u0, u1, u2)
+        else:
+            wx, wy, wz, dist, l0, l1, l2, cl, ok = light_kernels.sample_world(
+                world[0], world[1], world[2], nsf[i, 0], nsf[i, 1], nsf[i, 2], u1, u2)
+        if not ok:
+            continue
+        # Reflection only: the light must be on the viewer's side of the surface.
+        if ngf[i, 0] * wx + ngf[i, 1] * wy + ngf[i, 2] * wz <= 0.0:
+            continue
+        m = mat[i]
+        kd, ks = bsdf.eval_reflection(0.0, 0.0, alpha[m], nsf[i, 0], nsf[i, 1], nsf[i, 2],
+                                      -d[i, 0], -d[i, 1], -d[i, 2], wx, wy, wz)
+        cos = nsf[i, 0] * wx + nsf[i, 1] * wy + nsf[i, 2] * wz
+        if cos <= 0.0:
+            continue
+        kd *= use_diffuse * cos * scale
+        ks *= use_glossy * cos * scale
+        c0 = (albedo[i, 0] * kd + specular[m, 0] * ks) * l0 * thr[i, 0]
+        c1 = (albedo[i, 1] * kd + specular[m, 1] * ks) * l1 * thr[i, 1]
+        c2 = (albedo[i, 2] * kd + specular[m, 2] * ks) * l2 * thr[i, 2]
+        if c0 <= 0.0 and c1 <= 0.0 and c2 <= 0.0:
+            continue
+        contrib[i, 0] = c0
+        contrib[i, 1] = c1
+        contrib[i, 2] = c2
+        e = eps[i]
+        if np.isinf(dist):
+            tf = fmax
+        else:
+            qx, qy, qz = px + wx * dist, py + wy * dist, pz + wz * dist
+            tf = dist - e - geometry.offset_eps(qx, qy, qz, extent) / max(cl, 1e-3)
+            if tf <= 0.0:
+                continue  # the light touches the surface: nothing can come in between
+        sh_o[i, 0] = px + e * ngf[i, 0]
+        sh_o[i, 1] = py + e * ngf[i, 1]
+        sh_o[i, 2] = pz + e * ngf[i, 2]
+        sh_d[i, 0] = wx
+        sh_d[i, 1] = wy
+        sh_d[i, 2] = wz
+        sh_t[i] = min(tf, fmax)
+        need[i] = True
+
+
+@njit(cache=True, error_model="numpy")
+def _compact_kernel(need, sh_o, sh_d, sh_t, idx, o, d, t):
+    """Pack the shadow rays that are needed (one sequential pass); returns their count."""
+    c = 0
+    for i in range(need.shape[0]):
+        if need[i]:
+            idx[c] = i
+            for k in range(3):
+                o[c, k] = sh_o[i, k]
+                d[c, k] = sh_d[i, k]
+            t[c] = sh_t[i]
+            c += 1
+    return c
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def _gather_kernel(target, rows, contrib, need_idx, occluded):
+    """target[rows] += contrib, except the points whose shadow ray was blocked."""
+    for j in prange(need_idx.shape[0]):
+        if occluded[j]:
+            i = need_idx[j]
+            contrib[i, 0] = 0.0
+            contrib[i, 1] = 0.0
+            contrib[i, 2] = 0.0
+    for i in prange(rows.shape[0]):
+        r = rows[i]
+        target[r, 0] += contrib[i, 0]
+        target[r, 1] += contrib[i, 1]
+        target[r, 2] += contrib[i, 2]
+
+
+@dataclass
+class DirectLighting:
+    """What ``shade`` reads, built once per render (``prepare``)."""
+
+    light_set: lights.LightSet
+    emissive: lights.EmissiveTriangles
+    specular: np.ndarray          # (M, 3) glossy tints (bsdf.material_table)
+    alpha: np.ndarray             # (M,) glossy roughness
+    world: np.ndarray             # (3,) background radiance
+    extent: float                 # metres, the scene's size (ray offsets)
+    accel: Accelerator            # shared with the caller, who closes it
+    surfaces: textures.SurfaceTextures
+    tri_vertices: np.ndarray      # (T, 3, 3) float32
+    tri_normals: np.ndarray       # (T, 3, 3) float32 corner normals
+    seed: int
+    light_samples: int
+    sample_bits: int              # bits of the (sample, light sample) index
+    stats: dict = field(default_factory=lambda: {"rays_shadow": 0, "time_shading": 0.0,
+                                                 "time_shadow": 0.0})
+    no_light: np.ndarray = field(default_factory=lambda: np.zeros(light_kernels.P_COUNT))
+
+
+def prepare(scene: Scene, settings: RenderSettings, accel: Accelerator, *, materials=None,
+            light_set=None, surfaces=None, tri_vertices=None, extent=None,
+            stats=None) -> DirectLighting:
+    """The direct lighting of ``scene`` with ``settings`` (seed, light_samples; samples
+    sizes the sample index: SPPM passes its pass count) over the caller's ``accel``.
+    The keyword arguments hand over what the caller has built already."""
+    mesh = scene.mesh
+    mats = materials if materials is not None else bsdf.material_table(scene.materials)
+    if extent is None:
+        lo, hi = scene.bounds()
+        extent = geometry.scene_extent(lo, hi)
+    dl = DirectLighting(
+        light_set=light_set if light_set is not None else lights.LightSet.from_lights(scene.lights),
+        emissive=lights.EmissiveTriangles.from_mesh(mesh, scene.materials),
+        specular=mats["specular"], alpha=mats["alpha"],
+        world=np.asarray(scene.world.radiance, np.float64).reshape(3), extent=float(extent),
+        accel=accel,
+        surfaces=surfaces if surfaces is not None else textures.SurfaceTextures(scene, mats["diffuse"]),
+        tri_vertices=tri_vertices if tri_vertices is not None else np.ascontiguousarray(
+            mesh.triangle_vertices(), np.float32),
+        tri_normals=np.ascontiguousarray(mesh.normals, np.float32),
+        seed=int(settings.seed), light_samples=int(settings.light_samples),
+        sample_bits=sampling.index_bits(int(settings.samples) * int(settings.light_samples)))
+    if stats is not None:
+        dl.stats = stats
+    return dl
+
+
+def shade(ctx: "DirectLighting", hit: dict, pixel, sample, depth, target):
+    """Shadow-ray direct lighting at the hits from every light, the emissive triangles and
+    the world; adds thr f |cos| L / pdf where the shadow ray is clear to target[rows].
+
+    hit: {"pos" (N, 3) metres, "ngf" / "nsf" (N, 3) unit normals on the viewer's side,
+    "d" (N, 3) unit directions the points were reached along, "mat" (N,) int32, "eps" (N,)
+    ray offsets (core/geometry.py), "thr" (N, 3) path weights, "albedo" (N, 3) diffuse
+    albedo (textured), "rows" (N,) int64 unique rows of target}; pixel, sample (N,) int64
+    key the random numbers; depth: the bounce (another random stream per bounce);
+    target (R, 3) float64."""
+    ls, tris = ctx.light_set, ctx.emissive
+    k_count = ctx.light_samples
+    bits = ctx.sample_bits
+    n = hit["pos"].shape[0]
+    contrib = np.empty((n, 3))
+    sh_o = np.empty((n, 3), np.float32)
+    sh_d = np.empty((n, 3), np.float32)
+    sh_t = np.empty(n, np.float32)
+    need = np.empty(n, bool)
+    idx = np.empty(n, np.int64)
+    pk_o, pk_d, pk_t = np.empty_like(sh_o), np.empty_like(sh_d), np.empty_like(sh_t)
+    sources = [(SOURCE_LIGHT, i) for i in range(ls.count) if ls.emits(i)]
+    if tris.count:
+        sources.append((SOURCE_TRIANGLES, ls.count))
+    if np.any(ctx.world > 0):
+        sources.append((SOURCE_WORLD, -1))
+    for source, i in sources:
+        q = ls.params[i] if source == SOURCE_LIGHT else ctx.no_light
+        use_d = float(ls.visible_diffuse[i]) if source == SOURCE_LIGHT else 1.0
+        use_g = float(ls.visible_glossy[i]) if source == SOURCE_LIGHT else 1.0
+        shadows = bool(ls.cast_shadow[i]) if source == SOURCE_LIGHT else True
+        dim = sampling.stream(sampling.LIGHT_SAMPLE, depth, i + 1)
+        for k in range(k_count):
+            t0 = time.perf_counter()
+            _shade_kernel(source, q, tris.cdf, tris.probability, tris.v0, tris.e1, tris.e2,
+                          tris.normal, tris.area, tris.radiance, ctx.world, hit["pos"], hit["ngf"],
+                          hit["nsf"], hit["d"], hit["mat"], hit["eps"], hit["thr"], pixel, sample,
+                          ctx.seed, dim, sampling.stream(sampling.LIGHT_PICK, depth, k),
+                          k, k_count, bits, hit["albedo"], ctx.specular, ctx.alpha, use_d, use_g,
+                          ctx.extent, contrib, sh_o, sh_d, sh_t, need)
+            t1 = time.perf_counter()
+            c = _compact_kernel(need, sh_o, sh_d, sh_t, idx, pk_o, pk_d, pk_t) if shadows else 0
+            occ = np.zeros(0, bool)
+            if c and ctx.surfaces.cutout:
+                # Shadows through cut-outs: the light times the product of (1 - opacity).
+                trans = ctx.surfaces.transmittance(ctx.accel, ctx.tri_vertices, ctx.tri_normals,
+                                                   ctx.extent, pk_o[:c], pk_d[:c], pk_t[:c])
+                contrib[idx[:c]] *= trans[:, None]
+                occ = trans <= 0.0
+                ctx.stats["rays_shadow"] += c
+            elif c:
+                occ = ctx.accel.occluded(pk_o[:c], pk_d[:c], pk_t[:c])
+                ctx.stats["rays_shadow"] += c
+            t2 = time.perf_counter()
+            _gather_kernel(target, hit["rows"], contrib, idx[:c], occ)
+            ctx.stats["time_shading"] += t1 - t0 + time.perf_counter() - t2
+            ctx.stats["time_shadow"] += t2 - t1
