@@ -85,6 +85,7 @@ class ViewportRender:
 
     def sync(self, depsgraph, camera) -> None:
         """Restart the passes if the scene or the view changed since the last call."""
+        from ..core import sppm
         from ..core.scene import SceneError
         from ..core.settings import SettingsError
         from .export import export_scene
@@ -102,7 +103,8 @@ class ViewportRender:
             props = depsgraph.scene.photon_map
             settings = to_core_settings(props)
             self.target = int(props.viewport_passes)
-            self._passes = _progressive(self.scene, settings, self.target)
+            self._passes = sppm.progressive_passes(self.scene, settings, settings.photons_per_pass,
+                                                   max_passes=self.target)
         except (SceneError, SettingsError) as error:
             self.error = str(error)
         self._stale = False
@@ -161,19 +163,17 @@ class ViewportRender:
             self._passes = None
 
 
-def _progressive(scene, settings, passes):
-    from ..core import sppm
-
-    return sppm.progressive_passes(scene, settings, settings.photons_per_pass,
-                                   max_passes=passes)
+def _viewport(engine) -> ViewportRender:
+    """The engine instance's ViewportRender (Blender makes one engine instance per view)."""
+    viewport = getattr(engine, "photon_viewport", None)
+    if viewport is None:
+        engine.photon_viewport = viewport = ViewportRender()
+    return viewport
 
 
 def view_update(engine, depsgraph) -> None:
     """``RenderEngine.view_update``: the scene changed."""
-    viewport = getattr(engine, "photon_viewport", None)
-    if viewport is None:
-        engine.photon_viewport = viewport = ViewportRender()
-    viewport.scene_changed()
+    _viewport(engine).scene_changed()
 
 
 def view_draw(engine, context, depsgraph) -> None:
@@ -183,9 +183,7 @@ def view_draw(engine, context, depsgraph) -> None:
 
     from .render import load_embree_isolated
 
-    viewport = getattr(engine, "photon_viewport", None)
-    if viewport is None:
-        engine.photon_viewport = viewport = ViewportRender()
+    viewport = _viewport(engine)
     region = context.region
     width, height = render_size(region.width, region.height,
                                 int(engine.get_preview_pixel_size(depsgraph.scene)))

@@ -14,6 +14,7 @@ Not a test module: imported by tests/blender/test_blender_exe.py and test_animat
 from __future__ import annotations
 
 import functools
+import json
 import importlib.util
 import os
 import pathlib
@@ -26,6 +27,7 @@ import pytest
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 DEPENDENCIES = ("numpy", "numba", "llvmlite", "embreex", "OpenEXR")
 SCENES = ROOT / "tests" / "blender" / "scenes.py"
+VIEWPORT_SCRIPT = ROOT / "tests" / "blender" / "viewport_window.py"
 
 
 @functools.lru_cache(maxsize=None)
@@ -90,7 +92,8 @@ def run_with_window(args, folder: pathlib.Path, screen=(640, 480), timeout=180) 
     Blender printed. Skips the calling test without xvfb-run. The script must end Blender
     itself (``os._exit``): a hang is killed after ``timeout`` seconds, Xvfb with it."""
     if shutil.which("xvfb-run") is None:
-        pytest.skip("needs xvfb-run (apt-get install xvfb) to give Blender a window and a GPU context")
+        pytest.skip("needs xvfb-run (apt-get install xvfb) to give Blender a window and a "
+                    "GPU context")
     # Its own process group, so that a hang takes Xvfb and Blender down with it.
     process = subprocess.Popen(
         ["xvfb-run", "-a", "-s", f"-screen 0 {screen[0]}x{screen[1]}x24", executable(),
@@ -116,3 +119,22 @@ def check(done: subprocess.CompletedProcess) -> str:
               or "Segmentation fault" in output or "crash" in output.lower())
     assert not failed, f"blender exited with {done.returncode}:\n{output[-4000:]}"
     return output
+
+
+def render_in_viewport(folder: pathlib.Path, scene: str, png: pathlib.Path, passes: int,
+                       photons: int, window=(800, 600), timeout=180) -> dict:
+    """Rendered shading of ``scene`` (a name in viewport_window.SCENES) in a real 3D viewport
+    of a ``window``-sized Blender window, ``passes`` passes of ``photons`` photons; saves a
+    screenshot of the view as ``png`` and returns viewport_window's record (passes, more,
+    error, draws, seconds, area, region). Raises RuntimeError with Blender's output when
+    it printed none."""
+    blend = folder / f"{scene}.blend"
+    args = ["--addons", "photon_map", "--python", VIEWPORT_SCRIPT, "--", scene, blend, png,
+            passes, photons, max(1, timeout - 30), ROOT]
+    check(run(["-b", "--factory-startup", *args], folder))
+    log = run_with_window(["--factory-startup", blend, "-p", "0", "0", window[0], window[1],
+                           *args], folder, screen=window, timeout=timeout)
+    line = next((l for l in log.splitlines() if l.startswith("VIEWPORT ")), None)
+    if line is None:
+        raise RuntimeError(f"no viewport record from Blender:\n{log[-3000:]}")
+    return json.loads(line.split(" ", 1)[1])

@@ -117,106 +117,13 @@ def test_a_refused_scene_shows_its_error_and_runs_nothing(lit_plane):
 # which checks the whole path: the view's camera, the passes, the texture and Blender's
 # display transform.
 
-VIEW_SCRIPT = r"""
-import json, os, sys
-import bpy
-
-blend, png = sys.argv[sys.argv.index("--") + 1:]
-scene = bpy.context.scene
-if bpy.app.background:  # first run: build and save (no splash screen when opened)
-    for o in list(bpy.data.objects):
-        bpy.data.objects.remove(o)
-    world = bpy.data.worlds.new("Grey")
-    world.use_nodes = True
-    background = world.node_tree.nodes["Background"]
-    background.inputs["Color"].default_value = (0.18, 0.18, 0.18, 1.0)
-    background.inputs["Strength"].default_value = 1.0
-    scene.world = world
-    mesh = bpy.data.meshes.new("Square")
-    mesh.from_pydata([(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], [], [(0, 1, 2, 3)])
-    mat = bpy.data.materials.new("Glow")
-    mat.use_nodes = True
-    nodes = mat.node_tree.nodes
-    nodes.clear()
-    emit = nodes.new("ShaderNodeEmission")
-    emit.inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
-    emit.inputs["Strength"].default_value = 0.5
-    out = nodes.new("ShaderNodeOutputMaterial")
-    mat.node_tree.links.new(emit.outputs[0], out.inputs["Surface"])
-    mesh.materials.append(mat)
-    scene.collection.objects.link(bpy.data.objects.new("Square", mesh))
-    scene.render.engine = "PHOTON_MAP"
-    scene.view_settings.view_transform = "Standard"
-    scene.view_settings.look = "None"
-    scene.photon_map.viewport_passes = 3
-    scene.photon_map.photons_per_pass = 1000
-    from mathutils import Quaternion
-    for screen in bpy.data.screens:
-        for area in screen.areas:
-            if area.type == "VIEW_3D":
-                space = area.spaces.active
-                space.overlay.show_overlays = False
-                space.show_gizmo = space.show_region_toolbar = space.show_region_header = False
-                r3d = space.region_3d
-                r3d.view_perspective = "ORTHO"
-                r3d.view_rotation = Quaternion((1.0, 0.0, 0.0, 0.0))  # top view
-                r3d.view_location = (0.0, 0.0, 0.0)
-                r3d.view_distance = 4.0
-    bpy.ops.wm.save_as_mainfile(filepath=blend)
-    sys.exit(0)
-
-from photon_map.photon_engine import viewport
-
-seen = {"passes": 0, "more": True, "error": None, "draws": 0}
-step = viewport.ViewportRender.step
-
-def counted(self, seconds=viewport.STEP_SECONDS):
-    more = step(self, seconds)
-    seen.update(passes=self.state.passes if self.state else 0, more=more, error=self.error,
-                draws=seen["draws"] + 1)
-    return more
-
-viewport.ViewportRender.step = counted
-ticks = [0]
-for area in bpy.context.window_manager.windows[0].screen.areas:
-    if area.type == "VIEW_3D":  # a file opens in Solid shading: switch to Rendered here
-        area.spaces.active.shading.type = "RENDERED"
-
-def poll():
-    ticks[0] += 1
-    if (seen["more"] and not seen["error"]) and ticks[0] < 240:
-        return 0.5
-    window = bpy.context.window_manager.windows[0]
-    area = max((a for a in window.screen.areas if a.type == "VIEW_3D"), key=lambda a: a.width)
-    region = next(r for r in area.regions if r.type == "WINDOW")
-    with bpy.context.temp_override(window=window, area=area):
-        bpy.ops.screen.screenshot_area(filepath=png)
-    seen.update(area=[area.x, area.y, area.width, area.height],
-                region=[region.x, region.y, region.width, region.height])
-    print("VIEWPORT", json.dumps(seen))
-    sys.stdout.flush()
-    os._exit(0)
-
-bpy.app.timers.register(poll, first_interval=1.0)
-"""
-
-
 def test_rendered_shading_in_a_real_viewport(tmp_path):
-    import json
-
     import matplotlib.image
 
     from tests.blender import debian_blender
 
-    (tmp_path / "view.py").write_text(VIEW_SCRIPT)
-    blend, png = tmp_path / "square.blend", tmp_path / "view.png"
-    args = ["--addons", "photon_map", "--python", tmp_path / "view.py", "--", blend, png]
-    debian_blender.check(debian_blender.run(["-b", "--factory-startup", *args], tmp_path))
-    log = debian_blender.run_with_window(["--factory-startup", blend, "-p", "0", "0", "800",
-                                          "600", *args], tmp_path, screen=(800, 600))
-    line = next((l for l in log.splitlines() if l.startswith("VIEWPORT ")), None)
-    assert line is not None, log[-3000:]
-    seen = json.loads(line.split(" ", 1)[1])
+    png = tmp_path / "view.png"
+    seen = debian_blender.render_in_viewport(tmp_path, "square", png, passes=3, photons=1000)
     assert seen["error"] is None and seen["passes"] == 3 and not seen["more"], seen
     image = np.round(matplotlib.image.imread(png)[..., :3] * 255)
     # The window region inside the area's screenshot (Blender's y runs up from the bottom).
