@@ -24,10 +24,11 @@ from numba import njit, prange
 from . import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
 from . import bsdf, geometry, light_kernels, lights, sampling, textures
 from .accel import Accelerator
-from .scene import Scene
 from .settings import RenderSettings
 
 SOURCE_LIGHT, SOURCE_TRIANGLES, SOURCE_WORLD = 0, 1, 2
+
+
 @njit(cache=True, parallel=True, error_model="numpy")
 def _shade_kernel(source, q, tris_cdf, tris_prob, tris_v0, tris_e1, tris_e2, tris_n, tris_area,
                   tris_rad, world, pos, ngf, nsf, d, mat, eps, thr, pixel, sample, seed, dim,
@@ -44,7 +45,8 @@ def _shade_kernel(source, q, tris_cdf, tris_prob, tris_v0, tris_e1, tris_e2, tri
         contrib[i, 0] = 0.0
         contrib[i, 1] = 0.0
         contrib[i, 2] = 0.0
-        u1, u2 = sampling.sobol2(sample[i] * k_count + k, bits, sampling.pattern(seed, pixel[i], dim))
+        u1, u2 = sampling.sobol2(sample[i] * k_count + k, bits,
+                                 sampling.pattern(seed, pixel[i], dim))
         px, py, pz = pos[i, 0], pos[i, 1], pos[i, 2]
         if source == SOURCE_LIGHT:
             wx, wy, wz, dist, l0, l1, l2, cl, ok = light_kernels.sample_light(q, px, py, pz, u1, u2)
@@ -148,27 +150,18 @@ class DirectLighting:
     no_light: np.ndarray = field(default_factory=lambda: np.zeros(light_kernels.P_COUNT))
 
 
-def prepare(scene: Scene, settings: RenderSettings, accel: Accelerator, *, materials=None,
-            light_set=None, surfaces=None, tri_vertices=None, extent=None,
-            stats=None) -> DirectLighting:
-    """The direct lighting of ``scene`` with ``settings`` (seed, light_samples; samples
-    sizes the sample index: SPPM passes its pass count) over the caller's ``accel``.
-    The keyword arguments hand over what the caller has built already."""
-    mesh = scene.mesh
-    mats = materials if materials is not None else bsdf.material_table(scene.materials)
-    if extent is None:
-        lo, hi = scene.bounds()
-        extent = geometry.scene_extent(lo, hi)
+def prepare(settings: RenderSettings, accel: Accelerator, *, light_set: lights.LightSet,
+            emissive: lights.EmissiveTriangles, materials: dict, world: np.ndarray,
+            extent: float, surfaces: textures.SurfaceTextures, tri_vertices: np.ndarray,
+            tri_normals: np.ndarray, stats: dict | None = None) -> DirectLighting:
+    """The direct lighting of a render, from what its caller has built already (the camera
+    pass's context, SPPM's tracing setup) over the caller's ``accel``: settings' seed and
+    light_samples, and samples, which sizes the sample index (SPPM passes its pass count).
+    ``stats``: the caller's counters to add rays_shadow, time_shading and time_shadow to."""
     dl = DirectLighting(
-        light_set=light_set if light_set is not None else lights.LightSet.from_lights(scene.lights),
-        emissive=lights.EmissiveTriangles.from_mesh(mesh, scene.materials),
-        specular=mats["specular"], alpha=mats["alpha"],
-        world=np.asarray(scene.world.radiance, np.float64).reshape(3), extent=float(extent),
-        accel=accel,
-        surfaces=surfaces if surfaces is not None else textures.SurfaceTextures(scene, mats["diffuse"]),
-        tri_vertices=tri_vertices if tri_vertices is not None else np.ascontiguousarray(
-            mesh.triangle_vertices(), np.float32),
-        tri_normals=np.ascontiguousarray(mesh.normals, np.float32),
+        light_set=light_set, emissive=emissive, specular=materials["specular"],
+        alpha=materials["alpha"], world=world, extent=float(extent), accel=accel,
+        surfaces=surfaces, tri_vertices=tri_vertices, tri_normals=tri_normals,
         seed=int(settings.seed), light_samples=int(settings.light_samples),
         sample_bits=sampling.index_bits(int(settings.samples) * int(settings.light_samples)))
     if stats is not None:
@@ -211,8 +204,9 @@ def shade(ctx: "DirectLighting", hit: dict, pixel, sample, depth, target):
         for k in range(k_count):
             t0 = time.perf_counter()
             _shade_kernel(source, q, tris.cdf, tris.probability, tris.v0, tris.e1, tris.e2,
-                          tris.normal, tris.area, tris.radiance, ctx.world, hit["pos"], hit["ngf"],
-                          hit["nsf"], hit["d"], hit["mat"], hit["eps"], hit["thr"], pixel, sample,
+                          tris.normal, tris.area, tris.radiance, ctx.world, hit["pos"],
+                          hit["ngf"], hit["nsf"], hit["d"], hit["mat"], hit["eps"], hit["thr"],
+                          pixel, sample,
                           ctx.seed, dim, sampling.stream(sampling.LIGHT_PICK, depth, k),
                           k, k_count, bits, hit["albedo"], ctx.specular, ctx.alpha, use_d, use_g,
                           ctx.extent, contrib, sh_o, sh_d, sh_t, need)

@@ -146,18 +146,19 @@ def _prepare(scene: Scene, settings: RenderSettings) -> _Context:
     surfaces = textures.SurfaceTextures(scene, mats["diffuse"])
     stats = {"rays_camera": 0, "rays_specular": 0, "rays_shadow": 0,
              "time_intersect": 0.0, "time_shadow": 0.0, "time_shading": 0.0}
+    tri_normals = np.ascontiguousarray(mesh.normals, np.float32)
+    world = np.asarray(scene.world.radiance, np.float64).reshape(3)
     return _Context(
         scene=scene, settings=settings, accel=accel, tri_vertices=tri_vertices,
-        tri_normals=np.ascontiguousarray(mesh.normals, np.float32),
+        tri_normals=tri_normals,
         tri_material=np.ascontiguousarray(mesh.material_index, np.int32),
         materials=mats, nondelta=nondelta, has_delta=has_delta,
-        light_set=light_set,
-        world=np.asarray(scene.world.radiance, np.float64).reshape(3),
-        extent=extent, stats=stats,
+        light_set=light_set, world=world, extent=extent, stats=stats,
         light_shows=np.any(light_set.radiance > 0, axis=1),
-        direct=direct.prepare(scene, settings, accel, materials=mats, light_set=light_set,
-                              surfaces=surfaces, tri_vertices=tri_vertices, extent=extent,
-                              stats=stats),
+        direct=direct.prepare(settings, accel, light_set=light_set,
+                              emissive=lights.EmissiveTriangles.from_mesh(mesh, scene.materials),
+                              materials=mats, world=world, extent=extent, surfaces=surfaces,
+                              tri_vertices=tri_vertices, tri_normals=tri_normals, stats=stats),
         has_diffuse=np.any(mats["diffuse"] > 0, axis=1),
         surfaces=surfaces,
         outputs=settings.passes() + ((REST,) if len(settings.passes()) < len(PASSES) else ()),

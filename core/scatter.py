@@ -7,9 +7,10 @@ One numba kernel handles a whole wavefront (all photons of one bounce). Per phot
 2. Storage: at a material with a diffuse lobe (albedo > 0), before the bounce is chosen
    (Jensen). Global map, by ``store_rule``: STORE_ALL always; STORE_BOUNCED only after at
    least one diffuse bounce; STORE_NOT_DIRECT always but at the first hit of a photon
-   straight from its source (the light a shadow ray finds). Caustic map: only photons that made one or more specular/glossy
-   bounces and no diffuse one (light -> S+ -> D); a caustic photon ends where it is
-   stored, and one whose first surface has no specular lobe is dropped.
+   straight from its source (the light a shadow ray finds). Caustic map: only photons
+   that made one or more specular/glossy bounces and no diffuse one (light -> S+ -> D);
+   a caustic photon ends where it is stored, and one whose first surface has no specular
+   lobe is dropped.
 3. Russian roulette: lobe x (diffuse, specular, transmission) is chosen with probability
    p_x = max component of its tint (scaled down so that the sum is <= 1), absorption
    otherwise, and the flux is multiplied by tint_x / p_x per channel: a grey surface of

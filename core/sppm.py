@@ -534,9 +534,10 @@ def progressive_passes(scene: Scene, settings: RenderSettings, photons_per_pass:
     if accel is not None and direct == "shadow_rays":
         # The sample index of the shadow rays' random numbers is the pass.
         ctx.direct = direct_light.prepare(
-            scene, settings.with_values(samples=max(1, min(max_passes, MAX_PASSES))), accel,
-            materials=setup.mats, light_set=setup.light_set, surfaces=setup.surfaces,
-            tri_vertices=setup.tri_v, extent=setup.extent)
+            settings.with_values(samples=max(1, min(max_passes, MAX_PASSES))), accel,
+            light_set=setup.light_set, emissive=setup.emissive, materials=setup.mats,
+            world=setup.world, extent=setup.extent, surfaces=setup.surfaces,
+            tri_vertices=setup.tri_v, tri_normals=setup.tri_n)
     try:
         for k in range(max_passes):
             t0 = time.perf_counter()

@@ -178,8 +178,9 @@ def _trace_chunk(setup: _Setup, accel, em: emission.Emitted, pid: np.ndarray, mo
                                surf.photon_albedo(hits.prim, hits.u, hits.v),
                                surf.photon_opacity(hits.prim, hits.u, hits.v),
                                hits.prim, hits.u, hits.v, d, f, pid, n_diff, n_spec,
-                               np.int64(seed), dims, np.int64(bounce), mode, np.int64(store_rule),
-                               bounce == max_bounces, s_flag, s_pos, s_flux, s_dir, alive, o2, d2, f2)
+                               np.int64(seed), dims, np.int64(bounce), mode,
+                               np.int64(store_rule), bounce == max_bounces, s_flag, s_pos,
+                               s_flux, s_dir, alive, o2, d2, f2)
         store.add(*scatter.compact_stored(s_flag, s_pos, s_flux, s_dir))
         o, d, f, pid, n_diff, n_spec = scatter.compact_alive(alive, o2, d2, f2, pid, n_diff, n_spec)
         counters["time_scatter"] += time.perf_counter() - t1
@@ -254,9 +255,10 @@ def trace_stored_photons(setup: _Setup, accel, sources: list, n_photons: int, *,
     the photons stored at diffuse hits as raw arrays, without building a PhotonMap.
 
     The global map's rules (``scatter.MODE_GLOBAL``, stored by ``store_rule``); for
-    progressive passes that need one batch of photons at a time. Returns (positions (M, 3) float32 metres, flux (M, 3)
-    float32 watts already divided by the photons emitted, incident directions (M, 3)
-    float32 pointing back towards where each photon came from, counters dict).
+    progressive passes that need one batch of photons at a time. Returns (positions
+    (M, 3) float32 metres, flux (M, 3) float32 watts already divided by the photons
+    emitted, incident directions (M, 3) float32 pointing back towards where each photon
+    came from, counters dict).
     """
     counters = {"rays": 0, "time_emission": 0.0, "time_tracing": 0.0, "time_intersect": 0.0,
                 "time_scatter": 0.0, "time_balancing": 0.0}
