@@ -5,8 +5,8 @@ the CLI) and ``bl_ext.user_default.photon_map.core`` (installed in Blender). num
 in-tree cache is keyed by file, not by module name, and a cached kernel re-imports the
 module it was compiled in by name, so a cache written under one name breaks loading
 under another ("No module named 'photon_map'"). This locator puts each package's cache
-in ``core/__pycache__/numba_<package>_<digest>/``, where the digest covers every
-core source file (see _sources_digest).
+beside each source in ``__pycache__/numba_<package>_<digest>/``, where the digest covers every
+core source file, subpackages included (see _sources_digest).
 
 Import this module before any ``@njit(cache=True)`` in the core is decorated
 (``core/__init__.py`` does; every kernel module also imports it, which is harmless).
@@ -22,15 +22,28 @@ from numba.core import caching
 _CORE_DIR = os.path.dirname(os.path.abspath(__file__))
 
 
+def core_sources() -> list[str]:
+    """Every core source file (core/*.py and the subpackages' files), relative to core/
+    with "/" separators, sorted."""
+    found = []
+    for folder, dirs, files in os.walk(_CORE_DIR):
+        dirs[:] = sorted(d for d in dirs if d != "__pycache__")
+        rel = os.path.relpath(folder, _CORE_DIR)
+        for name in files:
+            if name.endswith(".py"):
+                found.append(name if rel == "." else f"{rel}/{name}".replace(os.sep, "/"))
+    return sorted(found)
+
+
 def _sources_digest() -> str:
-    """A short hash of every core/*.py: kernels inline functions from other files
-    (estimate.py and gather.py inline kdtree.py's search), and numba's own cache only
-    checks the defining file's timestamp, so any change to the core starts a fresh cache."""
+    """A short hash of every core source file (core_sources): kernels inline functions
+    from other files (photons/estimate.py inlines photons/kdtree.py's search), and numba's
+    own cache only checks the defining file's timestamp, so any change anywhere in core/
+    starts a fresh cache."""
     h = hashlib.sha1()
-    for name in sorted(os.listdir(_CORE_DIR)):
-        if name.endswith(".py"):
-            with open(os.path.join(_CORE_DIR, name), "rb") as f:
-                h.update(name.encode() + b"\0" + f.read())
+    for name in core_sources():
+        with open(os.path.join(_CORE_DIR, *name.split("/")), "rb") as f:
+            h.update(name.encode() + b"\0" + f.read())
     return h.hexdigest()[:12]
 
 
@@ -48,7 +61,8 @@ class PackageCacheLocator(caching.InTreeCacheLocator):
 
     @classmethod
     def from_function(cls, py_func, py_file):
-        if os.path.dirname(os.path.abspath(py_file)) != _CORE_DIR:
+        path = os.path.abspath(py_file)
+        if os.path.commonpath([path, _CORE_DIR]) != _CORE_DIR:
             return None
         return super().from_function(py_func, py_file)
 

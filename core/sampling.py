@@ -29,17 +29,27 @@ _S31 = np.uint64(31)
 _S11 = np.uint64(11)
 _INV_2_53 = 1.0 / 9007199254740992.0
 
-# Purposes of random dimensions (the first argument of stream()).
-PIXEL_JITTER = 1
-LIGHT_SAMPLE = 2
-WORLD_SAMPLE = 3
-SPECULAR_CHOICE = 4
-LIGHT_PICK = 5
-PHOTON = 6
+# The purposes of random dimensions (the first argument of stream()): the one table of
+# them, so that no two uses share a stream. Values are part of every seeded image.
+PIXEL_JITTER = 1       # camera rays' position in the pixel
+LIGHT_SAMPLE = 2       # the point on a light a shadow ray aims at
+WORLD_SAMPLE = 3       # the direction a shadow ray to the world takes
+SPECULAR_CHOICE = 4    # mirror vs glass, reflection vs refraction on camera paths
+LIGHT_PICK = 5         # which emissive triangle a shadow ray aims at
+PHOTON = 6             # photon emission and scattering (per map, source, bounce)
+GATHER_DIRECTION = 16  # final-gather ray directions
+GATHER_LOBE = 17       # lobe choices of final-gather rays at mirrors and glass
+CACHE_SAMPLE = 18      # the radiance cache's surface points
+CUTOUT_CHOICE = 19     # camera rays passing a cut-out (opacity < 1)
+GATHER_CUTOUT = 20     # final-gather rays passing a cut-out
+
+PROGRESSIVE = 7
+"""Last stream index of the progressive integrator's camera paths: keeps its visible-point
+numbers apart from the photon-mapping camera pass's, which use the same purposes."""
 
 
 @njit(cache=True, error_model="numpy")
-def _mix64(x):
+def mix64(x):
     """splitmix64's finaliser: a bijective avalanche on uint64."""
     x = (x ^ (x >> _S30)) * _M1
     x = (x ^ (x >> _S27)) * _M2
@@ -49,9 +59,9 @@ def _mix64(x):
 @njit(cache=True, error_model="numpy")
 def hash_uniform(seed, pixel, sample, dim):
     """One uniform float64 in [0, 1) from four int64 counters (53 random bits)."""
-    x = _mix64(np.uint64(seed) ^ _K_DIM * np.uint64(dim))
-    x = _mix64(x ^ _K_PIXEL * np.uint64(pixel))
-    x = _mix64(x ^ _K_SAMPLE * np.uint64(sample))
+    x = mix64(np.uint64(seed) ^ _K_DIM * np.uint64(dim))
+    x = mix64(x ^ _K_PIXEL * np.uint64(pixel))
+    x = mix64(x ^ _K_SAMPLE * np.uint64(sample))
     return np.float64(x >> _S11) * _INV_2_53
 
 
@@ -73,7 +83,7 @@ _U32 = np.uint64(0xFFFFFFFF)
 
 
 @njit(cache=True, error_model="numpy")
-def _reverse32(x):
+def reverse32(x):
     x = ((x >> np.uint64(1)) & np.uint64(0x55555555)) | ((x & np.uint64(0x55555555)) << np.uint64(1))
     x = ((x >> np.uint64(2)) & np.uint64(0x33333333)) | ((x & np.uint64(0x33333333)) << np.uint64(2))
     x = ((x >> np.uint64(4)) & np.uint64(0x0F0F0F0F)) | ((x & np.uint64(0x0F0F0F0F)) << np.uint64(4))
@@ -82,19 +92,19 @@ def _reverse32(x):
 
 
 @njit(cache=True, error_model="numpy")
-def _owen32(x, seed):
+def owen32(x, seed):
     """Nested uniform (Owen) scramble of a 32-bit fraction: reverse, Laine-Karras, reverse."""
-    x = _reverse32(x)
+    x = reverse32(x)
     x = (x + seed) & _U32
     x ^= (x * np.uint64(0x6C50B47C)) & _U32
     x ^= (x * np.uint64(0xB82F1E52)) & _U32
     x ^= (x * np.uint64(0xC7AFE638)) & _U32
     x ^= (x * np.uint64(0x8D22F6E6)) & _U32
-    return _reverse32(x)
+    return reverse32(x)
 
 
 @njit(cache=True, error_model="numpy")
-def _sobol1(i):
+def sobol1(i):
     """Second Sobol dimension (Pascal matrix) of index i, as a 32-bit fraction."""
     v = np.uint64(1) << np.uint64(31)
     r = np.uint64(0)
@@ -109,8 +119,8 @@ def _sobol1(i):
 @njit(cache=True, error_model="numpy")
 def pattern(seed, pixel, dim):
     """A 64-bit pattern id per (seed, pixel, dimension pair)."""
-    x = _mix64(np.uint64(seed) ^ _K_DIM * np.uint64(dim))
-    return _mix64(x ^ _K_PIXEL * np.uint64(pixel))
+    x = mix64(np.uint64(seed) ^ _K_DIM * np.uint64(dim))
+    return mix64(x ^ _K_PIXEL * np.uint64(pixel))
 
 
 def index_bits(n: int) -> int:
@@ -127,10 +137,36 @@ def sobol2(index, bits, p):
     """
     p32 = p & _U32
     mask = (np.uint64(1) << np.uint64(bits)) - np.uint64(1)
-    i = _owen32(np.uint64(index) & _U32, p32) & mask
-    x = _owen32(_reverse32(i), (p >> np.uint64(32)) & _U32)
-    y = _owen32(_sobol1(i), _mix64(p) & _U32)
+    i = owen32(np.uint64(index) & _U32, p32) & mask
+    return sobol2_point(i, p)
+
+
+@njit(cache=True, error_model="numpy")
+def sobol2_point(i, p):
+    """Point i (uint64 < 2^32) of the 2D Sobol sequence, Owen-scrambled per dimension by
+    the pattern p, in sequence order (no index shuffle): the first n points of any n are
+    stratified, what a progressive render needs."""
+    x = owen32(reverse32(i), (p >> np.uint64(32)) & _U32)
+    y = owen32(sobol1(i), mix64(p) & _U32)
     return np.float64(x) * 2.0 ** -32, np.float64(y) * 2.0 ** -32
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def progressive2(seed, k, dim, out):
+    """out (P, 2) float64: point k of each pixel's own scrambled 2D Sobol sequence (pixel
+    p's pattern from (seed, p, dim)); pass k of a progressive render jitters by it."""
+    i = np.uint64(k) & _U32
+    for p in prange(out.shape[0]):
+        out[p, 0], out[p, 1] = sobol2_point(i, pattern(seed, p, dim))
+
+
+def pass_seed(seed: int, k: int) -> int:
+    """The photon seed of pass k (0-based) of a progressive render, or of any other
+    independent photon batch k: a splitmix64 hash of (seed, k), an int < 2^63."""
+    x = (int(seed) * 0x9E3779B97F4A7C15 + (int(k) + 1) * 0xD1B54A32D192ED03) & (2**64 - 1)
+    x = ((x ^ (x >> 30)) * 0xBF58476D1CE4E5B9) & (2**64 - 1)
+    x = ((x ^ (x >> 27)) * 0x94D049BB133111EB) & (2**64 - 1)
+    return (x ^ (x >> 31)) >> 1
 
 
 @njit(cache=True, parallel=True, error_model="numpy")

@@ -32,6 +32,7 @@ MAX_DOT_RADIUS_PX = 32.0
 """Largest ``overlay_dot_radius``, pixels (debug_overlay.MAX_DOT_RADIUS_PX)."""
 
 INTEGRATORS = ("photon_map", "progressive")
+PROGRESSIVE_DIRECT = ("shadow_rays", "photons")
 """``integrator`` values: photon maps + final gathering (core/integrator.py, a fixed
 budget) or stochastic progressive photon mapping (core/sppm.py, converges with passes)."""
 
@@ -115,7 +116,7 @@ class RenderSettings:
     pass_indirect: bool = True
     """Produce the "indirect" pass (the term itself is switched by ``indirect_mode``)."""
 
-    # Integrator choice and the progressive mode (issue 7, core/sppm.py).
+    # Integrator choice and the progressive mode (core/integrators/sppm.py).
     integrator: str = "photon_map"
     """One of INTEGRATORS: "photon_map" (fixed budget) or "progressive" (SPPM)."""
     progressive_passes: int = 64
@@ -126,6 +127,14 @@ class RenderSettings:
     """Seconds for a progressive render, export included; 0 = no budget (run
     progressive_passes). With a budget the number of passes is chosen to fit it. The
     photon_map integrator has a fixed cost and ignores it."""
+    progressive_alpha: float = 2.0 / 3.0
+    """SPPM's alpha in (0, 1): the fraction of a pass's new photons kept (how fast the
+    gather radius shrinks)."""
+    progressive_radius: float = 0.0
+    """SPPM's initial gather radius in metres; 0 = automatic (about INITIAL_PHOTONS photons
+    per disc, scale-invariant)."""
+    progressive_direct: str = "shadow_rays"
+    """How SPPM gets direct light: one of PROGRESSIVE_DIRECT ("photons": standard SPPM)."""
 
     def passes(self) -> tuple[str, ...]:
         """The light passes (names in PASSES, summation order) produced as images."""
@@ -162,6 +171,15 @@ class RenderSettings:
         if not ok or not (0.0 <= float(v) <= MAX_DOT_RADIUS_PX):
             raise SettingsError(f'"overlay_dot_radius" must be a number in '
                                 f'[0, {MAX_DOT_RADIUS_PX:g}] (pixels), got {v!r}')
+        v = self.progressive_alpha
+        ok = isinstance(v, (int, float)) and not isinstance(v, bool)
+        if not ok or not (0.0 < float(v) < 1.0):
+            raise SettingsError(f'"progressive_alpha" must be a number in (0, 1), got {v!r}')
+        v = self.progressive_radius
+        ok = isinstance(v, (int, float)) and not isinstance(v, bool)
+        if not ok or not (0.0 <= float(v) <= MAX_RADIUS):
+            raise SettingsError(f'"progressive_radius" must be a number in [0, {MAX_RADIUS:g}] '
+                                f'(metres, 0 = automatic), got {v!r}')
         v = self.time_budget
         ok = isinstance(v, (int, float)) and not isinstance(v, bool)
         if not ok or not (0.0 <= float(v) <= MAX_TIME_BUDGET):
@@ -174,7 +192,8 @@ class RenderSettings:
             if not isinstance(v, bool):
                 raise SettingsError(f'"{name}" must be true or false, got {v!r}')
         for name, allowed in (("indirect_mode", INDIRECT_MODES), ("filter", FILTERS),
-                              ("overlay_map", OVERLAY_MAPS), ("integrator", INTEGRATORS)):
+                              ("overlay_map", OVERLAY_MAPS), ("integrator", INTEGRATORS),
+                              ("progressive_direct", PROGRESSIVE_DIRECT)):
             v = getattr(self, name)
             if v not in allowed:
                 raise SettingsError(

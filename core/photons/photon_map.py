@@ -26,7 +26,7 @@ import numpy as np
 from numba import njit, prange
 
 from . import encoding
-from .kdtree import _balance_kernel, _nearest_kernel, query_order, search_growth, tree_depth
+from .kdtree import (_balance_kernel, _nearest_kernel, query_order, search_growth, tree_depth)
 
 BYTES_PER_PHOTON = 12 + 6 + 4 + 1
 _INF32 = np.float32(np.inf)

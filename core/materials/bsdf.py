@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from . import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
+from .. import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
 
 # Cycles treats a microfacet lobe as a perfect mirror below this alpha_x * alpha_y.
 SINGULAR_ALPHA2 = 1e-7

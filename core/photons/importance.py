@@ -6,7 +6,7 @@ photon pass the tracer (core/tracing.py) measures, per source and map:
 
 1. Camera pre-pass: about PREPASS_PIXELS camera rays on a coarse pixel grid over the
    same film (one jittered ray per coarse pixel), following mirrors and glass exactly as
-   the progressive camera pass does (``sppm._camera_pass``), give the visible diffuse
+   the progressive camera pass does (``camera_paths.visible_points``), give the visible diffuse
    points with their normals facing the viewer.
 2. Pilot pass: PILOT_PHOTONS photons per source, traced with the map's own rules
    (global: unaimed, stored at every diffuse hit; caustic: aimed at the specular objects,
@@ -28,22 +28,25 @@ traced (no light is ever dropped on the strength of a few pilot photons).
 
 The radius: COVER x sqrt(A_d / (pi V)) for V visible points over the diffuse area A_d (the
 discs of the visible points would cover all diffuse surfaces), or the map's automatic
-gather radius (gather.auto_radius) when wider (capped at 4 times the former), so a photon
+gather radius (estimate.auto_radius) when wider (capped at 4 times the former), so a photon
 counts when it could enter a visible point's radiance estimate.
 
-Imported lazily by core/tracing.py (this module imports sppm, which imports tracing).
+The pre-pass's camera paths are the integrators' (core/integrators/camera_paths.py): the
+caller hands ``tracing.trace_photons`` a ``prepass`` that returns the VisibleView.
 """
 
 from __future__ import annotations
 
-import time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 from numba import njit, prange
 
-from . import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
-from . import emission, gather, sppm
+from .. import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
+from .. import sampling
+from . import emission
+from .estimate import auto_radius
+from .hash_grid import HashGrid, cell_hash, cell_of
 
 PREPASS_PIXELS = 4096
 """Camera rays of the pre-pass (a coarse grid over the film, aspect kept)."""
@@ -57,6 +60,15 @@ COVER = 2.0
 """Radius factor over the visible points' spacing sqrt(A_d / (pi V))."""
 MAP_PILOT = 2
 """Random-stream map ids of the pilot passes: MAP_PILOT + tracing's map id."""
+PILOT_SEEDS = 1 << 20
+"""Pilot seeds are ``sampling.pass_seed`` of indices from here on (no pass reaches it)."""
+
+
+def pilot_seed(seed: int, source_slot: int, map_id: int) -> int:
+    """The photon seed of a source's pilot for one map: a seed of its own per (source,
+    map), so the pilot shares no random numbers with the real pass, whose streams are
+    keyed by (seed, map 0/1, slot)."""
+    return sampling.pass_seed(seed, PILOT_SEEDS + 2 * source_slot + map_id)
 
 
 @dataclass
@@ -79,19 +91,6 @@ def prepass_resolution(width: int, height: int, pixels: int = PREPASS_PIXELS) ->
     return w, h
 
 
-def visible_points(scene, setup, accel, seed: int, max_depth: int) -> VisibleView:
-    """Step 1 of the module doc: the camera pre-pass on the coarse grid."""
-    t0 = time.perf_counter()
-    w, h = prepass_resolution(scene.camera.width, scene.camera.height)
-    coarse = replace(scene, camera=replace(scene.camera, width=w, height=h))
-    ctx = sppm._Context(scene=coarse, setup=setup, accel=accel, sources=[], seed=int(seed),
-                        max_depth=int(max_depth), max_bounces=0)
-    vps = sppm._camera_pass(ctx, 0, np.zeros((w * h, 3)))
-    return VisibleView(np.ascontiguousarray(vps.position, np.float64),
-                       np.ascontiguousarray(vps.ng, np.float64), w * h,
-                       time.perf_counter() - t0)
-
-
 def view_radius(diffuse_area: float, visible: int, k: int, photons: int) -> float:
     """The scoring radius of the module doc, metres (0 when nothing is visible)."""
     if visible <= 0 or diffuse_area <= 0:
@@ -99,7 +98,7 @@ def view_radius(diffuse_area: float, visible: int, k: int, photons: int) -> floa
     r = COVER * np.sqrt(diffuse_area / (np.pi * visible))
     # The map's own gather radius when wider, but within 4 r: a huge radius (few photons)
     # would make every photon "near" and the grid one cell.
-    return float(max(r, min(gather.auto_radius(diffuse_area, k, photons), 4.0 * r)))
+    return float(max(r, min(auto_radius(diffuse_area, k, photons), 4.0 * r)))
 
 
 def pilot_count(photons: int, sources: int) -> int:
@@ -117,9 +116,9 @@ def _near_kernel(ph_pos, ph_dir, vp_pos, vp_ng, cells, start, order, lo, inv_h, 
     the 27 cells around the photon's hold every candidate."""
     for p in prange(ph_pos.shape[0]):
         px, py, pz = ph_pos[p, 0], ph_pos[p, 1], ph_pos[p, 2]
-        cx = np.int64(np.floor((px - lo[0]) * inv_h))
-        cy = np.int64(np.floor((py - lo[1]) * inv_h))
-        cz = np.int64(np.floor((pz - lo[2]) * inv_h))
+        cx = cell_of(px, lo[0], inv_h)
+        cy = cell_of(py, lo[1], inv_h)
+        cz = cell_of(pz, lo[2], inv_h)
         found = False
         for ox in range(-1, 2):
             for oy in range(-1, 2):
@@ -127,7 +126,7 @@ def _near_kernel(ph_pos, ph_dir, vp_pos, vp_ng, cells, start, order, lo, inv_h, 
                     if found:
                         continue
                     qx, qy, qz = cx + ox, cy + oy, cz + oz
-                    b = sppm._cell_hash(qx, qy, qz, mask)
+                    b = cell_hash(qx, qy, qz, mask)
                     for j in range(start[b], start[b + 1]):
                         i = order[j]
                         if cells[i, 0] != qx or cells[i, 1] != qy or cells[i, 2] != qz:
@@ -152,16 +151,7 @@ class ViewGrid:
         self.empty = n == 0 or not radius > 0
         if self.empty:
             return
-        h = self.radius
-        self.lo = view.position.min(axis=0) - h
-        self.inv_h = 1.0 / h
-        size = 1 << max(4, int(2 * n - 1).bit_length())
-        self.mask = np.int64(size - 1)
-        self.cells = np.empty((n, 3), np.int64)
-        self.start = np.empty(size + 1, np.int64)
-        self.order = np.empty(n, np.int64)
-        sppm._grid_kernel(view.position, self.lo, self.inv_h, self.mask, self.cells, self.start,
-                     self.order)
+        self.grid = HashGrid(view.position, self.radius)
 
     def near(self, positions: np.ndarray, directions: np.ndarray) -> np.ndarray:
         """(M,) bool for photons at positions (M, 3) arriving from directions (M, 3)."""
@@ -169,10 +159,11 @@ class ViewGrid:
         out = np.zeros(m, bool)
         if self.empty or m == 0:
             return out
+        g = self.grid
         _near_kernel(np.ascontiguousarray(positions, np.float64),
                      np.ascontiguousarray(directions, np.float64), self.view.position,
-                     self.view.ng, self.cells, self.start, self.order, self.lo, self.inv_h,
-                     self.mask, self.radius * self.radius, out)
+                     self.view.ng, g.cells, g.start, g.order, g.lo, g.inv_h, g.mask,
+                     self.radius * self.radius, out)
         return out
 
 

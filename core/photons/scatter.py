@@ -4,8 +4,8 @@ One numba kernel handles a whole wavefront (all photons of one bounce). Per phot
 
 1. Surface point and normals (``geometry.surface_point``), flipped to the side the photon
    arrives on.
-2. Storage: at a material with a diffuse lobe (albedo > 0), before the bounce is chosen
-   (Jensen). Global map, by ``store_rule``: STORE_ALL always; STORE_BOUNCED only after at
+2. Storage (the rules are core/photons/store.py's ``stores``): at a material with a diffuse
+   lobe (albedo > 0), before the bounce is chosen (Jensen). Global map, by ``store_rule``: STORE_ALL always; STORE_BOUNCED only after at
    least one diffuse bounce; STORE_NOT_DIRECT always but at the first hit of a photon
    straight from its source (the light a shadow ray finds). Caustic map: only photons
    that made one or more specular/glossy bounces and no diffuse one (light -> S+ -> D);
@@ -37,15 +37,12 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from . import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
-from . import bsdf, geometry, sampling
+from .. import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
+from ..materials import bsdf
+from ..scene import geometry
+from .. import sampling
 
-MODE_GLOBAL = 0
-MODE_CAUSTIC = 1
-# Global-map storage rules (the module doc, step 2).
-STORE_ALL = 0         # every diffuse hit: final gathering's map, standard SPPM
-STORE_BOUNCED = 1     # after >= 1 diffuse bounce: Jensen's map for the preview
-STORE_NOT_DIRECT = 2  # every diffuse hit but light -> diffuse: SPPM with shadow-ray direct light
+from .store import MODE_CAUSTIC, MODE_GLOBAL, stores  # noqa: F401  (MODE_GLOBAL re-exported)
 # Photons per parallel task of scatter_kernel.
 _BLOCK = 4096
 
@@ -102,14 +99,9 @@ def _scatter_range(tri_v, tri_n, tri_mat, extent, diffuse, specular, transmissio
                 through = True
             else:
                 u_rr = u_rr / op
-        if mode == MODE_CAUSTIC:
-            if ns == 0 and ks <= 0.0 and kt <= 0.0 and not through:
-                continue  # first surface not specular: not a caustic path
-            if kd_lobe > 0.0 and ns > 0:
-                store[i] = True
-        elif kd_lobe > 0.0 and (store_rule == STORE_ALL or nd > 0
-                                or (store_rule == STORE_NOT_DIRECT and ns > 0)):
-            store[i] = True
+        if mode == MODE_CAUSTIC and ns == 0 and ks <= 0.0 and kt <= 0.0 and not through:
+            continue  # first surface not specular: not a caustic path
+        store[i] = stores(mode, store_rule, kd_lobe > 0.0, nd, ns)
         if store[i]:
             s_pos[i, 0], s_pos[i, 1], s_pos[i, 2] = px, py, pz
             s_flux[i, 0], s_flux[i, 1], s_flux[i, 2] = f0, f1, f2
@@ -246,16 +238,6 @@ def _gather_alive(idx, o, d, f, pid, n_diff, n_spec, o_out, d_out, f_out, pid_ou
         ns_out[j] = n_spec[i]
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
-def _gather_rows(idx, a, b, c, a_out, b_out, c_out):
-    for j in prange(idx.shape[0]):
-        i = idx[j]
-        for k in range(3):
-            a_out[j, k] = a[i, k]
-            b_out[j, k] = b[i, k]
-            c_out[j, k] = c[i, k]
-
-
 def compact_alive(alive, o, d, f, pid, n_diff, n_spec):
     """The surviving photons' arrays, in order (one parallel pass instead of six numpy
     boolean indexings, which cost ~30 ns per (N, 3) row)."""
@@ -265,15 +247,4 @@ def compact_alive(alive, o, d, f, pid, n_diff, n_spec):
            np.empty(m, pid.dtype), np.empty(m, n_diff.dtype), np.empty(m, n_spec.dtype))
     if m:
         _gather_alive(idx, o, d, f, pid, n_diff, n_spec, *out)
-    return out
-
-
-def compact_stored(store, pos, flux, direction):
-    """The stored photons' (M, 3) rows of pos, flux and direction, in order."""
-    idx = np.flatnonzero(store)
-    m = idx.shape[0]
-    out = (np.empty((m, 3), pos.dtype), np.empty((m, 3), flux.dtype),
-           np.empty((m, 3), direction.dtype))
-    if m:
-        _gather_rows(idx, pos, flux, direction, *out)
     return out

@@ -11,7 +11,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .scene import CAMERA_PERSPECTIVE, Camera, Mesh
+from .contract import CAMERA_PERSPECTIVE, Camera, Mesh
 
 
 class Part(NamedTuple):

@@ -12,7 +12,7 @@ import os
 
 import numpy as np
 
-from .passes import BLENDER_PASS_NAMES
+from ..passes import BLENDER_PASS_NAMES
 
 _CHANNEL_ORDER = {"R": 0, "G": 1, "B": 2, "A": 3}
 

@@ -32,9 +32,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .camera import camera_frame, project
-from .geometry import point_eps
-from .scene import CAMERA_ORTHOGRAPHIC, Camera
+from ..scene.camera import camera_frame, project
+from ..scene.geometry import point_eps
+from ..scene.contract import CAMERA_ORTHOGRAPHIC, Camera
 
 # Names of the photon selection (the panel's "Overlay Map" enum uses the same identifiers).
 OVERLAY_MAPS = ("global", "caustic", "both")

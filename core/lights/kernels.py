@@ -15,9 +15,9 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from . import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
-from . import sampling
-from .scene import LIGHT_AREA, LIGHT_POINT, LIGHT_SPOT, LIGHT_SUN
+from .. import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
+from .. import sampling
+from ..scene.contract import LIGHT_AREA, LIGHT_POINT, LIGHT_SPOT, LIGHT_SUN
 
 # Layout of one row of LightSet.params.
 P_POS = 0          # 3: position, metres

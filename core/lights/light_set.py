@@ -28,10 +28,9 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit, prange
 
-from . import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
-from . import light_kernels as lk
-from .scene import (AREA_ELLIPSE, LIGHT_AREA, LIGHT_POINT, LIGHT_SPOT, LIGHT_SUN,
-                    Lights, Materials, Mesh)
+from .. import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
+from . import kernels as lk
+from ..scene.contract import (AREA_ELLIPSE, LIGHT_AREA, LIGHT_POINT, LIGHT_SPOT, LIGHT_SUN, Lights, Materials, Mesh)
 
 
 class DirectSample(NamedTuple):

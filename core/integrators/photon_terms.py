@@ -1,9 +1,10 @@
 """The photon pass of a render: which photon terms the scene and settings need, the
-tracing (core/tracing.py, with the render's Accelerator), the automatic radii, the
-radiance cache for final gathering, and why a term is skipped.
+tracing (core/photons/tracing.py, over the prepared scene, with the camera pre-pass of
+photon importance), the automatic radii, the radiance cache for final gathering, and why a
+term is skipped.
 
-Called once per render by core/integrator.py before the camera pass; fills
-``ctx.terms`` (a gather.PhotonTerms) and returns the stats the render reports:
+Called once per render by core/integrators/photon_mapping.py before the camera pass;
+returns the ``gather.PhotonTerms`` the camera pass adds and the stats the render reports:
 ``photon_maps`` (the tracer's own stats), ``caustic_photons_stored`` /
 ``global_photons_stored``, ``caustic_radius`` / ``global_radius`` (metres),
 ``gather_rays_per_sample``, ``diffuse_area`` (m^2) and ``skipped`` (term -> reason).
@@ -13,25 +14,42 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import gather, geometry
+from ..passes import ProgressFn, StopFn
+from ..photons import tracing
+from ..prepared import PreparedScene
+from ..scene import geometry
+from ..settings import RenderSettings
+from . import camera_paths, gather
 
 
-def run(ctx, maps, progress, share: float) -> tuple[dict, bool]:
+def trace_maps(prepared: PreparedScene, settings: RenderSettings,
+               on_progress: ProgressFn | None = None, should_stop: StopFn | None = None, *,
+               include_direct: bool = True, skip: dict | None = None) -> tracing.PhotonMaps:
+    """``tracing.trace_photons`` with the camera pre-pass of photon importance
+    (``camera_paths.importance_prepass``): the photon maps a render of ``prepared`` uses."""
+    def prepass():
+        return camera_paths.importance_prepass(prepared, settings.seed,
+                                               settings.max_specular_depth)
+    return tracing.trace_photons(prepared, settings, on_progress, should_stop,
+                                 include_direct=include_direct, skip=skip, prepass=prepass)
+
+
+def run(prepared: PreparedScene, settings: RenderSettings, maps,
+        on_progress: ProgressFn | None, should_stop: StopFn | None,
+        share: float) -> tuple[gather.PhotonTerms, dict, bool]:
     """Trace (or take) the photon maps and resolve what the camera pass adds.
 
-    ctx: the integrator's render context (scene, settings, accel, triangles, materials);
     maps: a tracing.PhotonMaps (or a stand-in with the same fields) to use instead of
-    tracing; progress: the render's callback, given fractions in [0, share].
-    Sets ctx.terms; returns (stats, cancelled). A term is skipped, with its reason in
+    tracing; on_progress gets fractions in [0, share]; should_stop() -> True cancels.
+    Returns (terms, stats, cancelled). A term is skipped, with its reason in
     stats["skipped"], when the settings switch it off, when the scene cannot produce it,
     or when the tracer built no map for it.
     """
-    st = ctx.settings
-    used = np.zeros(ctx.materials["diffuse"].shape[0], bool)
-    used[np.unique(ctx.tri_material)] = True
-    specular = bool(np.any(used & (ctx.has_delta | (np.any(ctx.materials["specular"] > 0, axis=1)
-                                                    & ~ctx.has_diffuse))))
-    diffuse_area = gather.diffuse_area(ctx.tri_vertices, ctx.tri_material, ctx.materials["diffuse"])
+    st = settings
+    used = prepared.used_materials
+    specular = bool(np.any(used & (prepared.has_delta | (np.any(prepared.materials["specular"] > 0, axis=1)
+                                                         & ~prepared.has_diffuse))))
+    diffuse_area = prepared.diffuse_area
     skipped = {}
     if not st.caustics:
         skipped["caustics"] = "caustics switched off"
@@ -50,34 +68,27 @@ def run(ctx, maps, progress, share: float) -> tuple[dict, bool]:
     stats = {"traced": False, "photon_maps": {}}
     cancelled = False
     if maps is None and wanted:
-        from . import tracing
-
         # Far from the origin the ray offsets swallow the gaps caustics leave through
         # (half the caustic is lost at 1e5 m for a 2 m room): refuse, naming float32.
-        geometry.check_float32_precision(ctx.scene)
-
-        state = {"cancelled": False}
+        geometry.check_float32_precision(prepared.scene)
 
         def photon_progress(fraction, message):
-            if progress is None:
-                return False
-            state["cancelled"] = bool(progress(share * fraction, message))
-            return state["cancelled"]
+            if on_progress is not None:
+                on_progress(share * fraction, message)
 
         # The tracer builds only the maps of the terms rendered: no caustic photons when,
         # say, the only glossy lobe sits on a diffuse base (the global map carries it).
         skip = {key: skipped[term] for term, key in (("caustics", "caustic"),
                                                      ("indirect", "global")) if term in skipped}
-        maps = tracing.trace_photons(ctx.scene, st, ctx.accel, photon_progress,
-                                     include_direct=st.indirect_mode == "final_gather",
-                                     skip=skip)
+        maps = trace_maps(prepared, st, photon_progress, should_stop,
+                          include_direct=st.indirect_mode == "final_gather", skip=skip)
         stats["traced"] = True
-        cancelled = state["cancelled"]
-        if progress is not None and not cancelled:
+        cancelled = bool(maps.stats.get("cancelled"))
+        if on_progress is not None and not cancelled:
             built = [f"{name} map {len(m)} photons" for name, m in
                      (("caustic", maps.caustic_map), ("global", maps.global_map)) if m is not None]
-            cancelled = bool(progress(share, "Photons traced: " + (", ".join(built)
-                                                                          or "no map built")))
+            on_progress(share, "Photons traced: " + (", ".join(built) or "no map built"))
+        cancelled = cancelled or (should_stop is not None and should_stop())
     caustic_map = global_map = None
     if maps is not None:
         stats["photon_maps"] = dict(maps.stats)
@@ -95,19 +106,20 @@ def run(ctx, maps, progress, share: float) -> tuple[dict, bool]:
     n_g = len(global_map) if global_map is not None else 0
     r_c = st.caustic_radius or gather.auto_radius(diffuse_area, st.caustic_k, n_c)
     r_g = st.global_radius or gather.auto_radius(diffuse_area, st.global_k, n_g)
-    ctx.terms = gather.PhotonTerms(
+    terms = gather.PhotonTerms(
         caustic_map=caustic_map, global_map=global_map, caustic_k=st.caustic_k,
         global_k=st.global_k, caustic_radius=r_c, global_radius=r_g, filter=st.filter,
         mode=st.indirect_mode, gather_rays=max(1, st.final_gather_rays // st.samples))
     if global_map is not None and st.indirect_mode == "final_gather" and not cancelled:
-        if progress is not None:
+        if on_progress is not None:
             points = 2 * gather.cache_point_count(n_g, diffuse_area, r_g)
-            cancelled = bool(progress(share, f"Precomputing the radiance cache ({points:,} points)"))
+            on_progress(share, f"Precomputing the radiance cache ({points:,} points)")
+        cancelled = should_stop is not None and should_stop()
         if not cancelled:
-            ctx.terms.use_cache(gather.build_radiance_cache(ctx.terms, ctx))
+            terms.use_cache(gather.build_radiance_cache(terms, prepared, settings))
     stats.update({"caustic_photons_stored": n_c, "global_photons_stored": n_g,
                   "caustic_radius": r_c if n_c else 0.0, "global_radius": r_g if n_g else 0.0,
-                  "gather_rays_per_sample": ctx.terms.gather_rays if n_g and
+                  "gather_rays_per_sample": terms.gather_rays if n_g and
                   st.indirect_mode == "final_gather" else 0,
                   "diffuse_area": diffuse_area, "skipped": skipped})
-    return stats, cancelled
+    return terms, stats, cancelled

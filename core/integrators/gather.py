@@ -43,25 +43,16 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba import njit, prange
 
-from . import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
-from . import bsdf, encoding, geometry, sampling
-from .estimate import FILTERS, disc_radius2, photon_weight
-from .photon_map import PhotonMap, squared_radius
+from .. import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
+from .. import sampling
+from ..prepared import PreparedScene
+from ..scene import geometry
+from ..settings import RenderSettings
+from . import camera_paths
+from ..photons.estimate import (auto_radius, radiance_estimate,  # noqa: F401  (auto_radius for callers)
+                               radiance_estimate_sides)
+from ..photons.photon_map import PhotonMap
 
-# Random-number purposes (sampling.stream's first argument); sampling.py's own are < 16.
-GATHER_DIRECTION = 16
-GATHER_LOBE = 17
-GATHER_CUTOUT = 20
-
-PLANE_FRACTION = 0.25
-"""Flattened-disc gather: photons farther than this fraction of r from the tangent plane
-at the query are left out (Jensen's fix for leaks through corners and thin walls)."""
-RADIUS_FACTOR = 2.0
-"""Automatic radius = this x the radius that holds k photons on average."""
-CONE_K = 1.1
-"""Jensen's cone filter constant k >= 1 (1.1 in his book)."""
-QUERY_CHUNK = 1 << 16
-"""Queries per nearest-neighbour call (bounds the (M, k) neighbour arrays)."""
 CACHE_FRACTION = 0.25
 """Most radiance-cache points per stored global photon (Christensen's precomputation)."""
 CACHE_POINTS_PER_DISC = 50.0
@@ -73,119 +64,6 @@ CACHE_NEIGHBOURS = 4
 """Cache entries examined per gather hit (the nearest with a compatible normal is used)."""
 CACHE_MIN_COS = 0.5
 """A cache entry serves a gather hit when their normals agree this well (cos)."""
-CACHE_SAMPLE = 18
-"""Random-number purpose of the cache's surface samples."""
-
-
-# --- radius -----------------------------------------------------------------------------
-
-def diffuse_area(tri_vertices: np.ndarray, tri_material: np.ndarray,
-                 diffuse: np.ndarray) -> float:
-    """Total area (m^2) of the triangles whose material has a diffuse lobe.
-
-    tri_vertices (T, 3, 3) float32 metres; tri_material (T,) int32; diffuse (M, 3).
-    """
-    if tri_vertices.shape[0] == 0:
-        return 0.0
-    has = np.any(diffuse > 0, axis=1)[tri_material]
-    v = tri_vertices[has].astype(np.float64)
-    return float(0.5 * np.linalg.norm(np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]),
-                                      axis=1).sum())
-
-
-def auto_radius(area: float, k: int, stored: int) -> float:
-    """Maximum gather radius (metres) for ``stored`` photons spread over ``area`` m^2."""
-    if stored <= 0 or area <= 0:
-        return math.inf
-    return RADIUS_FACTOR * math.sqrt(area * k / (math.pi * stored))
-
-
-# --- radiance estimate -------------------------------------------------------------------
-
-@njit(cache=True, parallel=True, error_model="numpy")
-def _estimate_kernel(tree, flux_codes, inv_scale, direction_codes, idx, dist2, points,
-                     normals, albedo, max_r2, kind, k_cone, plane_fraction, out):
-    """out[i] = albedo[i] / pi * E(points[i]) in the order of the sorted neighbours;
-    returns the number of zero-area discs holding photons."""
-    k = idx.shape[1]
-    degenerate = 0
-    for i in prange(idx.shape[0]):
-        out[i, 0] = 0.0
-        out[i, 1] = 0.0
-        out[i, 2] = 0.0
-        c = 0
-        while c < k and idx[i, c] >= 0:
-            c += 1
-        if c == 0:
-            continue
-        r2 = disc_radius2(c, k, dist2[i, c - 1], max_r2)
-        if r2 == 0.0:
-            degenerate += 1
-            continue
-        n0, n1, n2 = normals[i, 0], normals[i, 1], normals[i, 2]
-        inv = 1.0 / math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
-        n0 *= inv
-        n1 *= inv
-        n2 *= inv
-        px, py, pz = np.float32(points[i, 0]), np.float32(points[i, 1]), np.float32(points[i, 2])
-        ex = 0.0
-        ey = 0.0
-        ez = 0.0
-        for s in range(c):
-            j = idx[i, s]
-            w = photon_weight(direction_codes, tree, j, np.float64(dist2[i, s]), r2, px, py, pz,
-                              n0, n1, n2, kind, k_cone, plane_fraction)
-            if w != 0.0:
-                ex += w * encoding.half_to_float(flux_codes[j, 0])
-                ey += w * encoding.half_to_float(flux_codes[j, 1])
-                ez += w * encoding.half_to_float(flux_codes[j, 2])
-        s_ = inv_scale / math.pi
-        out[i, 0] = albedo[i, 0] * ex * s_
-        out[i, 1] = albedo[i, 1] * ey * s_
-        out[i, 2] = albedo[i, 2] * ez * s_
-    return degenerate
-
-
-def radiance_estimate(photon_map: PhotonMap, points: np.ndarray, normals: np.ndarray,
-                      albedo: np.ndarray, k: int, max_radius: float, filter: str = "cone",
-                      plane_fraction: float = PLANE_FRACTION) -> np.ndarray:
-    """Diffuse reflected radiance albedo / pi * E (W/(m^2 sr)) at surface points.
-
-    points (M, 3) metres; normals (M, 3) non-zero, facing the viewer (only photons
-    arriving on that side count); albedo (M, 3) >= 0; k >= 1; max_radius > 0 metres
-    (inf allowed). Returns (M, 3) float64. Raises ValueError when k photons sit exactly
-    on a query point (zero-area disc).
-    """
-    return radiance_estimate_sides(photon_map, points, [normals], albedo, k, max_radius,
-                                   filter, plane_fraction)[0]
-
-
-def radiance_estimate_sides(photon_map: PhotonMap, points, normals_list, albedo, k,
-                            max_radius, filter="cone", plane_fraction=PLANE_FRACTION):
-    """``radiance_estimate`` for several normals per point (e.g. both sides of a
-    surface) from one neighbour search; returns a list of (M, 3) float64."""
-    m = points.shape[0]
-    outs = [np.zeros((m, 3)) for _ in normals_list]
-    if m == 0 or len(photon_map) == 0:
-        return outs
-    tree, _, _, flux_codes, scale, direction_codes = photon_map.kernel_arrays()
-    k = min(int(k), len(photon_map))
-    r2 = squared_radius(max_radius)
-    points32 = np.ascontiguousarray(points, np.float32)
-    normals_list = [np.ascontiguousarray(n, np.float64) for n in normals_list]
-    albedo = np.ascontiguousarray(albedo, np.float64)
-    bad = 0
-    for lo in range(0, m, QUERY_CHUNK):
-        hi = min(m, lo + QUERY_CHUNK)
-        idx, dist2 = photon_map.nearest(points32[lo:hi], k, max_radius)
-        for normals, out in zip(normals_list, outs):
-            bad += _estimate_kernel(tree, flux_codes, 1.0 / scale, direction_codes, idx,
-                                    dist2, points32[lo:hi], normals[lo:hi], albedo[lo:hi], r2,
-                                    FILTERS[filter], CONE_K, float(plane_fraction), out[lo:hi])
-    if bad:
-        raise ValueError(f"{bad} points have k photons exactly on them (zero-area disc): "
-                         "use a larger k")
-    return outs
 
 
 # --- the radiance cache (Christensen 1999) -----------------------------------------------------
@@ -239,39 +117,40 @@ def cache_point_count(stored: int, diffuse_area: float, radius: float) -> int:
     return max(1, int(min(CACHE_FRACTION * stored, per_disc)))
 
 
-def build_radiance_cache(terms: "PhotonTerms", ctx) -> RadianceCache | None:
+def build_radiance_cache(terms: "PhotonTerms", prepared: PreparedScene,
+                         settings: RenderSettings) -> RadianceCache | None:
     """Precompute the global map's radiance at ``cache_point_count`` points spread
     uniformly over the diffuse surfaces (both sides of each). Deterministic: the points
     are counter hashes of (seed, point index)."""
-    mats = ctx.materials
-    diffuse_tri = np.flatnonzero(np.any(mats["diffuse"] > 0, axis=1)[ctx.tri_material])
+    mats = prepared.materials
+    diffuse_tri = np.flatnonzero(prepared.has_diffuse[prepared.tri_material])
     if terms.global_map is None or diffuse_tri.size == 0:
         return None
     t0 = time.perf_counter()
-    v = ctx.tri_vertices[diffuse_tri].astype(np.float64)
+    v = prepared.tri_vertices[diffuse_tri].astype(np.float64)
     area = 0.5 * np.linalg.norm(np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]), axis=1)
     keep = area > 0
     v, tri_ids, area = v[keep], diffuse_tri[keep], area[keep]
     if v.shape[0] == 0:
         return None
     m = cache_point_count(len(terms.global_map), float(area.sum()), terms.global_radius)
-    seed = ctx.settings.seed
+    seed = settings.seed
     ids = np.arange(m, dtype=np.int64)
     zero = np.zeros(m, np.int64)
-    u0, u1, u2 = (sampling.uniform(seed, ids, zero, sampling.stream(CACHE_SAMPLE, c))
+    u0, u1, u2 = (sampling.uniform(seed, ids, zero, sampling.stream(sampling.CACHE_SAMPLE, c))
                   for c in range(3))
     pos, nrm, tri = np.empty((m, 3)), np.empty((m, 3)), np.empty(m, np.int64)
     bu, bv = np.empty(m), np.empty(m)
     _cache_points_kernel(np.ascontiguousarray(v), np.cumsum(area), u0, u1, u2, pos, nrm, tri,
                          bu, bv)
     prim = tri_ids[tri]
-    if ctx.surfaces is not None and ctx.surfaces.textured:
+    if prepared.surfaces.textured:
         # Textured: cache E / pi (albedo 1) and multiply by the hit's own texel at lookup,
         # so the cache does not blur the texture.
         albedo = np.ones((m, 3))
         terms.cache_unit_albedo = True
     else:
-        albedo = mats["diffuse"][ctx.tri_material[prim]]
+        albedo = mats["diffuse"][prepared.tri_material[prim]]
     # One neighbour search per point serves both of its sides.
     front, back = radiance_estimate_sides(terms.global_map, pos, [nrm, -nrm], albedo,
                                           terms.global_k, terms.global_radius, terms.filter)
@@ -410,11 +289,12 @@ GATHER_BATCH = 1 << 20
 """Gather rays traced together at most (bounds memory whatever the tile and ray counts)."""
 
 
-def final_gather(terms: PhotonTerms, ctx, pos, ngf, nsf, eps, pixel, sample, depth) -> np.ndarray:
+def final_gather(terms: PhotonTerms, prepared: PreparedScene, settings: RenderSettings, pos,
+                 ngf, nsf, eps, pixel, sample, depth) -> np.ndarray:
     """(N, 3) mean radiance L(y_j) over the gather rays of each diffuse hit (module doc).
 
-    ctx: the integrator's per-render context (accel, triangles, materials, extent,
-    settings). pos, ngf, nsf (N, 3) float64, eps (N,), pixel and sample (N,) int64 of the
+    settings: seed, samples, max_specular_depth. pos, ngf, nsf (N, 3) float64, eps (N,),
+    pixel and sample (N,) int64 of the
     camera sample, depth: the camera path's bounce (a random stream index).
     The caller multiplies by rho_x and the path throughput. Points are gathered in
     batches of GATHER_BATCH rays; each point's value depends on its own rays only.
@@ -422,25 +302,27 @@ def final_gather(terms: PhotonTerms, ctx, pos, ngf, nsf, eps, pixel, sample, dep
     n = pos.shape[0]
     step = max(1, GATHER_BATCH // terms.gather_rays)
     if n <= step:
-        return _final_gather_batch(terms, ctx, pos, ngf, nsf, eps, pixel, sample, depth)
+        return _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sample,
+                                   depth)
     out = np.empty((n, 3))
     for lo in range(0, n, step):
         sl = slice(lo, min(n, lo + step))
-        out[sl] = _final_gather_batch(terms, ctx, pos[sl], ngf[sl], nsf[sl], eps[sl],
-                                      pixel[sl], sample[sl], depth)
+        out[sl] = _final_gather_batch(terms, prepared, settings, pos[sl], ngf[sl], nsf[sl],
+                                      eps[sl], pixel[sl], sample[sl], depth)
     return out
 
 
-def _final_gather_batch(terms, ctx, pos, ngf, nsf, eps, pixel, sample, depth) -> np.ndarray:
+def _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sample,
+                        depth) -> np.ndarray:
     t_start = time.perf_counter()
-    st = ctx.settings
+    st = settings
     n = pos.shape[0]
     g = terms.gather_rays
     owner = np.repeat(np.arange(n, dtype=np.int64), g)
     index = np.repeat(sample.astype(np.int64) * g, g) + np.tile(np.arange(g, dtype=np.int64), n)
     ray_pixel = np.repeat(pixel.astype(np.int64), g)
     u1, u2 = sampling.stratified2(st.seed, ray_pixel, index, st.samples * g,
-                                  sampling.stream(GATHER_DIRECTION, depth))
+                                  sampling.stream(sampling.GATHER_DIRECTION, depth))
     index_of = index
     m = owner.shape[0]
     o, d, ok = np.empty((m, 3)), np.empty((m, 3)), np.empty(m, bool)
@@ -449,32 +331,27 @@ def _final_gather_batch(terms, ctx, pos, ngf, nsf, eps, pixel, sample, depth) ->
     rows = np.flatnonzero(ok)
     o, d = o[rows], d[rows]
     thr = np.ones((rows.shape[0], 3))
-    mats = ctx.materials
-    has_diffuse = np.any(mats["diffuse"] > 0, axis=1)
+    mats = prepared.materials
     for bounce in range(st.max_specular_depth + 1):
         if rows.shape[0] == 0:
             break
-        if ctx.surfaces is not None and ctx.surfaces.cutout:
-            def uniforms(index, layer, rows=rows, bounce=bounce):
-                r = rows[index]
-                return sampling.uniform(st.seed, ray_pixel[r], index_of[r],
-                                        sampling.stream(GATHER_CUTOUT, depth, bounce, layer))
-            hits = ctx.surfaces.intersect(ctx.accel, ctx.tri_vertices, ctx.tri_normals,
-                                          ctx.extent, o, d, None, uniforms)
-        else:
-            hits = ctx.accel.intersect(o, d)
+        hits = camera_paths.intersect(
+            prepared, st.seed, o, d, None, rows, ray_pixel, index_of,
+            lambda layer, bounce=bounce: sampling.stream(sampling.GATHER_CUTOUT, depth, bounce,
+                                                         layer))
         terms.stats["rays_gather"] += rows.shape[0]
         hit = np.flatnonzero(hits.prim >= 0)
         # Escaping rays and light sources count nothing (direct light holds them).
         rows, thr, d = rows[hit], thr[hit], d[hit]
         p2, n2, s2, mat, e2, front = geometry.facing_surface_points(
-            ctx.tri_vertices, ctx.tri_normals, ctx.tri_material, hits.prim[hit],
-            hits.u[hit], hits.v[hit], d, ctx.extent)
-        diff = np.flatnonzero(has_diffuse[mat])
+            prepared.tri_vertices, prepared.tri_normals, prepared.tri_material, hits.prim[hit],
+            hits.u[hit], hits.v[hit], d, prepared.extent)
+        diff = np.flatnonzero(prepared.has_diffuse[mat])
         if diff.size:
-            if ctx.surfaces is not None and ctx.surfaces.textured:
+            if prepared.surfaces.textured:
                 hd = hit[diff]
-                albedo = ctx.surfaces.albedo(hits.prim[hd], hits.u[hd], hits.v[hd], mat[diff])
+                albedo = prepared.surfaces.albedo(hits.prim[hd], hits.u[hd], hits.v[hd],
+                                                  mat[diff])
             else:
                 albedo = mats["diffuse"][mat[diff]]
             if terms.cache is not None:
@@ -487,20 +364,16 @@ def _final_gather_batch(terms, ctx, pos, ngf, nsf, eps, pixel, sample, depth) ->
             terms.stats["gather_queries"] += diff.size
         if bounce == st.max_specular_depth:
             break
-        sd = np.flatnonzero(ctx.has_delta[mat])
+        sd = np.flatnonzero(prepared.has_delta[mat])
         if sd.size == 0:
             break
         rs = rows[sd]
-        dim = sampling.stream(GATHER_LOBE, depth, bounce)
+        dim = sampling.stream(sampling.GATHER_LOBE, depth, bounce)
         u_lobe = sampling.uniform(st.seed, ray_pixel[rs], index[rs], 2 * dim)
         u_pick = sampling.uniform(st.seed, ray_pixel[rs], index[rs], 2 * dim + 1)
-        c = sd.shape[0]
-        new_o, new_d, new_thr = np.empty((c, 3)), np.empty((c, 3)), np.empty((c, 3))
-        transmitted, good = np.empty(c, bool), np.empty(c, bool)
-        bsdf.continue_delta(p2[sd], n2[sd], s2[sd], d[sd], front[sd], mat[sd], e2[sd],
-                            mats["specular"], mats["alpha"], mats["transmission"], mats["ior"],
-                            u_lobe, u_pick, thr[sd], new_o, new_d, new_thr, transmitted, good)
-        keep = np.flatnonzero(good)
-        rows, o, d, thr = rs[keep], new_o[keep], new_d[keep], new_thr[keep]
+        keep, o, d, thr, _ = camera_paths.follow_delta(
+            mats, p2[sd], n2[sd], s2[sd], d[sd], front[sd], mat[sd], e2[sd], u_lobe, u_pick,
+            thr[sd])
+        rows = rs[keep]
     terms.stats["time_gather"] += time.perf_counter() - t_start
     return radiance.reshape(n, g, 3).mean(axis=1)

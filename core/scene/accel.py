@@ -6,7 +6,7 @@ misses, no Embree scene is built) and splitting large batches over a small threa
 (``EmbreeScene.run`` releases the GIL, so two threads on two halves run in parallel).
 
 embreex's ``run`` has no ``tnear``: callers offset ray origins off the surface instead
-(see ``integrator.offset_points``), and pass ``tfar`` to bound shadow rays.
+(``core.scene.geometry.offset_points``), and pass ``tfar`` to bound shadow rays.
 """
 
 from __future__ import annotations
@@ -15,6 +15,7 @@ import os
 from concurrent.futures import ThreadPoolExecutor
 from typing import NamedTuple
 
+import numba
 import numpy as np
 
 # Below this many rays a batch is traced on the calling thread: splitting costs more
@@ -72,6 +73,14 @@ def _triangle_vertices(mesh_or_vertices) -> np.ndarray:
 def default_threads(threads: int = 0) -> int:
     """Worker count: ``threads`` if > 0, else the machine's cores."""
     return int(threads) if threads and threads > 0 else (os.cpu_count() or 1)
+
+
+def use_threads(threads: int = 0) -> int:
+    """Set the worker count of a render (``default_threads``) for numba's parallel kernels
+    too, within numba's own limit; returns it (the Embree thread pool's size)."""
+    n = default_threads(threads)
+    numba.set_num_threads(max(1, min(n, numba.config.NUMBA_NUM_THREADS)))
+    return n
 
 
 class Accelerator:

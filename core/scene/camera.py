@@ -18,8 +18,8 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit, prange
 
-from . import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
-from .scene import CAMERA_ORTHOGRAPHIC, CAMERA_PERSPECTIVE, Camera
+from .. import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
+from .contract import CAMERA_ORTHOGRAPHIC, CAMERA_PERSPECTIVE, Camera
 
 
 class CameraRays(NamedTuple):

@@ -4,7 +4,9 @@ photon terms at the diffuse surfaces it reaches (the seed lecture's split).
 Wavefront: a tile of pixels x samples becomes one batch of camera rays; each bounce
 intersects the whole batch in Embree, shades it in numba kernels (emission, the direct
 light of core/direct.py: one shadow ray per light per light sample, the photon estimates
-of core/gather.py), and spawns at most one specular ray per path.
+of core/integrators/gather.py), and spawns at most one specular ray per path
+(core/integrators/camera_paths.py: intersection through cut-outs, lights seen along the
+rays, the mirror/glass continuation).
 
 Passes (each (H, W, 3) float32, radiance W/(m^2 sr), row 0 at the top):
 - emission: emitters seen by camera rays (emissive triangles, visible lights);
@@ -19,15 +21,15 @@ Passes (each (H, W, 3) float32, radiance W/(m^2 sr), row 0 at the top):
   combined == sum of the other passes exactly.
 - photons (only with ``settings.photon_debug_pass``): (H, W, 4) float32 RGBA, a dot
   wherever the camera sees a stored photon of ``settings.overlay_map``
-  (core/debug_overlay.py); not part of combined. With ``settings.overlay_composite`` the
+  (core/integrators/debug_overlay.py); not part of combined. With ``settings.overlay_composite`` the
   dots are also drawn over combined, which is then no longer the sum of the light passes.
 A term evaluated at a diffuse surface seen through a mirror or glass belongs to the
 specular pass, like the direct light there: the caustics and indirect passes show what
 the camera sees directly, and every pixel's light is counted once.
 
-Photon maps: ``render`` first traces them (core/tracing.py, with the render's own
-Accelerator) unless ``photon_maps`` is given (tests pass hand-built maps); the photon
-pass takes PHOTON_SHARE of the progress bar.
+Photon maps: ``render`` first traces them (core/integrators/photon_terms.py, over the
+render's PreparedScene) unless ``photon_maps`` is given (tests pass hand-built maps); the
+photon pass takes PHOTON_SHARE of the progress bar.
 
 Specular rays: one delta lobe is picked per hit (``bsdf.sample_delta``: mirror vs glass by
 tint, reflection vs refraction with probability clamp(F, 1/8, 7/8) like Cycles' camera
@@ -38,10 +40,11 @@ samples (``sampling.stratified2``, scrambled Sobol). Determinism: every random n
 hash of (seed, pixel, sample, dimension), and a pixel's samples are always traced in one
 tile and summed in sample order, so the image does not depend on tile sizes or threads.
 
-Ray offsets: ``geometry`` (eps proportional to the hit's coordinates plus the scene size).
+Ray offsets: ``core.scene.geometry`` (eps proportional to the hit's coordinates plus the
+scene size).
 
-Textures and cut-outs (core/textures.py): the diffuse albedo at each batch of hits is
-``ctx.surfaces.albedo`` (textured where the material has an image, else the material's),
+Textures and cut-outs (core/materials/textures.py): the diffuse albedo at each batch of
+hits is ``PreparedScene.surfaces.albedo`` (textured where the material has an image, else the material's),
 passed as (N, 3) to the shading kernel and the photon terms. Camera rays pass cut-outs
 (opacity a < 1) with probability 1 - a without counting a bounce, so what is seen through
 a cut-out stays in its pass; shadow rays are attenuated by 1 - a per cut-out crossed.
@@ -50,23 +53,22 @@ a cut-out stays in its pass; shadow rays are attenuated by 1 - a per cut-out cro
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
-from typing import Callable
+from dataclasses import dataclass
 
-import numba
 import numpy as np
 from numba import njit, prange
 
-from . import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
-from . import (bsdf, camera, debug_overlay, direct, gather, geometry, lights, photon_pass,
-               sampling, textures)
-from .accel import Accelerator, default_threads
-from .passes import BLENDER_PASS_NAMES, PASSES  # noqa: F401  (re-exported)
-from .scene import Scene
-from .settings import RenderSettings
+from .. import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
+from .. import sampling
+from ..passes import PASSES, ProgressFn, RenderOutput, StopFn, TileFn, UsedPhotonMaps
+from ..prepared import PreparedScene, prepare
+from ..scene import camera, geometry
+from ..scene.contract import Scene
+from ..settings import RenderSettings
+from . import camera_paths, debug_overlay, direct, gather, photon_terms
 
 # A tile holds about this many camera samples (all samples of its pixels); tiles grow
-# while they take less than TILE_SECONDS and shrink when longer, so that progress() (and
+# while they take less than TILE_SECONDS and shrink when longer, so that progress (and
 # cancelling) is never far away.
 TARGET_SAMPLES_PER_TILE = 1 << 16
 TILE_SECONDS = 0.25
@@ -80,96 +82,32 @@ c seconds the next one waits at least c / UPDATE_SHARE (large images, slow callb
 REST = "rest"
 """Accumulator of the light terms whose pass is switched off: it feeds "combined" only."""
 
-ProgressFn = Callable[[float, str], bool]
-TileFn = Callable[[int, dict], None]
-
 
 @dataclass
-class UsedPhotonMaps:
-    """The photon maps the camera pass read: PhotonMap or None (term skipped or not built)."""
+class _CameraPass:
+    """What every tile reads: the prepared scene, the settings, the shadow rays, the
+    photon terms, the counters, and the per-pixel images kept (the produced passes, then
+    REST when some are off)."""
 
-    global_map: object = None
-    caustic_map: object = None
-
-
-@dataclass
-class RenderOutput:
-    """passes: name -> (H, W, 3) float32 ("photons": (H, W, 4)); stats: counters and
-    timings; cancelled: stopped early; photon_maps: the UsedPhotonMaps of the render, None
-    when it used no photon map (the viewport display shows them, photon_engine/overlay.py)."""
-
-    passes: dict[str, np.ndarray]
-    stats: dict = field(default_factory=dict)
-    cancelled: bool = False
-    photon_maps: UsedPhotonMaps | None = None
-
-
-@dataclass
-class _Context:
-    """Everything built once per render and read by every tile."""
-
-    scene: Scene
+    prepared: PreparedScene
     settings: RenderSettings
-    accel: Accelerator
-    tri_vertices: np.ndarray
-    tri_normals: np.ndarray
-    tri_material: np.ndarray
-    materials: dict
-    nondelta: np.ndarray
-    has_delta: np.ndarray
-    light_set: lights.LightSet
-    world: np.ndarray
-    extent: float
+    direct: direct.DirectLighting
     stats: dict
-    light_shows: np.ndarray     # (L,) the light has a surface a ray can see
-    direct: direct.DirectLighting  # the shadow rays (core/direct.py), sharing accel and stats
-    has_diffuse: np.ndarray = None   # (M,) the material has a diffuse lobe
-    terms: "gather.PhotonTerms | None" = None
-    surfaces: "textures.SurfaceTextures | None" = None  # textured albedo, cut-outs
-    # The per-pixel images kept: the produced passes, then REST when some are off.
-    outputs: tuple = PASSES
+    outputs: tuple
+    terms: gather.PhotonTerms | None = None
 
 
-def _prepare(scene: Scene, settings: RenderSettings) -> _Context:
-    mesh = scene.mesh
-    mats = bsdf.material_table(scene.materials)
-    singular = mats["alpha"] <= np.sqrt(bsdf.SINGULAR_ALPHA2)
-    nondelta = np.any(mats["diffuse"] > 0, axis=1) | (np.any(mats["specular"] > 0, axis=1) & ~singular)
-    has_delta = np.any(mats["transmission"] > 0, axis=1) | (np.any(mats["specular"] > 0, axis=1) & singular)
-    lo, hi = scene.bounds()
-    extent = geometry.scene_extent(lo, hi)
-    light_set = lights.LightSet.from_lights(scene.lights)
-    threads = default_threads(settings.threads)
-    numba.set_num_threads(max(1, min(threads, numba.config.NUMBA_NUM_THREADS)))
-    tri_vertices = np.ascontiguousarray(mesh.triangle_vertices(), np.float32)
-    accel = Accelerator(tri_vertices, threads=threads)
-    surfaces = textures.SurfaceTextures(scene, mats["diffuse"])
+def _camera_pass(prepared: PreparedScene, settings: RenderSettings) -> _CameraPass:
     stats = {"rays_camera": 0, "rays_specular": 0, "rays_shadow": 0,
              "time_intersect": 0.0, "time_shadow": 0.0, "time_shading": 0.0}
-    tri_normals = np.ascontiguousarray(mesh.normals, np.float32)
-    world = np.asarray(scene.world.radiance, np.float64).reshape(3)
-    return _Context(
-        scene=scene, settings=settings, accel=accel, tri_vertices=tri_vertices,
-        tri_normals=tri_normals,
-        tri_material=np.ascontiguousarray(mesh.material_index, np.int32),
-        materials=mats, nondelta=nondelta, has_delta=has_delta,
-        light_set=light_set, world=world, extent=extent, stats=stats,
-        light_shows=np.any(light_set.radiance > 0, axis=1),
-        direct=direct.prepare(settings, accel, light_set=light_set,
-                              emissive=lights.EmissiveTriangles.from_mesh(mesh, scene.materials),
-                              materials=mats, world=world, extent=extent, surfaces=surfaces,
-                              tri_vertices=tri_vertices, tri_normals=tri_normals, stats=stats),
-        has_diffuse=np.any(mats["diffuse"] > 0, axis=1),
-        surfaces=surfaces,
-        outputs=settings.passes() + ((REST,) if len(settings.passes()) < len(PASSES) else ()),
-    )
+    passes = settings.passes()
+    return _CameraPass(prepared=prepared, settings=settings,
+                       direct=direct.prepare(settings, prepared, settings.samples, stats),
+                       stats=stats,
+                       outputs=passes + ((REST,) if len(passes) < len(PASSES) else ()))
 
 
 # --- kernels --------------------------------------------------------------------------------
-
-CUTOUT_CHOICE = 19
-"""Random-number purpose (sampling.stream) of the camera rays' pass-through choices."""
-
 
 @njit(cache=True, parallel=True, error_model="numpy")
 def _pixel_mean_kernel(per_sample, samples, out):
@@ -196,12 +134,12 @@ def _add(acc, rows, values):
         acc[rows] += values
 
 
-def _photon_terms(ctx: _Context, rows, pos, ngf, nsf, eps, mat, thr, pixel, sample, depth,
+def _photon_terms(ctx: _CameraPass, rows, pos, ngf, nsf, eps, mat, thr, pixel, sample, depth,
                   caustic_target, indirect_target, albedo):
-    """Add T * (caustics) and T * (indirect) at the hits with a diffuse lobe (core/gather.py).
-    albedo (N, 3): the (textured) diffuse albedo at the hits."""
+    """Add T * (caustics) and T * (indirect) at the hits with a diffuse lobe
+    (core/integrators/gather.py). albedo (N, 3): the (textured) diffuse albedo at the hits."""
     terms = ctx.terms
-    sel = np.flatnonzero(ctx.has_diffuse[mat])
+    sel = np.flatnonzero(ctx.prepared.has_diffuse[mat])
     if sel.size == 0:
         return
     r = rows[sel]
@@ -211,25 +149,14 @@ def _photon_terms(ctx: _Context, rows, pos, ngf, nsf, eps, mat, thr, pixel, samp
     if terms.global_map is None:
         return
     if terms.mode == "final_gather":
-        incoming = gather.final_gather(terms, ctx, pos[sel], ngf[sel], nsf[sel], eps[sel],
-                                       pixel[r], sample[r], depth)
+        incoming = gather.final_gather(terms, ctx.prepared, ctx.settings, pos[sel], ngf[sel],
+                                       nsf[sel], eps[sel], pixel[r], sample[r], depth)
         _add(indirect_target, r, thr[sel] * albedo * incoming)
     elif terms.mode == "preview":
         _add(indirect_target, r, thr[sel] * gather.preview(terms, pos[sel], ngf[sel], albedo))
 
 
-def _intersect(ctx: _Context, origins, dirs, tmax, rows, pixel, sample, depth):
-    """The camera paths' nearest hits, passing cut-outs stochastically
-    (``textures.SurfaceTextures.intersect``; plain Embree without cut-outs)."""
-    def uniforms(index, layer):
-        r = rows[index]
-        return sampling.uniform(ctx.settings.seed, pixel[r], sample[r],
-                                sampling.stream(CUTOUT_CHOICE, depth, layer))
-    return ctx.surfaces.intersect(ctx.accel, ctx.tri_vertices, ctx.tri_normals, ctx.extent,
-                                  origins, dirs, tmax, uniforms)
-
-
-def _render_tile(ctx: _Context, pix: np.ndarray) -> dict[str, np.ndarray]:
+def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> dict[str, np.ndarray]:
     """Per-pixel means (P, 3) float64 of every pass for the pixels ``pix`` (P,) int64."""
     st = ctx.settings
     s_count = st.samples
@@ -239,14 +166,14 @@ def _render_tile(ctx: _Context, pix: np.ndarray) -> dict[str, np.ndarray]:
     # Switched-off passes share the REST accumulator: every term still reaches combined.
     kept = {name: np.zeros((n, 3)) for name in ctx.outputs}
     acc = {name: kept.get(name, kept.get(REST)) for name in PASSES}
-    ls = ctx.light_set
-    mats = ctx.materials
+    pr = ctx.prepared
+    mats = pr.materials
     t0 = time.perf_counter()
 
     # Generate camera rays
     jitter = np.stack(sampling.stratified2(st.seed, pixel, sample, s_count,
                                            sampling.stream(sampling.PIXEL_JITTER)), axis=1)
-    rays = camera.generate_rays(ctx.scene.camera, pixel, jitter)
+    rays = camera.generate_rays(pr.scene.camera, pixel, jitter)
     origins, dirs, tmax = rays.origins, rays.directions, rays.tmax
     rows = np.arange(n)
     thr = np.ones((n, 3))
@@ -260,41 +187,27 @@ def _render_tile(ctx: _Context, pix: np.ndarray) -> dict[str, np.ndarray]:
         first = depth == 0
         # Intersect the batch
         t0 = time.perf_counter()
-        hits = _intersect(ctx, origins, dirs, tmax, rows, pixel, sample, depth)
+        hits = camera_paths.intersect(
+            pr, st.seed, origins, dirs, tmax, rows, pixel, sample,
+            lambda layer, depth=depth: sampling.stream(sampling.CUTOUT_CHOICE, depth, layer))
         t1 = time.perf_counter()
         ctx.stats["time_intersect"] += t1 - t0
         if not first:
             ctx.stats["rays_specular"] += rows.shape[0]
         emit_target = acc["emission"] if first else acc["specular"]
-        hit = hits.prim >= 0
 
         # Lights seen along the rays (in front of the geometry)
-        visible = ls.visible_camera if first else ls.visible_glossy | ls.visible_transmission
-        if np.any(visible & ctx.light_shows):
-            geo_t = np.where(hit, hits.t.astype(np.float64), np.inf)
-            light_t = np.full(rows.shape[0], np.inf)
-            light_l = np.zeros((rows.shape[0], 3))
-            groups = [(slice(None), ls.visible_camera)] if first else [
-                (np.flatnonzero(transmitted), ls.visible_transmission),
-                (np.flatnonzero(~transmitted), ls.visible_glossy)]
-            for sel, vis in groups:
-                light_t[sel], light_l[sel] = lights.intersect_lights(ls, vis, origins[sel], dirs[sel],
-                                                                     geo_t[sel])
-            seen = light_t < geo_t
-            miss = ~seen & ~hit
-            # Surfaces in front of the geometry, and sun discs on rays that escape (t = inf).
-            shown = seen | miss
+        hit, miss, shown, light_l = camera_paths.lights_along(pr, first, transmitted, origins,
+                                                              dirs, hits)
+        if shown is not None:
             _add(emit_target, rows[shown], thr[shown] * light_l[shown])
-            hit &= ~seen
-        else:
-            miss = ~hit
 
         # Rays that escape see the world
-        if np.any(ctx.world > 0) and np.any(miss):
+        if np.any(pr.world > 0) and np.any(miss):
             if not first:
-                _add(acc["specular"], rows[miss], thr[miss] * ctx.world)
-            elif ctx.scene.world.visible_to_camera:
-                _add(acc["environment"], rows[miss], thr[miss] * ctx.world)
+                _add(acc["specular"], rows[miss], thr[miss] * pr.world)
+            elif pr.scene.world.visible_to_camera:
+                _add(acc["environment"], rows[miss], thr[miss] * pr.world)
         if not np.any(hit):
             ctx.stats["time_shading"] += time.perf_counter() - t1
             break
@@ -303,21 +216,21 @@ def _render_tile(ctx: _Context, pix: np.ndarray) -> dict[str, np.ndarray]:
         h = np.flatnonzero(hit) if not hit.all() else slice(None)
         rows, thr, d, transmitted = rows[h], thr[h], dirs[h], transmitted[h]
         pos, ngf, nsf, mat, eps, front = geometry.facing_surface_points(
-            ctx.tri_vertices, ctx.tri_normals, ctx.tri_material, hits.prim[h], hits.u[h],
-            hits.v[h], d, ctx.extent)
-        albedo = ctx.surfaces.albedo(hits.prim[h], hits.u[h], hits.v[h], mat)
+            pr.tri_vertices, pr.tri_normals, pr.tri_material, hits.prim[h], hits.u[h],
+            hits.v[h], d, pr.extent)
+        albedo = pr.surfaces.albedo(hits.prim[h], hits.u[h], hits.v[h], mat)
         _add(emit_target, rows, thr * mats["emission"][mat])  # two-sided, like Cycles' closure
         ctx.stats["time_shading"] += time.perf_counter() - t1
 
         # Direct light at the hits' non-delta lobes
-        nd = ctx.nondelta[mat]
+        nd = pr.nondelta[mat]
         sel = slice(None) if nd.all() else np.flatnonzero(nd)
         if isinstance(sel, slice) or sel.size:
             r = rows[sel]
-            hit_data = {"pos": pos[sel], "ngf": ngf[sel], "nsf": nsf[sel], "d": d[sel], "mat": mat[sel],
-                        "eps": eps[sel], "thr": thr[sel], "rows": r, "albedo": albedo[sel]}
-            direct.shade(ctx.direct, hit_data, pixel[r], sample[r], depth,
-                          acc["direct"] if first else acc["specular"])
+            points = direct.ShadingPoints(pos[sel], ngf[sel], nsf[sel], d[sel], mat[sel],
+                                          eps[sel], thr[sel], albedo[sel], r)
+            direct.shade(ctx.direct, points, pixel[r], sample[r], depth,
+                         acc["direct"] if first else acc["specular"])
 
         # Caustics and indirect light at the hits' diffuse lobes
         if ctx.terms is not None and ctx.terms.active:
@@ -329,21 +242,16 @@ def _render_tile(ctx: _Context, pix: np.ndarray) -> dict[str, np.ndarray]:
         if depth == st.max_specular_depth:
             break
         t0 = time.perf_counter()
-        sd = np.flatnonzero(ctx.has_delta[mat])
+        sd = np.flatnonzero(pr.has_delta[mat])
         if sd.size == 0:
             break
         rs = rows[sd]
         u_lobe, u_pick = sampling.stratified2(st.seed, pixel[rs], sample[rs], s_count,
                                               sampling.stream(sampling.SPECULAR_CHOICE, depth))
-        k = sd.shape[0]
-        new_o, new_d, new_thr = np.empty((k, 3)), np.empty((k, 3)), np.empty((k, 3))
-        new_tr, ok = np.empty(k, bool), np.empty(k, bool)
-        bsdf.continue_delta(pos[sd], ngf[sd], nsf[sd], d[sd], front[sd], mat[sd], eps[sd],
-                            mats["specular"], mats["alpha"], mats["transmission"], mats["ior"],
-                            u_lobe, u_pick, thr[sd], new_o, new_d, new_thr, new_tr, ok)
-        keep = np.flatnonzero(ok)
-        rows, origins, dirs = rs[keep], new_o[keep], new_d[keep]
-        thr, transmitted = new_thr[keep], new_tr[keep]
+        keep, origins, dirs, thr, transmitted = camera_paths.follow_delta(
+            mats, pos[sd], ngf[sd], nsf[sd], d[sd], front[sd], mat[sd], eps[sd], u_lobe, u_pick,
+            thr[sd])
+        rows = rs[keep]
         tmax = None
         ctx.stats["time_shading"] += time.perf_counter() - t0
 
@@ -360,14 +268,14 @@ def _render_tile(ctx: _Context, pix: np.ndarray) -> dict[str, np.ndarray]:
 # --- the render -----------------------------------------------------------------------------
 
 def render(scene: Scene, settings: RenderSettings | None = None,
-           progress: ProgressFn | None = None, photon_maps=None,
-           on_tile: TileFn | None = None) -> RenderOutput:
+           on_progress: ProgressFn | None = None, on_tile: TileFn | None = None,
+           should_stop: StopFn | None = None, photon_maps=None) -> RenderOutput:
     """Render ``scene``: the photon pass, then the camera pass with every term.
 
-    progress(fraction in [0, 1], message) is called during photon tracing and between
-    tiles (at least every ~0.3 s of rendering); returning True stops the render:
-    unrendered pixels stay 0 and ``cancelled`` is True. photon_maps: a
-    ``tracing.PhotonMaps`` to use instead of tracing (tests build them by hand); its
+    on_progress(fraction in [0, 1], message) is called during photon tracing and between
+    tiles (at least every ~0.3 s of rendering); should_stop() -> True stops the render
+    between two batches: unrendered pixels stay 0 and ``cancelled`` is True. photon_maps:
+    a ``tracing.PhotonMaps`` to use instead of tracing (tests build them by hand); its
     global map must match the mode (with direct photons for final gathering, without
     for the preview). Raises SceneError / SettingsError on bad input.
 
@@ -392,13 +300,14 @@ def render(scene: Scene, settings: RenderSettings | None = None,
     t_start = time.perf_counter()
     scene.validate()
     settings = (settings or RenderSettings()).validated()
-    ctx = _prepare(scene, settings)
+    prepared = prepare(scene, settings.threads)
+    ctx = _camera_pass(prepared, settings)
     t_prepared = time.perf_counter()
     try:
-        photon_stats, photons_cancelled = photon_pass.run(ctx, photon_maps, progress,
-                                                          PHOTON_SHARE)
+        ctx.terms, photon_stats, photons_cancelled = photon_terms.run(
+            prepared, settings, photon_maps, on_progress, should_stop, PHOTON_SHARE)
     except BaseException:
-        ctx.accel.close()
+        prepared.close()
         raise
     t_photons = time.perf_counter()
     cam = scene.camera
@@ -428,13 +337,14 @@ def render(scene: Scene, settings: RenderSettings | None = None,
                 per_tile = max(1, int(per_tile * TILE_SECONDS / took))
             elif took < TILE_SECONDS / 2:
                 per_tile = min(per_tile * 2, max_tile)
-            if progress is not None and done < n_pix:
+            if on_progress is not None and done < n_pix:
                 left = -(-(n_pix - done) // per_tile)
                 fraction = share + (1.0 - share) * done / n_pix
-                if progress(fraction, f"{'Gathering' if ctx.terms.active else 'Rendering'}: "
-                                      f"tile {tiles} of {tiles + left} ({done}/{n_pix} pixels)"):
-                    cancelled = True
-                    break
+                on_progress(fraction, f"{'Gathering' if ctx.terms.active else 'Rendering'}: "
+                                      f"tile {tiles} of {tiles + left} ({done}/{n_pix} pixels)")
+            if should_stop is not None and done < n_pix and should_stop():
+                cancelled = True
+                break
             if (on_tile is not None and done < n_pix
                     and time.perf_counter() - last_update >= update_wait):
                 t_call = time.perf_counter()
@@ -448,9 +358,9 @@ def render(scene: Scene, settings: RenderSettings | None = None,
         if settings.photon_debug_pass and not cancelled:
             debug_dots = _photon_dots(ctx, used)
     finally:
-        ctx.accel.close()
-    if progress is not None and not cancelled:
-        progress(1.0, "Done")
+        prepared.close()
+    if on_progress is not None and not cancelled:
+        on_progress(1.0, "Done")
     passes = _assemble(images, ctx.outputs, h, w)
     if debug_dots is not None:
         passes["photons"] = debug_dots
@@ -470,7 +380,7 @@ def render(scene: Scene, settings: RenderSettings | None = None,
         "time_render": t_end - t_photons, "time_total": t_end - t_start,
         "rays_per_second": rays / max(t_end - t_photons, 1e-12),  # over the camera pass
         "triangles": scene.mesh.triangle_count, "lights": scene.lights.count,
-        "emissive_triangles": ctx.direct.emissive.count,
+        "emissive_triangles": prepared.emissive.count,
     })
     return RenderOutput(passes=passes, stats=stats, cancelled=cancelled, photon_maps=used)
 
@@ -487,15 +397,16 @@ def _assemble(images: dict, outputs: tuple, h: int, w: int) -> dict[str, np.ndar
     return {"combined": combined.astype(np.float32), **cast}
 
 
-def _photon_dots(ctx: _Context, used: UsedPhotonMaps | None) -> np.ndarray:
+def _photon_dots(ctx: _CameraPass, used: UsedPhotonMaps | None) -> np.ndarray:
     """The debug pass, (H, W, 4) float32 RGBA (all zero without photons); times it in
     ctx.stats["time_overlay"]."""
     t0 = time.perf_counter()
     positions, flux = debug_overlay.select_photons(
         used.global_map if used else None, used.caustic_map if used else None,
         ctx.settings.overlay_map)
-    dots = debug_overlay.photon_overlay(ctx.scene.camera, ctx.accel, positions, flux,
+    pr = ctx.prepared
+    dots = debug_overlay.photon_overlay(pr.scene.camera, pr.accel, positions, flux,
                                         dot_radius_px=ctx.settings.overlay_dot_radius,
-                                        extent=ctx.extent)
+                                        extent=pr.extent)
     ctx.stats["time_overlay"] = time.perf_counter() - t0
     return dots

@@ -27,8 +27,8 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from . import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
-from . import geometry
+from .. import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
+from ..scene import geometry
 
 MAX_LAYERS = 64
 """Cut-out surfaces a ray passes at most (further ones are treated as opaque)."""

@@ -43,19 +43,19 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit, prange
 
-from . import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
-from . import geometry
-from . import light_kernels as lk
-from . import sampling
-from .lights import EmissiveTriangles, LightSet
-from .scene import LIGHT_AREA, LIGHT_POINT, LIGHT_SPOT, LIGHT_SUN
+from .. import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
+from ..scene import geometry
+from ..lights import kernels as lk
+from .. import sampling
+from ..lights.light_set import EmissiveTriangles, LightSet
+from ..color import luminance
+from ..scene.bounds import Targets
+from ..scene.contract import LIGHT_AREA, LIGHT_POINT, LIGHT_SPOT, LIGHT_SUN
 
-LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 # Source ids after the analytic lights (index L) for emissive triangles and the world.
 SOURCE_TRIANGLES = -1
 SOURCE_WORLD = -2
 # Bounding spheres are grown by this fraction so float rounding never clips a photon.
-_SPHERE_MARGIN = 1.02
 
 
 @dataclass(frozen=True)
@@ -72,21 +72,6 @@ class Source:
 
 
 @dataclass(frozen=True)
-class Targets:
-    """Spheres the aimed emission shoots at. centre (K, 3) float64, radius (K,) metres;
-    optionally the objects' boxes lo, hi (K, 3) (tighter reach tests for flat objects)."""
-
-    centre: np.ndarray
-    radius: np.ndarray
-    lo: np.ndarray | None = None
-    hi: np.ndarray | None = None
-
-    @property
-    def count(self) -> int:
-        return int(self.radius.shape[0])
-
-
-@dataclass(frozen=True)
 class Emitted:
     """A batch of photons leaving the lights (float64).
 
@@ -96,40 +81,6 @@ class Emitted:
     origin: np.ndarray
     direction: np.ndarray
     flux: np.ndarray
-
-
-def luminance(rgb) -> np.ndarray:
-    return np.asarray(rgb, np.float64) @ LUMINANCE
-
-
-def bounding_sphere(lo, hi) -> tuple[np.ndarray, float]:
-    """Centre (3,) and radius (metres) of the sphere around an axis-aligned box."""
-    lo, hi = np.asarray(lo, np.float64), np.asarray(hi, np.float64)
-    return 0.5 * (lo + hi), float(0.5 * np.linalg.norm(hi - lo))
-
-
-def object_spheres(tri_vertices: np.ndarray, object_index: np.ndarray,
-                   n_objects: int) -> Targets:
-    """Bounding sphere of every object (centre of its box, radius to its farthest corner).
-
-    tri_vertices (T, 3, 3) float32; object_index (T,) int32. Objects without triangles get
-    radius -1.
-    """
-    tv = np.asarray(tri_vertices, np.float64).reshape(-1, 3, 3)
-    obj = np.asarray(object_index, np.int64)
-    lo = np.full((n_objects, 3), np.inf)
-    hi = np.full((n_objects, 3), -np.inf)
-    for c in range(3):
-        np.minimum.at(lo, obj, tv[:, c])
-        np.maximum.at(hi, obj, tv[:, c])
-    present = np.all(np.isfinite(lo), axis=1)
-    centre = np.where(present[:, None], 0.5 * (lo + hi), 0.0)
-    r2 = np.zeros(n_objects)
-    for c in range(3):
-        np.maximum.at(r2, obj, np.sum((tv[:, c] - centre[obj]) ** 2, axis=1))
-    radius = np.where(present, np.sqrt(r2) * _SPHERE_MARGIN, -1.0)
-    return Targets(centre, radius, np.where(present[:, None], lo, 0.0),
-                   np.where(present[:, None], hi, 0.0))
 
 
 def boxes_in_front(targets: Targets, point, normal, slack: float = 0.0) -> np.ndarray:

@@ -2,29 +2,37 @@
 points, from every light, the emissive triangles and the world.
 
 For each source and light sample, one numba kernel (``_shade_kernel``) samples a point
-on the source (core/light_kernels.py), evaluates the reflection lobes there (diffuse and
-rough glossy, core/bsdf.py) and writes the unshadowed contribution f |cos| L / pdf with
+on the source (core/lights/kernels.py), evaluates the reflection lobes there (diffuse and
+rough glossy, core/materials/bsdf.py) and writes the unshadowed contribution f |cos| L / pdf with
 the shadow ray that decides it; the needed shadow rays are packed and sent to Embree in
-one batch (``Accelerator.occluded``, or the cut-out transmittance of core/textures.py);
+one batch (``Accelerator.occluded``, or the cut-out transmittance of core/materials/textures.py);
 the clear ones are added to the target. Light samples are stratified over a pixel's
 samples x light samples (scrambled Sobol), keyed by (seed, pixel, sample).
 
-Users: the camera pass (core/integrator.py) at its first hits and behind mirrors and
-glass, and SPPM (core/sppm.py) at its visible points, both through ``shade``.
+Users: the camera pass (core/integrators/photon_mapping.py) at its first hits and behind
+mirrors and glass, and SPPM (core/integrators/sppm.py) at its visible points, both through
+``shade`` with the ``ShadingPoints`` they reached.
 """
 
 from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit, prange
 
-from . import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
-from . import bsdf, geometry, light_kernels, lights, sampling, textures
-from .accel import Accelerator
-from .settings import RenderSettings
+from .. import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
+from ..materials import bsdf
+from ..scene import geometry
+from ..lights import kernels as light_kernels
+from ..lights import light_set as lights
+from .. import sampling
+from ..materials import textures
+from ..scene.accel import Accelerator
+from ..prepared import PreparedScene
+from ..settings import RenderSettings
 
 SOURCE_LIGHT, SOURCE_TRIANGLES, SOURCE_WORLD = 0, 1, 2
 
@@ -150,39 +158,56 @@ class DirectLighting:
     no_light: np.ndarray = field(default_factory=lambda: np.zeros(light_kernels.P_COUNT))
 
 
-def prepare(settings: RenderSettings, accel: Accelerator, *, light_set: lights.LightSet,
-            emissive: lights.EmissiveTriangles, materials: dict, world: np.ndarray,
-            extent: float, surfaces: textures.SurfaceTextures, tri_vertices: np.ndarray,
-            tri_normals: np.ndarray, stats: dict | None = None) -> DirectLighting:
-    """The direct lighting of a render, from what its caller has built already (the camera
-    pass's context, SPPM's tracing setup) over the caller's ``accel``: settings' seed and
-    light_samples, and samples, which sizes the sample index (SPPM passes its pass count).
-    ``stats``: the caller's counters to add rays_shadow, time_shading and time_shadow to."""
+class ShadingPoints(NamedTuple):
+    """N surface points reached by camera paths, where direct light is added.
+
+    position (N, 3) metres; ng / ns (N, 3) unit geometric and shading normals on the
+    viewer's side; direction (N, 3) unit, the direction the points were reached along;
+    material (N,) int32; eps (N,) ray offsets (core/scene/geometry.py); throughput (N, 3)
+    path weights; albedo (N, 3) the diffuse albedo there (textured); rows (N,) int64 the
+    unique rows of the target they add to."""
+
+    position: np.ndarray
+    ng: np.ndarray
+    ns: np.ndarray
+    direction: np.ndarray
+    material: np.ndarray
+    eps: np.ndarray
+    throughput: np.ndarray
+    albedo: np.ndarray
+    rows: np.ndarray
+
+
+def prepare(settings: RenderSettings, prepared: PreparedScene, samples: int,
+            stats: dict | None = None) -> DirectLighting:
+    """The direct lighting of a render over the prepared scene's tables and accelerator:
+    settings' seed and light_samples; ``samples`` sizes the sample index (the camera
+    pass's samples per pixel, SPPM's pass count). ``stats``: the caller's counters to add
+    rays_shadow, time_shading and time_shadow to."""
+    mats = prepared.materials
     dl = DirectLighting(
-        light_set=light_set, emissive=emissive, specular=materials["specular"],
-        alpha=materials["alpha"], world=world, extent=float(extent), accel=accel,
-        surfaces=surfaces, tri_vertices=tri_vertices, tri_normals=tri_normals,
-        seed=int(settings.seed), light_samples=int(settings.light_samples),
-        sample_bits=sampling.index_bits(int(settings.samples) * int(settings.light_samples)))
+        light_set=prepared.light_set, emissive=prepared.emissive, specular=mats["specular"],
+        alpha=mats["alpha"], world=prepared.world, extent=float(prepared.extent),
+        accel=prepared.accel, surfaces=prepared.surfaces, tri_vertices=prepared.tri_vertices,
+        tri_normals=prepared.tri_normals, seed=int(settings.seed),
+        light_samples=int(settings.light_samples),
+        sample_bits=sampling.index_bits(int(samples) * int(settings.light_samples)))
     if stats is not None:
         dl.stats = stats
     return dl
 
 
-def shade(ctx: "DirectLighting", hit: dict, pixel, sample, depth, target):
-    """Shadow-ray direct lighting at the hits from every light, the emissive triangles and
-    the world; adds thr f |cos| L / pdf where the shadow ray is clear to target[rows].
+def shade(ctx: DirectLighting, hit: ShadingPoints, pixel, sample, depth, target):
+    """Shadow-ray direct lighting at the points from every light, the emissive triangles
+    and the world; adds throughput f |cos| L / pdf where the shadow ray is clear to
+    target[hit.rows].
 
-    hit: {"pos" (N, 3) metres, "ngf" / "nsf" (N, 3) unit normals on the viewer's side,
-    "d" (N, 3) unit directions the points were reached along, "mat" (N,) int32, "eps" (N,)
-    ray offsets (core/geometry.py), "thr" (N, 3) path weights, "albedo" (N, 3) diffuse
-    albedo (textured), "rows" (N,) int64 unique rows of target}; pixel, sample (N,) int64
-    key the random numbers; depth: the bounce (another random stream per bounce);
-    target (R, 3) float64."""
+    pixel, sample (N,) int64 key the random numbers; depth: the bounce (another random
+    stream per bounce); target (R, 3) float64."""
     ls, tris = ctx.light_set, ctx.emissive
     k_count = ctx.light_samples
     bits = ctx.sample_bits
-    n = hit["pos"].shape[0]
+    n = hit.position.shape[0]
     contrib = np.empty((n, 3))
     sh_o = np.empty((n, 3), np.float32)
     sh_d = np.empty((n, 3), np.float32)
@@ -204,11 +229,11 @@ def shade(ctx: "DirectLighting", hit: dict, pixel, sample, depth, target):
         for k in range(k_count):
             t0 = time.perf_counter()
             _shade_kernel(source, q, tris.cdf, tris.probability, tris.v0, tris.e1, tris.e2,
-                          tris.normal, tris.area, tris.radiance, ctx.world, hit["pos"],
-                          hit["ngf"], hit["nsf"], hit["d"], hit["mat"], hit["eps"], hit["thr"],
+                          tris.normal, tris.area, tris.radiance, ctx.world, hit.position,
+                          hit.ng, hit.ns, hit.direction, hit.material, hit.eps, hit.throughput,
                           pixel, sample,
                           ctx.seed, dim, sampling.stream(sampling.LIGHT_PICK, depth, k),
-                          k, k_count, bits, hit["albedo"], ctx.specular, ctx.alpha, use_d, use_g,
+                          k, k_count, bits, hit.albedo, ctx.specular, ctx.alpha, use_d, use_g,
                           ctx.extent, contrib, sh_o, sh_d, sh_t, need)
             t1 = time.perf_counter()
             c = _compact_kernel(need, sh_o, sh_d, sh_t, idx, pk_o, pk_d, pk_t) if shadows else 0
@@ -224,6 +249,6 @@ def shade(ctx: "DirectLighting", hit: dict, pixel, sample, depth, target):
                 occ = ctx.accel.occluded(pk_o[:c], pk_d[:c], pk_t[:c])
                 ctx.stats["rays_shadow"] += c
             t2 = time.perf_counter()
-            _gather_kernel(target, hit["rows"], contrib, idx[:c], occ)
+            _gather_kernel(target, hit.rows, contrib, idx[:c], occ)
             ctx.stats["time_shading"] += t1 - t0 + time.perf_counter() - t2
             ctx.stats["time_shadow"] += t2 - t1

@@ -26,25 +26,38 @@ Conventions (decided here, used by every caller):
   left out of the sum. The search itself stays spherical, so r and the area are
   unchanged.
 
-The albedo path gathers and sums inside one numba kernel (nothing of size (M, k) is
-allocated); a BRDF callback needs the gathered photons as arrays, so that path
-materialises (M, k) arrays through ``PhotonMap.nearest``.
+One kernel estimates (``_estimate_kernel``): the renderer's caustics, final gathering,
+radiance cache and preview call ``radiance_estimate`` / ``radiance_estimate_sides``, and
+``irradiance`` is the same kernel with albedo pi. Neighbours come sorted by (distance,
+index) from ``PhotonMap.nearest`` and are summed in that order, so a query's value does
+not depend on the other queries of its batch. A BRDF callback (``radiance(brdf=...)``)
+needs the gathered photons as arrays, so that path materialises (M, k) arrays.
+
+Automatic radius (``auto_radius``, setting 0): the radius of a disc that holds k photons
+on average when the stored photons cover the diffuse surfaces uniformly, times
+RADIUS_FACTOR: r = RADIUS_FACTOR * sqrt(A_diffuse * k / (pi * N_stored)). It scales with
+the scene (A ~ s^2, r ~ s), so a scene in millimetres or kilometres gives the same image.
 """
 
 from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 from numba import njit, prange
 
 from . import encoding
-from .kdtree import (
-    QUERY_BLOCK, heap_entry, knn_scratch, knn_search_coherent, query_order, search_growth,
-    sort_heap,
-)
 from .photon_map import PhotonMap, check_k, check_points, squared_radius
+
+PLANE_FRACTION = 0.25
+"""Flattened-disc gather: photons farther than this fraction of r from the tangent plane
+at the query are left out (Jensen's fix for leaks through corners and thin walls)."""
+RADIUS_FACTOR = 2.0
+"""Automatic radius = this x the radius that holds k photons on average."""
+CONE_K = 1.1
+"""Jensen's cone filter constant k >= 1 (1.1 in his book)."""
+QUERY_CHUNK = 1 << 16
+"""Queries per nearest-neighbour call (bounds the (M, k) neighbour arrays)."""
 
 FILTERS = {"none": 0, "cone": 1, "gaussian": 2}
 GAUSS_ALPHA = 0.918
@@ -84,60 +97,6 @@ def photon_weight(direction_codes, tree, j, d2, r2, px, py, pz, nx, ny, nz,
 def disc_radius2(count, k, farthest_d2, max_r2):
     """Squared disc radius: the k-th photon's when k were found, else max_radius^2."""
     return np.float64(farthest_d2) if count == k else np.float64(max_r2)
-
-
-@njit(parallel=True, cache=True, nogil=True)
-def _irradiance_kernel(tree, axis, depth, flux_codes, inv_scale, direction_codes,
-                       points, normals, order, k, max_r2, growth, kind, k_cone,
-                       plane_fraction, out):
-    """out[i] = irradiance (W/m^2, float64 sums) at points[i]; returns the number of
-    points whose disc has zero area while photons lie on it."""
-    m = order.shape[0]
-    blocks = (m + QUERY_BLOCK - 1) // QUERY_BLOCK
-    degenerate = 0
-    for b in prange(blocks):
-        heap, fbuf, ubuf, stack_i, stack_f, prev = knn_scratch(k)
-        for t in range(b * QUERY_BLOCK, min(m, (b + 1) * QUERY_BLOCK)):
-            q = order[t]
-            px = points[q, 0]
-            py = points[q, 1]
-            pz = points[q, 2]
-            c = knn_search_coherent(tree, axis, depth, px, py, pz, k, max_r2, growth, heap,
-                                    fbuf, ubuf, stack_i, stack_f, prev)
-            out[q, 0] = 0.0
-            out[q, 1] = 0.0
-            out[q, 2] = 0.0
-            if c == 0:
-                continue
-            # Sum nearest first: a point's value then depends on that point alone, not on
-            # the search that found its photons (bit-for-bit equal whatever the batch).
-            sort_heap(heap, c)
-            r2 = disc_radius2(c, k, heap_entry(heap, c - 1, fbuf, ubuf)[1], max_r2)
-            if r2 == 0.0:
-                degenerate += 1
-                continue
-            n0 = np.float64(normals[q, 0])
-            n1 = np.float64(normals[q, 1])
-            n2 = np.float64(normals[q, 2])
-            inv = 1.0 / math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
-            n0 *= inv
-            n1 *= inv
-            n2 *= inv
-            ex = 0.0
-            ey = 0.0
-            ez = 0.0
-            for s in range(c):
-                j, d2 = heap_entry(heap, s, fbuf, ubuf)
-                w = photon_weight(direction_codes, tree, j, np.float64(d2), r2, px, py, pz,
-                                  n0, n1, n2, kind, k_cone, plane_fraction)
-                if w != 0.0:
-                    ex += w * encoding.half_to_float(flux_codes[j, 0])
-                    ey += w * encoding.half_to_float(flux_codes[j, 1])
-                    ez += w * encoding.half_to_float(flux_codes[j, 2])
-            out[q, 0] = ex * inv_scale
-            out[q, 1] = ey * inv_scale
-            out[q, 2] = ez * inv_scale
-    return degenerate
 
 
 @njit(parallel=True, cache=True, nogil=True)
@@ -207,25 +166,34 @@ def _raise_degenerate(count):
 
 
 def irradiance(photon_map: PhotonMap, points, normals, k: int, max_radius, *,
-               filter: str = "none", k_cone: float = 1.0, max_plane_distance=None,
-               sort_queries: bool = True) -> np.ndarray:
+               filter: str = "none", k_cone: float = 1.0,
+               max_plane_distance=None) -> np.ndarray:
     """Irradiance at surface points from the k nearest front-side photons.
 
     photon_map: PhotonMap. points (M, 3) float32 metres; normals (M, 3) non-zero (unit
     after normalisation); k >= 1; max_radius > 0 metres (inf allowed); filter "none",
     "cone" or "gaussian"; k_cone >= 1 (cone filter only); max_plane_distance: None or a
     fraction of r (see the module docstring).
-    Returns (M, 3) float32, W/m^2.
+    Returns (M, 3) float32, W/m^2: the renderer's own estimate (``_estimate_kernel``,
+    which returns albedo / pi * E) with albedo pi.
     """
     points, normals, k, r2, kind, k_cone, plane = _check_options(
         photon_map, points, normals, k, max_radius, filter, k_cone, max_plane_distance)
-    tree, axis, depth, flux_codes, scale, direction_codes = photon_map.kernel_arrays()
-    out = np.empty((points.shape[0], 3), np.float64)
-    order = query_order(points) if sort_queries else np.arange(points.shape[0])
-    with numba.parallel_chunksize(1):
-        bad = _irradiance_kernel(tree, axis, depth, flux_codes, 1.0 / scale, direction_codes,
-                                 points, normals, order, k, r2, search_growth(k), kind,
-                                 k_cone, plane, out)
+    m = points.shape[0]
+    out = np.zeros((m, 3), np.float64)
+    if m == 0 or len(photon_map) == 0:
+        return out.astype(np.float32)
+    tree, _, _, flux_codes, scale, direction_codes = photon_map.kernel_arrays()
+    k = min(k, len(photon_map))
+    normals = np.ascontiguousarray(normals, np.float64)
+    albedo = np.full((m, 3), math.pi)
+    bad = 0
+    for lo in range(0, m, QUERY_CHUNK):
+        hi = min(m, lo + QUERY_CHUNK)
+        idx, dist2 = photon_map.nearest(points[lo:hi], k, max_radius)
+        bad += _estimate_kernel(tree, flux_codes, 1.0 / scale, direction_codes, idx, dist2,
+                                points[lo:hi], normals[lo:hi], albedo[lo:hi], r2, kind, k_cone,
+                                plane, out[lo:hi])
     _raise_degenerate(bad)
     return out.astype(np.float32)
 
@@ -282,3 +250,98 @@ def radiance(photon_map: PhotonMap, points, normals, k: int, max_radius, *, albe
     if not np.isfinite(f_r).all() or (f_r < 0).any():
         raise ValueError("brdf must return finite values >= 0 (1/sr)")
     return np.einsum("mk,mkc->mc", weights, f_r * flux).astype(np.float32)
+
+
+# --- the radius and the radiance estimate the renderer uses ------------------------------
+
+def auto_radius(area: float, k: int, stored: int) -> float:
+    """Maximum gather radius (metres) for ``stored`` photons spread over ``area`` m^2."""
+    if stored <= 0 or area <= 0:
+        return math.inf
+    return RADIUS_FACTOR * math.sqrt(area * k / (math.pi * stored))
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def _estimate_kernel(tree, flux_codes, inv_scale, direction_codes, idx, dist2, points,
+                     normals, albedo, max_r2, kind, k_cone, plane_fraction, out):
+    """out[i] = albedo[i] / pi * E(points[i]) in the order of the sorted neighbours;
+    returns the number of zero-area discs holding photons."""
+    k = idx.shape[1]
+    degenerate = 0
+    for i in prange(idx.shape[0]):
+        out[i, 0] = 0.0
+        out[i, 1] = 0.0
+        out[i, 2] = 0.0
+        c = 0
+        while c < k and idx[i, c] >= 0:
+            c += 1
+        if c == 0:
+            continue
+        r2 = disc_radius2(c, k, dist2[i, c - 1], max_r2)
+        if r2 == 0.0:
+            degenerate += 1
+            continue
+        n0, n1, n2 = normals[i, 0], normals[i, 1], normals[i, 2]
+        inv = 1.0 / math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+        n0 *= inv
+        n1 *= inv
+        n2 *= inv
+        px, py, pz = np.float32(points[i, 0]), np.float32(points[i, 1]), np.float32(points[i, 2])
+        ex = 0.0
+        ey = 0.0
+        ez = 0.0
+        for s in range(c):
+            j = idx[i, s]
+            w = photon_weight(direction_codes, tree, j, np.float64(dist2[i, s]), r2, px, py, pz,
+                              n0, n1, n2, kind, k_cone, plane_fraction)
+            if w != 0.0:
+                ex += w * encoding.half_to_float(flux_codes[j, 0])
+                ey += w * encoding.half_to_float(flux_codes[j, 1])
+                ez += w * encoding.half_to_float(flux_codes[j, 2])
+        s_ = inv_scale / math.pi
+        out[i, 0] = albedo[i, 0] * ex * s_
+        out[i, 1] = albedo[i, 1] * ey * s_
+        out[i, 2] = albedo[i, 2] * ez * s_
+    return degenerate
+
+
+def radiance_estimate(photon_map: PhotonMap, points: np.ndarray, normals: np.ndarray,
+                      albedo: np.ndarray, k: int, max_radius: float, filter: str = "cone",
+                      plane_fraction: float = PLANE_FRACTION) -> np.ndarray:
+    """Diffuse reflected radiance albedo / pi * E (W/(m^2 sr)) at surface points.
+
+    points (M, 3) metres; normals (M, 3) non-zero, facing the viewer (only photons
+    arriving on that side count); albedo (M, 3) >= 0; k >= 1; max_radius > 0 metres
+    (inf allowed). Returns (M, 3) float64. Raises ValueError when k photons sit exactly
+    on a query point (zero-area disc).
+    """
+    return radiance_estimate_sides(photon_map, points, [normals], albedo, k, max_radius,
+                                   filter, plane_fraction)[0]
+
+
+def radiance_estimate_sides(photon_map: PhotonMap, points, normals_list, albedo, k,
+                            max_radius, filter="cone", plane_fraction=PLANE_FRACTION):
+    """``radiance_estimate`` for several normals per point (e.g. both sides of a
+    surface) from one neighbour search; returns a list of (M, 3) float64."""
+    m = points.shape[0]
+    outs = [np.zeros((m, 3)) for _ in normals_list]
+    if m == 0 or len(photon_map) == 0:
+        return outs
+    tree, _, _, flux_codes, scale, direction_codes = photon_map.kernel_arrays()
+    k = min(int(k), len(photon_map))
+    r2 = squared_radius(max_radius)
+    points32 = np.ascontiguousarray(points, np.float32)
+    normals_list = [np.ascontiguousarray(n, np.float64) for n in normals_list]
+    albedo = np.ascontiguousarray(albedo, np.float64)
+    bad = 0
+    for lo in range(0, m, QUERY_CHUNK):
+        hi = min(m, lo + QUERY_CHUNK)
+        idx, dist2 = photon_map.nearest(points32[lo:hi], k, max_radius)
+        for normals, out in zip(normals_list, outs):
+            bad += _estimate_kernel(tree, flux_codes, 1.0 / scale, direction_codes, idx,
+                                    dist2, points32[lo:hi], normals[lo:hi], albedo[lo:hi], r2,
+                                    FILTERS[filter], CONE_K, float(plane_fraction), out[lo:hi])
+    if bad:
+        raise ValueError(f"{bad} points have k photons exactly on them (zero-area disc): "
+                         "use a larger k")
+    return outs

@@ -1,0 +1,261 @@
+"""Camera paths: the walk every integrator shares from the camera into the scene.
+
+- ``intersect``: the nearest hits of a batch of camera-path rays, passing cut-outs
+  (opacity < 1) stochastically (core/materials/textures.py) without counting a bounce;
+- ``lights_along``: the light surfaces a batch of rays sees in front of the geometry (lights
+  seen by the camera at the first bounce, in mirrors and through glass after it), and which
+  rays escape to the world;
+- ``follow_delta``: one mirror or glass lobe sampled per path (``bsdf.continue_delta``),
+  the path weight divided by its probability, so paths never split;
+- ``visible_points``: the progressive integrator's camera pass (one jittered ray per pixel
+  and pass, through mirrors and glass to the first diffuse lobe), also the photon-importance
+  pre-pass's view (``importance_prepass``).
+
+The photon-mapping camera pass (core/integrators/photon_mapping.py) and final gathering
+(core/integrators/gather.py) walk with ``intersect``, ``lights_along`` and ``follow_delta``
+too, shading at every hit.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, replace
+from typing import Callable
+
+import numpy as np
+from numba import njit, prange
+
+from .. import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
+from .. import sampling
+from ..lights import light_set as lights
+from ..materials import bsdf
+from ..photons.importance import VisibleView, prepass_resolution
+from ..prepared import PreparedScene
+from ..scene import camera, geometry
+from ..scene.contract import Camera
+
+DIM_JITTER = sampling.stream(sampling.PIXEL_JITTER, sampling.PROGRESSIVE)
+"""The random dimension of the progressive camera rays' pixel jitter."""
+
+
+def dim_lobe(depth: int) -> int:
+    """The random dimension of the progressive camera paths' lobe choice at ``depth``."""
+    return sampling.stream(sampling.SPECULAR_CHOICE, depth, sampling.PROGRESSIVE)
+
+
+def intersect(prepared: PreparedScene, seed: int, origins, dirs, tmax, rows, pixel, sample,
+              dim_of_layer: Callable[[int], int]):
+    """Nearest hits (core.scene.accel.Hits) of camera-path rays ``rows`` (indices into the
+    per-sample ``pixel`` and ``sample`` counters), passing cut-outs: the choice at the
+    layer-th cut-out crossed uses the random dimension dim_of_layer(layer)."""
+    def uniforms(index, layer):
+        r = rows[index]
+        return sampling.uniform(seed, pixel[r], sample[r], dim_of_layer(layer))
+    return prepared.surfaces.intersect(prepared.accel, prepared.tri_vertices,
+                                       prepared.tri_normals, prepared.extent, origins, dirs,
+                                       tmax, uniforms)
+
+
+def lights_along(prepared: PreparedScene, first: bool, transmitted, origins, dirs, hits):
+    """Which rays of a batch see a light surface in front of the geometry.
+
+    first: the batch is the camera's own rays (lights visible to the camera), else rays
+    after a mirror (lights visible to glossy rays) or glass (``transmitted``: visible to
+    transmission rays). Returns (hit, miss, shown, radiance): hit (N,) bool, a surface
+    is reached (no light in front of it); miss (N,) bool, the ray escapes to the world;
+    shown (N,) bool, the ray sees ``radiance`` (N, 3) W/(m^2 sr) from a light (a light
+    surface, or a sun disc on an escaping ray), or None when no light can be seen.
+    """
+    ls = prepared.light_set
+    hit = hits.prim >= 0
+    visible = ls.visible_camera if first else ls.visible_glossy | ls.visible_transmission
+    if not np.any(visible & prepared.light_shows):
+        return hit, ~hit, None, None
+    n = hit.shape[0]
+    geo_t = np.where(hit, hits.t.astype(np.float64), np.inf)
+    light_t = np.full(n, np.inf)
+    light_l = np.zeros((n, 3))
+    groups = [(slice(None), ls.visible_camera)] if first else [
+        (np.flatnonzero(transmitted), ls.visible_transmission),
+        (np.flatnonzero(~transmitted), ls.visible_glossy)]
+    for sel, vis in groups:
+        light_t[sel], light_l[sel] = lights.intersect_lights(ls, vis, origins[sel], dirs[sel],
+                                                             geo_t[sel])
+    seen = light_t < geo_t
+    miss = ~seen & ~hit
+    # Surfaces in front of the geometry, and sun discs on rays that escape (t = inf).
+    return hit & ~seen, miss, seen | miss, light_l
+
+
+def follow_delta(materials: dict, pos, ngf, nsf, d, front, mat, eps, u_lobe, u_pick, thr):
+    """Continue K paths through one sampled mirror or glass lobe each (``bsdf.sample_delta``).
+
+    Inputs (K, ...) at the hits: pos, ngf, nsf (K, 3), d (K, 3) the arriving directions,
+    front (K,) bool, mat (K,) int32, eps (K,), u_lobe / u_pick (K,) uniforms, thr (K, 3).
+    Returns (keep, origins, directions, throughput, transmitted) of the paths that go on:
+    keep (J,) indices into the K, then (J, 3), (J, 3), (J, 3) and (J,) bool.
+    """
+    k = pos.shape[0]
+    new_o, new_d, new_thr = np.empty((k, 3)), np.empty((k, 3)), np.empty((k, 3))
+    new_tr, ok = np.empty(k, bool), np.empty(k, bool)
+    bsdf.continue_delta(pos, ngf, nsf, d, front, mat, eps, materials["specular"],
+                        materials["alpha"], materials["transmission"], materials["ior"],
+                        u_lobe, u_pick, thr, new_o, new_d, new_thr, new_tr, ok)
+    keep = np.flatnonzero(ok)
+    return keep, new_o[keep], new_d[keep], new_thr[keep], new_tr[keep]
+
+
+# --- the progressive integrator's visible points ------------------------------------------
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def _path_kernel(pos, d, ng, ns, mat, eps, thr, u_vp, u_lobe, u_pick, albedo, specular, alpha,
+                 transmission, ior, vp, new_o, new_d, new_thr, go_on, transmitted):
+    """At each hit: stop at the diffuse lobe (vp) or follow one delta lobe (go_on).
+    albedo (N, 3): the (textured) diffuse albedo at each hit.
+
+    ng, ns: normals as computed from the winding (flipped here to face the ray). thr is
+    divided by the probability of the branch taken; new_thr is the visible point's weight
+    when vp, the next ray's throughput when go_on."""
+    for i in prange(d.shape[0]):
+        m = mat[i]
+        dx, dy, dz = d[i, 0], d[i, 1], d[i, 2]
+        entering = dx * ng[i, 0] + dy * ng[i, 1] + dz * ng[i, 2] < 0.0
+        sg = 1.0 if entering else -1.0
+        gx, gy, gz = sg * ng[i, 0], sg * ng[i, 1], sg * ng[i, 2]
+        sx, sy, sz = sg * ns[i, 0], sg * ns[i, 1], sg * ns[i, 2]
+        ng[i, 0], ng[i, 1], ng[i, 2] = gx, gy, gz
+        ns[i, 0], ns[i, 1], ns[i, 2] = sx, sy, sz
+        kd = (albedo[i, 0] + albedo[i, 1] + albedo[i, 2]) / 3.0
+        mirror = alpha[m] * alpha[m] <= bsdf.SINGULAR_ALPHA2
+        kdel = (transmission[m, 0] + transmission[m, 1] + transmission[m, 2]) / 3.0
+        if mirror:
+            kdel += (specular[m, 0] + specular[m, 1] + specular[m, 2]) / 3.0
+        vp[i] = False
+        go_on[i] = False
+        transmitted[i] = False
+        if kd + kdel <= 0.0:
+            continue
+        p = kd / (kd + kdel)
+        if u_vp[i] < p:
+            vp[i] = True
+            for c in range(3):
+                new_thr[i, c] = thr[i, c] / p
+            continue
+        ox, oy, oz, w0, w1, w2, tr, ok = bsdf.sample_delta(
+            specular[m, 0], specular[m, 1], specular[m, 2], alpha[m],
+            transmission[m, 0], transmission[m, 1], transmission[m, 2], ior[m],
+            dx, dy, dz, sx, sy, sz, gx, gy, gz, entering, u_lobe[i], u_pick[i])
+        q = 1.0 - p
+        t0, t1, t2 = thr[i, 0] * w0 / q, thr[i, 1] * w1 / q, thr[i, 2] * w2 / q
+        if not ok or not (t0 > 0.0 or t1 > 0.0 or t2 > 0.0):
+            continue
+        side = -eps[i] if tr else eps[i]
+        new_o[i, 0] = pos[i, 0] + gx * side
+        new_o[i, 1] = pos[i, 1] + gy * side
+        new_o[i, 2] = pos[i, 2] + gz * side
+        new_d[i, 0], new_d[i, 1], new_d[i, 2] = ox, oy, oz
+        new_thr[i, 0], new_thr[i, 1], new_thr[i, 2] = t0, t1, t2
+        go_on[i] = True
+        transmitted[i] = tr
+
+
+@dataclass
+class VisiblePoints:
+    """One pass's visible points (V of them), float64: pixel (V,) int64, position (V, 3)
+    metres, ng / ns (V, 3) unit normals facing the viewer, wo (V, 3) unit towards the
+    viewer, material (V,) int32, weight (V, 3) path throughput, albedo (V, 3) the
+    diffuse albedo there (textured), eps (V,) metres, the ray offset there."""
+
+    pixel: np.ndarray
+    position: np.ndarray
+    ng: np.ndarray
+    ns: np.ndarray
+    wo: np.ndarray
+    material: np.ndarray
+    weight: np.ndarray
+    albedo: np.ndarray
+    eps: np.ndarray
+
+
+def visible_points(prepared: PreparedScene, cam: Camera, seed: int, k: int, max_depth: int,
+                   direct: np.ndarray) -> VisiblePoints:
+    """Pass k's visible points (one jittered camera ray per pixel of ``cam``, sample k),
+    adding the radiance seen on the way (emitters, lights, background) to direct (P, 3)
+    float64 (see core/integrators/sppm.py, step 1)."""
+    mats, ls = prepared.materials, prepared.light_set
+    n = int(cam.width) * int(cam.height)
+    pixel = np.arange(n, dtype=np.int64)
+    sample = np.full(n, k, np.int64)
+    jitter = np.empty((n, 2))
+    sampling.progressive2(np.int64(seed), np.int64(k), np.int64(DIM_JITTER), jitter)
+    rays = camera.generate_rays(cam, pixel, jitter)
+    origins, dirs, tmax = rays.origins, rays.directions, rays.tmax
+    rows = pixel
+    thr = np.ones((n, 3))
+    transmitted = np.zeros(n, bool)
+    world = prepared.world
+    out = []
+    for depth in range(max_depth + 1):
+        if rows.shape[0] == 0:
+            break
+        first = depth == 0
+        hits = intersect(prepared, seed, origins, dirs, tmax, rows, pixel, sample,
+                         lambda layer, depth=depth: sampling.stream(sampling.CUTOUT_CHOICE, depth,
+                                                                    layer, sampling.PROGRESSIVE))
+        hit, miss, shown, light_l = lights_along(prepared, first, transmitted, origins, dirs, hits)
+        if shown is not None:
+            direct[rows[shown]] += thr[shown] * light_l[shown]
+        # Rays that escape see the world
+        if np.any(world > 0) and np.any(miss) and (not first or prepared.scene.world.visible_to_camera):
+            direct[rows[miss]] += thr[miss] * world
+        h = np.flatnonzero(hit)
+        if h.size == 0:
+            break
+        rows, thr, d, transmitted = rows[h], thr[h], dirs[h], transmitted[h]
+        sp = geometry.surface_points(prepared.tri_vertices, prepared.tri_normals,
+                                     prepared.tri_material, hits.prim[h], hits.u[h], hits.v[h],
+                                     d, prepared.extent)
+        # Emission seen (two-sided, like Cycles' emission closure)
+        direct[rows] += thr * mats["emission"][sp.material]
+        albedo = prepared.surfaces.albedo(hits.prim[h], hits.u[h], hits.v[h], sp.material)
+        m = len(rows)
+        pix, smp = pixel[rows], sample[rows]
+        u_vp = sampling.uniform(seed, pix, smp, dim_lobe(depth))
+        u_lobe, u_pick = sampling.uniform2(seed, pix, smp, dim_lobe(depth) + 1)
+        ng, ns = sp.geometric_normal.copy(), sp.shading_normal.copy()
+        vp, go_on, new_tr = np.empty(m, bool), np.empty(m, bool), np.empty(m, bool)
+        new_o, new_d, new_thr = np.empty((m, 3)), np.empty((m, 3)), np.empty((m, 3))
+        _path_kernel(sp.position, d, ng, ns, sp.material, sp.eps, thr, u_vp, u_lobe, u_pick,
+                     albedo, mats["specular"], mats["alpha"], mats["transmission"],
+                     mats["ior"], vp, new_o, new_d, new_thr, go_on, new_tr)
+        # Visible points: the first diffuse lobe on the path
+        s = np.flatnonzero(vp)
+        if s.size:
+            out.append((rows[s], sp.position[s], ng[s], ns[s], -d[s], sp.material[s], new_thr[s],
+                        albedo[s], sp.eps[s]))
+        if depth == max_depth:
+            break
+        g = np.flatnonzero(go_on)
+        rows, origins, dirs = rows[g], new_o[g], new_d[g]
+        thr, transmitted, tmax = new_thr[g], new_tr[g], None
+    if not out:
+        z3 = np.zeros((0, 3))
+        return VisiblePoints(np.zeros(0, np.int64), z3, z3, z3, z3, np.zeros(0, np.int32), z3, z3,
+                             np.zeros(0))
+    cols = [np.concatenate(c) for c in zip(*out)]
+    return VisiblePoints(*[np.ascontiguousarray(c) for c in cols])
+
+
+
+
+def importance_prepass(prepared: PreparedScene, seed: int, max_depth: int) -> VisibleView:
+    """The photon-importance pre-pass (core/photons/importance.py, step 1): the visible
+    points of a coarse grid over the film (about PREPASS_PIXELS rays, aspect kept)."""
+    t0 = time.perf_counter()
+    cam = prepared.scene.camera
+    w, h = prepass_resolution(cam.width, cam.height)
+    vps = visible_points(prepared, replace(cam, width=w, height=h), int(seed), 0,
+                         int(max_depth), np.zeros((w * h, 3)))
+    return VisibleView(np.ascontiguousarray(vps.position, np.float64),
+                       np.ascontiguousarray(vps.ng, np.float64), w * h,
+                       time.perf_counter() - t0)

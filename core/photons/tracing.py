@@ -1,0 +1,475 @@
+"""The photon pass: trace photons from the lights into a global and a caustic PhotonMap.
+
+Wavefront: the photons of a source are emitted in chunks (``emission.emit``); each bounce
+intersects the whole chunk in Embree, then one numba kernel (``scatter.scatter_kernel``)
+stores and scatters every photon; the survivors are compacted with numpy and the loop goes
+on until no photon is left or ``photon_max_bounces`` bounces were made. No Python code
+runs per photon.
+
+Maps (flux in watts per stored photon: a map's flux summed over a region / area =
+irradiance, W/m^2):
+- global: photons emitted unaimed (``global_photons`` of them, shared between the sources
+  in proportion to their power, times their importance), stored at every hit on a surface with a diffuse lobe;
+  with ``include_direct=False`` only after at least one diffuse bounce (``core.photons.store``).
+- caustic: photons aimed at the specular objects (projection map, ``caustic_photons``),
+  stored at the first diffuse hit of paths light -> specular+ -> diffuse.
+
+With more than one source, each map's photons are shared by power x visual importance
+(``photon_importance``; core/importance.py: a camera pre-pass and pilot photons), still
+unbiased: every photon's flux is divided by its own source's count.
+
+What is skipped and why, and how many photons each source gets, is listed in
+``stats["decisions"]``, one line each (the render log prints them).
+
+Determinism: a photon's random numbers are counter hashes of (seed, map, source, photon
+index, bounce), so the maps do not depend on chunk sizes or threads; the stored photons
+are concatenated in emission order, bounce by bounce.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+from .. import sampling
+from ..color import luminance
+from ..lights.light_set import LightSet
+from ..passes import ProgressFn, StopFn
+from ..prepared import PreparedScene
+from ..scene.bounds import Targets
+from ..settings import RenderSettings
+from . import emission, importance, scatter
+from .photon_map import PhotonMap
+from .store import MODE_CAUSTIC, MODE_GLOBAL, STORE_ALL, STORE_BOUNCED, PhotonStore, compact_stored
+
+# Photons emitted and traced together: big enough for Embree's batch rate, small enough
+# that a chunk's arrays (~250 B per photon) stay near 60 MB.
+CHUNK = 1 << 18
+MAP_GLOBAL = 0
+MAP_CAUSTIC = 1
+
+
+@dataclass
+class PhotonMaps:
+    """global_map: photons at diffuse hits, or None when not built.
+    caustic_map: photons of light -> specular+ -> diffuse paths, or None.
+    global_emitted / caustic_emitted: photons emitted for each map (their flux is already
+    divided by these counts). stats: counts, times, which maps were built and why not."""
+
+    global_map: PhotonMap | None
+    caustic_map: PhotonMap | None
+    global_emitted: int
+    caustic_emitted: int
+    stats: dict = field(default_factory=dict)
+
+
+def _trace_chunk(prepared: PreparedScene, em: emission.Emitted, pid: np.ndarray, mode: int,
+                 store_rule: int, max_bounces: int, seed: int, map_id: int,
+                 store: PhotonStore, counters: dict) -> None:
+    """Trace one chunk of emitted photons through every bounce into ``store``."""
+    keep = np.any(em.flux > 0, axis=1)
+    if keep.all():  # the usual case: no boolean indexing (~30 ns per (N, 3) row)
+        o, d, f = em.origin.astype(np.float32), em.direction.astype(np.float32), em.flux
+    else:
+        idx = np.flatnonzero(keep)
+        o, d = em.origin[idx].astype(np.float32), em.direction[idx].astype(np.float32)
+        f, pid = em.flux[idx], pid[idx]
+    n_diff = np.zeros(o.shape[0], np.int32)
+    n_spec = np.zeros(o.shape[0], np.int32)
+    dims = np.array([sampling.stream(sampling.PHOTON, 1 + map_id, k) for k in range(4)], np.int64)
+    m = prepared.materials
+    accel = prepared.accel
+    for bounce in range(max_bounces + 1):
+        n = o.shape[0]
+        if n == 0:
+            break
+        t0 = time.perf_counter()
+        hits = accel.intersect(o, d)
+        t1 = time.perf_counter()
+        counters["rays"] += n
+        counters["time_intersect"] += t1 - t0
+        s_flag = np.empty(n, bool)
+        s_pos = np.empty((n, 3), np.float32)
+        s_flux = np.empty((n, 3), np.float32)
+        s_dir = np.empty((n, 3), np.float32)
+        alive = np.empty(n, bool)
+        # float32 origins and directions: what Embree takes, so no conversion per bounce.
+        o2 = np.empty((n, 3), np.float32)
+        d2 = np.empty((n, 3), np.float32)
+        f2 = np.empty((n, 3))
+        surf = prepared.surfaces
+        scatter.scatter_kernel(prepared.tri_vertices, prepared.tri_normals, prepared.tri_material,
+                               prepared.extent,
+                               m["diffuse"], m["specular"], m["transmission"], m["alpha"], m["ior"],
+                               surf.photon_albedo(hits.prim, hits.u, hits.v),
+                               surf.photon_opacity(hits.prim, hits.u, hits.v),
+                               hits.prim, hits.u, hits.v, d, f, pid, n_diff, n_spec,
+                               np.int64(seed), dims, np.int64(bounce), mode,
+                               np.int64(store_rule), bounce == max_bounces, s_flag, s_pos,
+                               s_flux, s_dir, alive, o2, d2, f2)
+        store.add(*compact_stored(s_flag, s_pos, s_flux, s_dir))
+        o, d, f, pid, n_diff, n_spec = scatter.compact_alive(alive, o2, d2, f2, pid, n_diff, n_spec)
+        counters["time_scatter"] += time.perf_counter() - t1
+
+
+def _trace_map(prepared, sources, counts, targets_per_source, mode, store_rule, seed: int,
+               max_bounces: int, map_id, counters, on_progress=None, should_stop=None,
+               done_before=0, total_work=0, flux_out=None):
+    """Emit counts[s] photons from each source and trace them; returns (store, cancelled).
+    on_progress(fraction, message) after each chunk, should_stop() -> True ends the map
+    between chunks. flux_out: optional (S, 3) float64 array, += the flux each source
+    emitted (watts)."""
+    store = PhotonStore()
+    first_id = 0
+    done = done_before
+    for slot, (src, n_src) in enumerate(zip(sources, counts)):
+        n_src = int(n_src)
+        targets, probs = targets_per_source[slot]
+        for first in range(0, n_src, CHUNK):
+            count = min(CHUNK, n_src - first)
+            t0 = time.perf_counter()
+            em = emission.emit(src, prepared.light_set, prepared.emissive, prepared.world,
+                               prepared.centre, prepared.radius, n_src, first, count, seed=seed,
+                               map_id=map_id, source_slot=slot, targets=targets,
+                               target_prob=probs, extent=prepared.extent)
+            counters["time_emission"] += time.perf_counter() - t0
+            if flux_out is not None:
+                flux_out[slot] += em.flux.sum(axis=0)
+            pid = np.arange(first_id + first, first_id + first + count, dtype=np.int64)
+            t1 = time.perf_counter()
+            _trace_chunk(prepared, em, pid, mode, store_rule, max_bounces, seed, map_id,
+                         store, counters)
+            counters["time_tracing"] += time.perf_counter() - t1
+            done += count
+            if on_progress is not None:
+                on_progress(min(done / max(total_work, 1), 1.0),
+                            f"Traced {done}/{total_work} photons")
+            if should_stop is not None and should_stop():
+                return store, True
+        first_id += n_src
+    return store, False
+
+
+def _balance(store: PhotonStore, counters: dict):
+    t0 = time.perf_counter()
+    pos, flux, direction = store.take()
+    pm = PhotonMap(pos, flux, direction) if pos.shape[0] else None
+    counters["time_balancing"] += time.perf_counter() - t0
+    return pm
+
+
+def photon_sources(prepared: PreparedScene) -> list:
+    """The emitting sources of a prepared scene (``emission.Source``), power-weighted."""
+    spheres = prepared.objects if prepared.objects.count else None
+    return emission.source_powers(prepared.light_set, prepared.emissive, prepared.world,
+                                  prepared.centre, prepared.radius, spheres, True)
+
+
+def trace_stored_photons(prepared: PreparedScene, sources: list, n_photons: int, *, seed: int,
+                         max_bounces: int, store_rule: int = STORE_ALL):
+    """Trace ``n_photons`` unaimed photons (shared between ``sources`` by power) and return
+    the photons stored at diffuse hits as raw arrays, without building a PhotonMap.
+
+    The global map's rules (``MODE_GLOBAL``, stored by ``store_rule``); for
+    progressive passes that need one batch of photons at a time. Returns (positions
+    (M, 3) float32 metres, flux (M, 3) float32 watts already divided by the photons
+    emitted, incident directions (M, 3) float32 pointing back towards where each photon
+    came from, counters dict).
+    """
+    counters = {"rays": 0, "time_emission": 0.0, "time_tracing": 0.0, "time_intersect": 0.0,
+                "time_scatter": 0.0, "time_balancing": 0.0}
+    if not sources or n_photons <= 0:
+        z = np.zeros((0, 3), np.float32)
+        return z, z.copy(), z.copy(), counters
+    counts = emission.allocate(np.array([luminance(s.power) for s in sources]),
+                               int(n_photons))
+    store, _ = _trace_map(prepared, sources, counts, [(None, None)] * len(sources),
+                          MODE_GLOBAL, store_rule, int(seed), int(max_bounces), MAP_GLOBAL,
+                          counters, total_work=int(counts.sum()))
+    pos, flux, direction = store.take()
+    return pos, flux, direction, counters
+
+
+_KIND_NAMES = {0: "point", 1: "spot", 2: "sun", 3: "area"}
+
+
+def _source_label(src, light_set: LightSet) -> str:
+    """How the log names a source: "light 'Lamp' (point, 100 W)", "world (background, 3 W)"."""
+    watts = f"{float(luminance(src.power)):,.4g} W"
+    if src.index >= 0:
+        return f"light '{src.name}' ({_KIND_NAMES.get(int(light_set.kind[src.index]), 'light')}, {watts})"
+    kind = "mesh" if src.index == emission.SOURCE_TRIANGLES else "background"
+    return f"{src.name} ({kind}, {watts})"
+
+
+def _pilot_fractions(prepared, sources, targets_per_source, power_lum, mode, store_rule,
+                     seed, max_bounces, map_id, n_pilot, grid, counters):
+    """Step 2-3 of core/photons/importance.py: per source, the fraction f_s of its power
+    (luminance) that its n_pilot pilot photons store near the visible points (``grid``).
+    (S,) float64."""
+    frac = np.zeros(len(sources))
+    for slot, src in enumerate(sources):
+        store, _ = _trace_map(prepared, [src], np.array([n_pilot]), [targets_per_source[slot]],
+                              mode, store_rule, importance.pilot_seed(seed, slot, map_id),
+                              max_bounces, importance.MAP_PILOT + map_id, counters,
+                              total_work=n_pilot)
+        pos, flux, direction = store.take()
+        if pos.shape[0] and power_lum[slot] > 0:
+            near = grid.near(pos, direction)
+            frac[slot] = float(luminance(flux[near].astype(np.float64)).sum()
+                               / power_lum[slot])
+    return frac
+
+
+def trace_photons(prepared: PreparedScene, settings: RenderSettings,
+                  on_progress: ProgressFn | None = None, should_stop: StopFn | None = None, *,
+                  include_direct: bool = True, skip: dict | None = None,
+                  prepass: Callable[[], importance.VisibleView] | None = None) -> PhotonMaps:
+    """Trace the global and caustic photon maps of a prepared scene (see the module doc).
+
+    on_progress(fraction, message) after each chunk of photons; should_stop() -> True
+    cancels between chunks (the maps are then None and ``stats["cancelled"]`` is True).
+    skip: {"global" or "caustic": reason} for maps the caller has already decided against
+    (not traced; the reason is logged). prepass() -> the camera's visible diffuse points
+    (``importance.VisibleView``), called only when photon importance has a choice to make;
+    without it photons are shared by power.
+    """
+    scene = prepared.scene
+    t_start = time.perf_counter()
+    decisions: list[str] = []
+    counters = {"rays": 0, "time_emission": 0.0, "time_tracing": 0.0, "time_intersect": 0.0,
+                "time_scatter": 0.0, "time_balancing": 0.0}
+    global_rule = STORE_ALL if include_direct else STORE_BOUNCED
+    n_global = int(settings.global_photons)
+    n_caustic = int(settings.caustic_photons)
+    seed = int(settings.seed)
+    max_bounces = int(settings.photon_max_bounces)
+    diffuse_any = bool(np.any(prepared.has_diffuse & prepared.used_materials))
+    spec_any = bool(np.any(prepared.specular_objects))
+    ls = prepared.light_set
+
+    sources = photon_sources(prepared)
+    skipped = [ls.names[i] if i < len(ls.names) else f"light {i}"
+               for i in range(ls.count) if i not in {s.index for s in sources}]
+    for name in skipped:
+        decisions.append(f"light '{name}': no photons, zero power or no geometry in reach")
+
+    skip = dict(skip or {})
+    build_global = True
+    if "global" in skip:
+        build_global, why = False, skip["global"]
+    elif settings.indirect_mode == "off":
+        build_global, why = False, "indirect light is off"
+    elif not diffuse_any:
+        build_global, why = False, "no surface has a diffuse lobe (nothing can bounce)"
+    elif n_global <= 0:
+        build_global, why = False, "global_photons is 0"
+    elif not sources or scene.mesh.triangle_count == 0:
+        build_global, why = False, "no light reaches any geometry"
+    if not build_global:
+        decisions.append(f"global map: skipped, {why}")
+
+    build_caustic = True
+    if "caustic" in skip:
+        build_caustic, why = False, skip["caustic"]
+    elif not settings.caustics:
+        build_caustic, why = False, "caustics are off"
+    elif not spec_any:
+        build_caustic, why = False, "no mirror, glass or glossy surface"
+    elif not diffuse_any:
+        build_caustic, why = False, "no diffuse surface to receive caustics"
+    elif n_caustic <= 0:
+        build_caustic, why = False, "caustic_photons is 0"
+    elif not sources:
+        build_caustic, why = False, "no light"
+
+    caustic_sources, caustic_counts, caustic_targets = [], np.zeros(0, np.int64), []
+    if build_caustic:
+        if settings.projection_map:
+            targets = Targets(prepared.objects.centre[prepared.specular_objects],
+                              prepared.objects.radius[prepared.specular_objects])
+            shares = []
+            for src in sources:
+                if src.index == emission.SOURCE_WORLD:
+                    decisions.append("world background: no caustic photons (not aimed)")
+                    continue
+                power, probs = emission.aimed_power(src, ls, prepared.emissive, targets,
+                                                    prepared.centre, prepared.radius)
+                if np.any(power > 0) and np.any(probs > 0):
+                    caustic_sources.append(src)
+                    caustic_targets.append((targets, probs))
+                    shares.append(luminance(power))
+            caustic_power = np.array(shares)
+            caustic_counts = emission.allocate(caustic_power, n_caustic)
+            caustic_how = f"aimed at {targets.count} specular object(s) (projection map)"
+        else:
+            caustic_sources = list(sources)
+            caustic_targets = [(None, None)] * len(sources)
+            caustic_power = np.array([luminance(s.power) for s in sources])
+            caustic_counts = emission.allocate(caustic_power, n_caustic)
+            caustic_how = "emitted unaimed (projection map off)"
+        if not caustic_sources or caustic_counts.sum() == 0:
+            build_caustic, why = False, "no light reaches a specular object"
+    if not build_caustic:
+        decisions.append(f"caustic map: skipped, {why}")
+
+    global_power = np.array([luminance(s.power) for s in sources])
+    global_counts = (emission.allocate(global_power, n_global) if build_global
+                     else np.zeros(len(sources), np.int64))
+
+    # Visual importance (core/photons/importance.py): only where there is a choice to make.
+    use_importance = bool(settings.photon_importance) and prepass is not None
+    g_multi = build_global and len(sources) > 1
+    c_multi = build_caustic and len(caustic_sources) > 1
+    imp = {"prepass": False, "time": 0.0, "time_camera": 0.0, "time_pilot": 0.0,
+           "camera_rays": 0, "visible_points": 0, "pilot_photons": 0, "pilot_rays": 0,
+           "radius_global": 0.0, "radius_caustic": 0.0, "reason": ""}
+    g_imp, c_imp = np.ones(len(sources)), np.ones(len(caustic_sources))
+    g_frac, c_frac = np.full(len(sources), np.nan), np.full(len(caustic_sources), np.nan)
+    if not (build_global or build_caustic):
+        imp["reason"] = "no photon map to trace"
+    elif not settings.photon_importance:
+        imp["reason"] = "photon_importance off: photons shared by power"
+    elif prepass is None:
+        imp["reason"] = "no camera pre-pass: photons shared by power"
+    elif not (g_multi or c_multi):
+        imp["reason"] = "one source per map: nothing to allocate"
+    cancelled = False
+    global_map = caustic_map = None
+    g_store = c_store = None
+    g_flux = np.zeros((len(sources), 3))
+    c_flux = np.zeros((len(caustic_sources), 3))
+    t_caustic = 0.0
+    if use_importance and (g_multi or c_multi):
+        t0 = time.perf_counter()
+        view = prepass()
+        imp.update(prepass=True, time_camera=view.time, camera_rays=view.rays,
+                   visible_points=int(view.position.shape[0]))
+        area = prepared.diffuse_area
+        pilot_counters = dict(counters, rays=0)
+        t1 = time.perf_counter()
+        if view.position.shape[0] == 0:
+            imp["reason"] = "the camera sees no diffuse surface: photons shared by power"
+        for multi, name, srcs, tps, power, total, mode, rule, map_id in (
+                (g_multi, "global", sources, [(None, None)] * len(sources), global_power,
+                 n_global, MODE_GLOBAL, global_rule, MAP_GLOBAL),
+                (c_multi, "caustic", caustic_sources, caustic_targets,
+                 caustic_power if build_caustic else None, n_caustic, MODE_CAUSTIC,
+                 STORE_ALL, MAP_CAUSTIC)):
+            n_pilot = importance.pilot_count(total, len(srcs))
+            if not multi or view.position.shape[0] == 0 or n_pilot < importance.MIN_PILOT:
+                continue
+            k = int(getattr(settings, f"{name}_k"))
+            radius = importance.view_radius(area, view.position.shape[0], k, total)
+            grid = importance.ViewGrid(view, radius)
+            frac = _pilot_fractions(prepared, srcs, tps, power, mode, rule, seed,
+                                    max_bounces, map_id, n_pilot, grid, pilot_counters)
+            weight = importance.weights(power, importance.importance_of(frac))
+            counts = importance.allocate(weight, total)
+            imp[f"radius_{name}"] = radius
+            imp["pilot_photons"] = max(imp["pilot_photons"], n_pilot)
+            if name == "global":
+                g_frac, g_imp, global_counts = frac, importance.importance_of(frac), counts
+            else:
+                c_frac, c_imp, caustic_counts = frac, importance.importance_of(frac), counts
+        imp["pilot_rays"] = pilot_counters["rays"]
+        imp["time_pilot"] = time.perf_counter() - t1
+        imp["time"] = time.perf_counter() - t0
+        decisions.append(
+            f"photon importance: camera pre-pass {view.rays:,} rays, "
+            f"{imp['visible_points']:,} visible points; pilot {imp['pilot_photons']:,} "
+            f"photons per source and map; {imp['time']:.2f} s; floor {importance.FLOOR:.0%}"
+            + (f" ({imp['reason']})" if imp["reason"] else ""))
+    elif imp["reason"] and (build_global or build_caustic):
+        decisions.append(f"photon importance: not used, {imp['reason']}")
+    total_work = int(global_counts.sum()) + (int(caustic_counts.sum()) if build_caustic else 0)
+    if build_global:
+        purpose = ("final gathering (direct light included)" if include_direct
+                   else "indirect light (stored after the first diffuse bounce)")
+        decisions.append(f"global map: {int(global_counts.sum()):,} photons for {purpose}")
+    if build_caustic:
+        decisions.append(f"caustic map: {int(caustic_counts.sum()):,} photons {caustic_how}")
+    c_slot = {src.index: j for j, src in enumerate(caustic_sources)} if build_caustic else {}
+    for slot, src in enumerate(sources):
+        parts = []
+        for built, frac, imps, counts, j, name in (
+                (build_global, g_frac, g_imp, global_counts, slot, "global"),
+                (build_caustic, c_frac, c_imp, caustic_counts, c_slot.get(src.index), "caustic")):
+            if not built or j is None:
+                continue
+            text = f"{int(counts[j]):,} {name} photons"
+            if not np.isnan(frac[j]):
+                if frac[j] == 0:
+                    text = (f"{name} importance 0.00 (none of its pilot photons reach the "
+                            f"view), {text} (floor)")
+                else:
+                    text = f"{name} importance {imps[j]:.2f}, {text}"
+            parts.append(text)
+        if parts:
+            decisions.append(f"{_source_label(src, ls)}: " + "; ".join(parts))
+    if build_global:
+        g_store, cancelled = _trace_map(
+            prepared, sources, global_counts, [(None, None)] * len(sources),
+            MODE_GLOBAL, global_rule, seed, max_bounces, MAP_GLOBAL, counters, on_progress,
+            should_stop, 0, total_work, g_flux)
+    if build_caustic and not cancelled:
+        t0 = time.perf_counter()
+        c_store, cancelled = _trace_map(
+            prepared, caustic_sources, caustic_counts, caustic_targets,
+            MODE_CAUSTIC, STORE_ALL, seed, max_bounces, MAP_CAUSTIC, counters, on_progress,
+            should_stop, int(global_counts.sum()), total_work, c_flux)
+        t_caustic = time.perf_counter() - t0
+    if not cancelled:
+        if g_store is not None:
+            global_map = _balance(g_store, counters)
+            if global_map is None:
+                decisions.append("global map: empty, no photon was stored")
+        if c_store is not None:
+            caustic_map = _balance(c_store, counters)
+            if caustic_map is None:
+                decisions.append("caustic map: empty, no photon reached a diffuse surface "
+                                 "through a specular one")
+    c_slot = {src.index: j for j, src in enumerate(caustic_sources)} if build_caustic else {}
+    per_source = []
+    for slot, src in enumerate(sources):
+        j = c_slot.get(src.index)
+        per_source.append({
+            "name": src.name, "index": src.index, "power": src.power.copy(),
+            "global_photons": int(global_counts[slot]) if build_global else 0,
+            "global_importance": float(g_imp[slot]), "global_fraction": float(g_frac[slot]),
+            "global_flux": g_flux[slot].copy(),
+            "caustic_photons": int(caustic_counts[j]) if j is not None else 0,
+            "caustic_importance": float(c_imp[j]) if j is not None else float("nan"),
+            "caustic_fraction": float(c_frac[j]) if j is not None else float("nan"),
+            "caustic_flux": c_flux[j].copy() if j is not None else np.zeros(3)})
+    elapsed = time.perf_counter() - t_start
+    traced = counters["time_tracing"] + counters["time_emission"]
+    stats = {
+        "global_built": global_map is not None,
+        "caustic_built": caustic_map is not None,
+        "global_emitted": int(global_counts.sum()),
+        "caustic_emitted": int(caustic_counts.sum()) if build_caustic else 0,
+        "global_stored": len(global_map) if global_map is not None else 0,
+        "caustic_stored": len(caustic_map) if caustic_map is not None else 0,
+        "include_direct": bool(include_direct),
+        "photon_rays": counters["rays"],
+        "photons_per_second": total_work / traced if traced > 0 else 0.0,
+        "rays_per_second": counters["rays"] / traced if traced > 0 else 0.0,
+        "time_emission": counters["time_emission"],
+        "time_tracing": counters["time_tracing"],
+        "time_intersect": counters["time_intersect"],
+        "time_scatter": counters["time_scatter"],
+        "time_balancing": counters["time_balancing"],
+        "time_photons": elapsed,
+        "time_caustic_map": t_caustic,
+        "sources": [s.name for s in sources],
+        "per_source": per_source,
+        "importance": imp,
+        "decisions": decisions,
+        "cancelled": cancelled,
+    }
+    return PhotonMaps(global_map, caustic_map, stats["global_emitted"], stats["caustic_emitted"],
+                      stats)
