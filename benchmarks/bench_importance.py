@@ -31,8 +31,10 @@ sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 
 from bench_photons import demo_scene  # noqa: E402
-from core import integrator, shapes, tracing  # noqa: E402
-from core.scene import LIGHT_POINT, Lights, Scene  # noqa: E402
+from core.integrators import photon_mapping as integrator
+from core.scene import shapes
+from core.photons import tracing# noqa: E402
+from core.scene.contract import LIGHT_POINT, Lights, Scene  # noqa: E402
 from core.settings import RenderSettings  # noqa: E402
 
 

@@ -30,7 +30,7 @@ sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
 
 import numba  # noqa: E402
 
-from core.photon_map import BYTES_PER_PHOTON, PhotonMap  # noqa: E402
+from core.photons.photon_map import BYTES_PER_PHOTON, PhotonMap  # noqa: E402
 
 
 def photons(kind: str, n: int, rng: np.random.Generator) -> np.ndarray:

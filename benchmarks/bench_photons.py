@@ -34,9 +34,10 @@ import numpy as np
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
 
-from core import shapes, tracing  # noqa: E402
-from core.accel import Accelerator  # noqa: E402
-from core.scene import LIGHT_AREA, Lights, Materials, Scene  # noqa: E402
+from core.scene import shapes
+from core.photons import tracing# noqa: E402
+from core.scene.accel import Accelerator  # noqa: E402
+from core.scene.contract import LIGHT_AREA, Lights, Materials, Scene  # noqa: E402
 from core.settings import RenderSettings  # noqa: E402
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))

@@ -24,8 +24,9 @@ import numpy as np
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
 
-from core import integrator, shapes  # noqa: E402
-from core.scene import LIGHT_AREA, LIGHT_POINT, Lights, Materials, Scene  # noqa: E402
+from core.integrators import photon_mapping as integrator
+from core.scene import shapes# noqa: E402
+from core.scene.contract import LIGHT_AREA, LIGHT_POINT, Lights, Materials, Scene  # noqa: E402
 from core.settings import RenderSettings  # noqa: E402
 
 

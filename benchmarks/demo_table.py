@@ -49,7 +49,7 @@ def main(argv=None):
     from importlib import import_module
 
     export = import_module(f"{package.__name__}.photon_engine.export")
-    integrator = import_module(f"{package.__name__}.core.integrator")
+    integrator = import_module(f"{package.__name__}.core.integrators.photon_mapping")
     settings_mod = import_module(f"{package.__name__}.core.settings")
     exported = export.export_scene(bpy.context.evaluated_depsgraph_get()).scene
 

@@ -24,8 +24,9 @@ import numpy as np
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from core import shapes, sppm  # noqa: E402
-from core.scene import LIGHT_POINT, Lights, Materials, Scene  # noqa: E402
+from core.scene import shapes
+from core.integrators import sppm# noqa: E402
+from core.scene.contract import LIGHT_POINT, Lights, Materials, Scene  # noqa: E402
 from core.settings import RenderSettings  # noqa: E402
 
 REFERENCE = ROOT / "tests" / "data" / "sppm_caustic_ref.npz"

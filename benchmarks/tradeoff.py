@@ -233,8 +233,8 @@ class PhotonMap:
         package = scenes.photon_map()
         name = package.__name__
         self.export = import_module(f"{name}.photon_engine.export")
-        self.integrator = import_module(f"{name}.core.integrator")
-        self.sppm = import_module(f"{name}.core.sppm")
+        self.integrator = import_module(f"{name}.core.integrators.photon_mapping")
+        self.sppm = import_module(f"{name}.core.integrators.sppm")
         self.presets = import_module(f"{name}.core.presets")
         self.settings = import_module(f"{name}.core.settings")
 

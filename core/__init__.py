@@ -18,10 +18,11 @@ from the bottom up (each imports only those below it; docs/architecture.md):
 - ``integrators``: how an image is formed: camera paths, direct light, final gathering
   and the radiance cache, the photon terms, the photon-mapping integrator, SPPM, the
   debug overlay;
-- ``io``: EXR files; ``api``: the entry points ``render`` and ``render_to_exr``.
+- ``io``: EXR files; ``api``: the entry points ``render``, ``render_to_exr`` and
+  ``progressive`` (the viewport's resumable passes).
 """
 
 # Before any kernel module is imported: numba's on-disk cache must be kept apart per
 # package name (core / photon_map.core / bl_ext...photon_map.core), see _numba_cache.
 from . import _numba_cache  # noqa: F401
-from .api import render, render_to_exr  # noqa: E402,F401
+from .api import progressive, render, render_to_exr  # noqa: E402,F401

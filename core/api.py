@@ -1,7 +1,13 @@
 """The core's entry points: ``render`` (one render of a ``core.Scene``, whatever the
-integrator) and ``render_to_exr`` (the same, written as a multilayer EXR)."""
+integrator), ``render_to_exr`` (the same, written as a multilayer EXR) and
+``progressive`` (the progressive integrator's passes one at a time, for a caller that
+interleaves them with its own work: the 3D viewport refines between Blender's draws on
+Blender's main thread, so it needs an iterator it can resume, not a call that returns
+when the render is over)."""
 
 from __future__ import annotations
+
+from typing import Iterator
 
 from .integrators import photon_mapping, sppm
 from .io.exr import write_exr
@@ -41,3 +47,12 @@ def render_to_exr(scene: Scene, settings: RenderSettings | None, path: str,
             "PhotonMap.render_time": f"{out.stats.get('time_total', 0.0):.3f}"}
     write_exr(path, out.passes, view_layer=view_layer, metadata=meta)
     return out
+
+
+def progressive(scene: Scene, settings: RenderSettings | None = None,
+                max_passes: int | None = None) -> Iterator[sppm.SPPMState]:
+    """The progressive integrator's passes (``sppm.progressive_passes``): yields the live
+    per-pixel state after each pass (``SPPMState.radiance()`` is the image), up to
+    ``max_passes`` (default ``settings.progressive_passes``); closing the iterator releases
+    the scene's accelerator."""
+    return sppm.progressive_passes(scene, settings, max_passes)

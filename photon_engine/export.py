@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..core.scene import Lights, Materials, Mesh, Scene, World
+from ..core.scene.contract import Lights, Materials, Mesh, Scene, World
 from .export_camera import export_camera
 from .export_errors import ExportError, NoCameraError  # noqa: F401  (re-exported)
 from .export_lights import light_row

@@ -1,4 +1,4 @@
-"""Blender's scene camera -> core.scene.Camera, with Blender's own sensor-fit rule.
+"""Blender's scene camera -> core.scene.contract.Camera, with Blender's own sensor-fit rule.
 
 Blender (BKE_camera_params_compute_viewplane) and Cycles frame the picture the same way:
 - the sensor size is ``sensor_height`` when Sensor Fit is VERTICAL, else ``sensor_width``
@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core.scene import CAMERA_ORTHOGRAPHIC, CAMERA_PERSPECTIVE, Camera
+from ..core.scene.contract import CAMERA_ORTHOGRAPHIC, CAMERA_PERSPECTIVE, Camera
 from .export_errors import ExportError, NoCameraError
 
 

@@ -4,7 +4,7 @@ ExportError is a core SceneError, so one ``except SceneError`` in the engine cat
 a scene Blender cannot export and one the core refuses.
 """
 
-from ..core.scene import SceneError
+from ..core.scene.contract import SceneError
 
 
 class ExportError(SceneError):

@@ -1,4 +1,4 @@
-"""Blender lights -> rows for core.scene.Lights.from_list, in Cycles' units.
+"""Blender lights -> rows for core.scene.contract.Lights.from_list, in Cycles' units.
 
 What Cycles does with a light's settings, and so what we pass on (DESIGN.md, "Units"):
 - power = energy x 2^exposure; colour = colour x blackbody(temperature) when enabled
@@ -20,7 +20,7 @@ import math
 
 import numpy as np
 
-from ..core.scene import AREA_ELLIPSE, AREA_RECTANGLE, LIGHT_AREA, LIGHT_POINT, LIGHT_SPOT, LIGHT_SUN
+from ..core.scene.contract import AREA_ELLIPSE, AREA_RECTANGLE, LIGHT_AREA, LIGHT_POINT, LIGHT_SPOT, LIGHT_SUN
 from .export_camera import without_scale
 from .export_materials import read_light_nodes
 

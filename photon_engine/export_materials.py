@@ -36,8 +36,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..core.scene import Textures
-from ..core.textures import srgb_to_linear
+from ..core.color import luminance
+
+from ..core.scene.contract import Textures
+from ..core.materials.textures import srgb_to_linear
 
 DEFAULT_GREY = 0.8
 """Albedo of the material used for empty slots and unreadable trees (Cycles' default surface)."""
@@ -115,7 +117,7 @@ def _glossy(spec=None, trans=None, roughness=0.0, ior=1.5) -> Closure:
 
 
 def _luminance(rgb) -> float:
-    return float(np.dot(rgb, (0.2126, 0.7152, 0.0722)))
+    return float(luminance(rgb))
 
 
 class _Reader:

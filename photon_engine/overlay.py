@@ -63,7 +63,7 @@ def set_photons(positions, colors, *, max_points: int = MAX_VIEWPORT_PHOTONS,
     """Keep photons for the viewport; returns how many are kept.
 
     positions: (N, 3) world-space metres (any float dtype; kept as float32).
-    colors: (N, 3) or (N, 4) linear RGB(A), e.g. ``core.debug_overlay.display_colors``;
+    colors: (N, 3) or (N, 4) linear RGB(A), e.g. ``core.integrators.debug_overlay.display_colors``;
         clamped to [0, 1] for display, alpha 1 when not given.
     max_points: more photons than this are replaced by a uniform random sample of this
         many (without replacement, in their original order), drawn with ``seed``.

@@ -6,12 +6,12 @@ callback wired to Blender's progress bar, stats line and Esc, then write the pas
 the Render Result. Bad scenes and settings end as one ERROR report naming the problem
 (``bpy.ops.render.render`` raises ``RuntimeError("Error: <message>")``), never a traceback.
 
-The integrator is the setting's choice: photon maps + final gathering
-(``core.integrator.render``) or progressive SPPM (``core.sppm.render_progressive``, Combined
-only, passes until the pass count or the time budget is used). Long renders fill in: the
-Render Result is begun once (``ResultWriter``), partial images go to it with
-``engine.update_result`` (the integrator's throttled ``on_tile``; SPPM's ``on_pass``), and the
-final passes end it, also after Esc, which keeps what was rendered.
+The core's one entry point, ``core.render``, runs the setting's integrator: photon maps +
+final gathering, or progressive SPPM (Combined only, passes until the pass count or the
+time budget is used). Long renders fill in: the Render Result is begun once
+(``ResultWriter``), partial images go to it with ``engine.update_result`` (the core's
+throttled ``on_tile``: tiles, or each progressive pass), and the final passes end it, also
+after Esc, which keeps what was rendered.
 
 Heavy imports (``core``: numba, embreex) happen inside the functions, at render time.
 """
@@ -33,7 +33,7 @@ EXTRA_PASSES = {
     "caustics": "Caustics",
     "indirect": "Indirect",
 }
-# The photon debug pass (core/debug_overlay.py): RGBA, not part of Combined.
+# The photon debug pass (core/integrators/debug_overlay.py): RGBA, not part of Combined.
 DEBUG_PASS = ("photons", "Photons")
 
 PASS_UPDATE_SECONDS = 0.2
@@ -63,7 +63,7 @@ def register_passes(engine, scene, view_layer):
 
 def render_frame(engine, depsgraph):
     """Render ``depsgraph``'s view layer into ``engine``'s Render Result."""
-    from ..core.scene import SceneError
+    from ..core.scene.contract import SceneError
     from ..core.settings import SettingsError
 
     load_embree_isolated()
@@ -80,7 +80,7 @@ def render_frame(engine, depsgraph):
 
 
 def _render(engine, depsgraph):
-    from ..core import integrator
+    from ..core import render as core_render
     from .export import export_scene
     from .properties import to_core_settings
 
@@ -97,9 +97,10 @@ def _render(engine, depsgraph):
         if settings.integrator == "progressive":
             output = render_progressive(engine, exported.scene, settings, writer, started)
         else:
-            output = integrator.render(exported.scene, settings,
-                                       progress=progress_callback(engine),
-                                       on_tile=lambda done, passes: writer.update(passes))
+            on_progress, should_stop = progress_callbacks(engine)
+            output = core_render(exported.scene, settings, on_progress=on_progress,
+                                 on_tile=lambda done, passes: writer.update(passes),
+                                 should_stop=should_stop)
             show_in_viewport(output.photon_maps, settings.overlay_map)
         # A cancelled render still delivers what it has, like Cycles.
         writer.finish(output.passes)
@@ -136,7 +137,7 @@ def render_progressive(engine, scene, settings, writer, started):
     while the next one fits (judged by the mean pass time; at least one pass); the count
     it reached is what the engine chose (``progressive_report``). Returns the RenderOutput.
     """
-    from ..core import sppm
+    from ..core import render as core_render
     from ..core.settings import MAX_PROGRESSIVE_PASSES
 
     budget = float(settings.time_budget)
@@ -147,14 +148,14 @@ def render_progressive(engine, scene, settings, writer, started):
         passes, remaining = settings.progressive_passes, None
     seen = {"pass": 0, "shown": -float("inf")}
 
-    def on_pass(k, combined):
+    def on_pass(k, image):
         seen["pass"] = k
         now = time.perf_counter()
         if now - seen["shown"] >= PASS_UPDATE_SECONDS and k < passes:
-            writer.update({"combined": combined})
+            writer.update(image)
             seen["shown"] = time.perf_counter()
 
-    def progress(fraction, _message):
+    def on_progress(fraction, _message):
         k = seen["pass"]
         if budget > 0:
             elapsed = time.perf_counter() - started
@@ -166,17 +167,18 @@ def render_progressive(engine, scene, settings, writer, started):
             text = f"Pass {k} of {passes}"
         engine.update_progress(fraction)
         engine.update_stats("", f"Photon Map | Progressive: {text}")
-        return engine.test_break()
 
     engine.update_stats("", "Photon Map | Progressive: pass 1 (visible points, photons)")
-    return sppm.render_progressive(scene, settings, passes, settings.photons_per_pass,
-                                   progress=progress, on_pass=on_pass, time_budget=remaining)
+    return core_render(scene, settings.with_values(progressive_passes=passes,
+                                                   time_budget=remaining or 0.0),
+                       on_progress=on_progress, on_tile=on_pass,
+                       should_stop=progress_callbacks(engine)[1])
 
 
 def progressive_report(stats, elapsed, budget) -> str:
     """What a progressive render chose and reached, for the status bar and the log:
     "Progressive: 37 passes in 30.0 s (budget 30 s), radius 0.05 m -> 0.012 m (mean),
-    100,000 photons per pass". stats: ``core.sppm.render_progressive``'s."""
+    100,000 photons per pass". stats: ``core.integrators.sppm.render``'s."""
     limit = f"budget {budget:g} s" if budget > 0 else "no time budget"
     why = {"cancelled": ", stopped by Esc"}.get(stats.get("stopped_by"), "")
     count = f"{stats['passes']} pass{'' if stats['passes'] == 1 else 'es'}"
@@ -192,7 +194,7 @@ def show_in_viewport(maps, which):
 
     if bpy.app.background:
         return
-    from ..core import debug_overlay
+    from ..core.integrators import debug_overlay
     from . import overlay
 
     positions, flux = debug_overlay.select_photons(
@@ -203,7 +205,7 @@ def show_in_viewport(maps, which):
 def photon_summary(stats) -> str:
     """One line for the stats bar: the maps built with their photon counts, or why not.
 
-    stats: ``RenderOutput.stats`` (core/integrator.py).
+    stats: ``RenderOutput.stats`` (core/integrators/photon_mapping.py).
     """
     parts = []
     for term, key, label in (("caustics", "caustic_photons_stored", "caustic map"),
@@ -270,16 +272,18 @@ def load_embree_isolated():
         sys.setdlopenflags(flags)
 
 
-def progress_callback(engine):
-    """The core's ``progress(fraction, message) -> cancel`` wired to Blender: progress bar,
-    status line, and Esc (``test_break``) as the answer."""
+def progress_callbacks(engine):
+    """The core's ``on_progress(fraction, message)`` and ``should_stop()`` wired to Blender:
+    the progress bar and status line, and Esc (``test_break``)."""
 
-    def progress(fraction, message):
+    def on_progress(fraction, message):
         engine.update_progress(fraction)
         engine.update_stats("", f"Photon Map | {message}")
-        return engine.test_break()
 
-    return progress
+    def should_stop():
+        return bool(engine.test_break())
+
+    return on_progress, should_stop
 
 
 class ResultWriter:

@@ -3,7 +3,7 @@ refined while the view stays still.
 
 Blender calls ``RenderEngine.view_update`` when the scene changes and ``view_draw`` to
 draw a view (photon_engine/engine.py). ``ViewportRender`` holds one view's state: the
-exported scene and a ``core.sppm.progressive_passes`` run through the view's camera
+exported scene and a ``core.progressive`` run through the view's camera
 (``view_camera``: Blender's view and window matrices, so zoom, pan, orthographic views
 and the camera view with its frame all come for free).
 
@@ -45,7 +45,7 @@ with 100,000 photons per pass), and each pass holds Blender's interface while it
 
 def view_camera(region_data, width: int, height: int):
     """The core Camera of a 3D view (``RegionView3D``) rendered at ``width`` x ``height``."""
-    from ..core.camera import camera_from_projection
+    from ..core.scene.camera import camera_from_projection
 
     to_world = np.array(region_data.view_matrix.inverted(), np.float64)
     projection = np.array(region_data.window_matrix, np.float64)
@@ -71,7 +71,7 @@ class ViewportRender:
 
     def __init__(self):
         self.scene = None        # core.Scene exported for this view
-        self.state = None        # core.sppm.SPPMState after the latest pass
+        self.state = None        # core.integrators.sppm.SPPMState after the latest pass
         self.error = None        # message of a scene the core refused
         self.target = 0          # passes to run
         self._passes = None      # the running progressive_passes generator
@@ -85,8 +85,8 @@ class ViewportRender:
 
     def sync(self, depsgraph, camera) -> None:
         """Restart the passes if the scene or the view changed since the last call."""
-        from ..core import sppm
-        from ..core.scene import SceneError
+        from ..core import progressive
+        from ..core.scene.contract import SceneError
         from ..core.settings import SettingsError
         from .export import export_scene
         from .properties import to_core_settings
@@ -103,15 +103,14 @@ class ViewportRender:
             props = depsgraph.scene.photon_map
             settings = to_core_settings(props)
             self.target = int(props.viewport_passes)
-            self._passes = sppm.progressive_passes(self.scene, settings, settings.photons_per_pass,
-                                                   max_passes=self.target)
+            self._passes = progressive(self.scene, settings, max_passes=self.target)
         except (SceneError, SettingsError) as error:
             self.error = str(error)
         self._stale = False
 
     def step(self, seconds: float = STEP_SECONDS) -> bool:
         """Run passes for up to ``seconds`` (at least one); True while more are to come."""
-        from ..core.scene import SceneError
+        from ..core.scene.contract import SceneError
         from ..core.settings import SettingsError
 
         if self._passes is None:

@@ -22,10 +22,14 @@ import numpy as np
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from core import debug_overlay, geometry, integrator, shapes, tracing  # noqa: E402
-from core.accel import Accelerator  # noqa: E402
-from core.exr import save_png  # noqa: E402
-from core.scene import LIGHT_AREA, Lights, Materials, Scene  # noqa: E402
+from core.integrators import debug_overlay
+from core.scene import geometry
+from core.integrators import photon_mapping as integrator
+from core.scene import shapes
+from core.photons import tracing# noqa: E402
+from core.scene.accel import Accelerator  # noqa: E402
+from core.io.exr import save_png  # noqa: E402
+from core.scene.contract import LIGHT_AREA, Lights, Materials, Scene  # noqa: E402
 from core.settings import RenderSettings  # noqa: E402
 
 

@@ -13,21 +13,11 @@ At a diffuse hit x (a material with a diffuse lobe) seen with path throughput T:
   photons (the direct visualisation: fast, blotchy, labelled a preview).
 
 Glossy (rough) lobes get direct light only; photon terms use the diffuse albedo, the
-textured one at each hit (core/textures.py). Gather rays pass cut-outs like camera rays.
+textured one at each hit (core/materials/textures.py). Gather rays pass cut-outs like camera rays.
 
-Radiance estimates (``radiance_estimate``): the k nearest photons within the maximum
-radius, weighted with core/estimate.py's ``photon_weight`` (front-side photons only,
-the filter, and Jensen's flattened disc: photons farther than PLANE_FRACTION * r from
-the tangent plane are left out, against leaks through corners). The neighbours come
-sorted by (distance, index) from ``PhotonMap.nearest`` and are summed in that order, so
-a query's value does not depend on the other queries of its batch (bit-for-bit
-determinism whatever the tiling).
-
-Automatic radius (``auto_radius``, setting 0): the radius of a disc that holds k
-photons on average when the stored photons cover the diffuse surfaces uniformly,
-times RADIUS_FACTOR: r = RADIUS_FACTOR * sqrt(A_diffuse * k / (pi * N_stored)). It
-scales with the scene (A ~ s^2, r ~ s), so a scene in millimetres or kilometres gives
-the same image.
+Radiance estimates: core/photons/estimate.py's ``radiance_estimate`` (the k nearest
+photons within the maximum radius, front-side only, the filter, Jensen's flattened disc),
+and its automatic radius ``auto_radius``.
 
 Random numbers: gather directions are a scrambled Sobol set over the pixel's
 samples x gather rays (``sampling.stratified2``, index sample * gather_rays + j), the
@@ -49,8 +39,7 @@ from ..prepared import PreparedScene
 from ..scene import geometry
 from ..settings import RenderSettings
 from . import camera_paths
-from ..photons.estimate import (auto_radius, radiance_estimate,  # noqa: F401  (auto_radius for callers)
-                               radiance_estimate_sides)
+from ..photons.estimate import radiance_estimate, radiance_estimate_sides
 from ..photons.photon_map import PhotonMap
 
 CACHE_FRACTION = 0.25

@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..passes import ProgressFn, StopFn
-from ..photons import tracing
+from ..photons import estimate, tracing
 from ..prepared import PreparedScene
 from ..scene import geometry
 from ..settings import RenderSettings
@@ -104,8 +104,8 @@ def run(prepared: PreparedScene, settings: RenderSettings, maps,
     global_map = global_map if global_map is not None and len(global_map) else None
     n_c = len(caustic_map) if caustic_map is not None else 0
     n_g = len(global_map) if global_map is not None else 0
-    r_c = st.caustic_radius or gather.auto_radius(diffuse_area, st.caustic_k, n_c)
-    r_g = st.global_radius or gather.auto_radius(diffuse_area, st.global_k, n_g)
+    r_c = st.caustic_radius or estimate.auto_radius(diffuse_area, st.caustic_k, n_c)
+    r_g = st.global_radius or estimate.auto_radius(diffuse_area, st.global_k, n_g)
     terms = gather.PhotonTerms(
         caustic_map=caustic_map, global_map=global_map, caustic_k=st.caustic_k,
         global_k=st.global_k, caustic_radius=r_c, global_radius=r_g, filter=st.filter,

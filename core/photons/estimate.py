@@ -184,7 +184,6 @@ def irradiance(photon_map: PhotonMap, points, normals, k: int, max_radius, *,
     if m == 0 or len(photon_map) == 0:
         return out.astype(np.float32)
     tree, _, _, flux_codes, scale, direction_codes = photon_map.kernel_arrays()
-    k = min(k, len(photon_map))
     normals = np.ascontiguousarray(normals, np.float64)
     albedo = np.full((m, 3), math.pi)
     bad = 0

@@ -29,7 +29,7 @@ def lit_plane(samples=4, **light):
 
 
 def test_every_core_pass_has_a_blender_pass(pm):
-    from photon_map.core import integrator
+    from photon_map.core.integrators import photon_mapping as integrator
     from photon_map.photon_engine.render import EXTRA_PASSES
 
     assert set(integrator.PASSES) <= set(EXTRA_PASSES)
@@ -103,7 +103,7 @@ class ProgressLog:
 
 
 def test_progress_reaches_one(pm, monkeypatch):
-    from photon_map.core import integrator
+    from photon_map.core.integrators import photon_mapping as integrator
 
     monkeypatch.setattr(integrator, "TARGET_SAMPLES_PER_TILE", 64)  # many small tiles
     lit_plane(samples=2)
@@ -117,7 +117,7 @@ def test_progress_reaches_one(pm, monkeypatch):
 
 
 def test_cancel_stops_early_and_keeps_the_rendered_part(pm, monkeypatch):
-    from photon_map.core import integrator
+    from photon_map.core.integrators import photon_mapping as integrator
 
     monkeypatch.setattr(integrator, "TARGET_SAMPLES_PER_TILE", 64)
     lit_plane(samples=2)

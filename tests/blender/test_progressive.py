@@ -104,7 +104,7 @@ def run(engine):
 
 
 def test_long_render_fills_in_then_ends_once(lit_plane, monkeypatch):
-    from photon_map.core import integrator
+    from photon_map.core.integrators import photon_mapping as integrator
 
     monkeypatch.setattr(integrator, "TARGET_SAMPLES_PER_TILE", 32)  # many tiles
     monkeypatch.setattr(integrator, "UPDATE_SECONDS", 0.0)  # every tile (1 s in use)
@@ -136,7 +136,7 @@ def test_quick_render_makes_no_partial_update(lit_plane):
 
 
 def test_esc_keeps_the_partial_image(lit_plane, monkeypatch):
-    from photon_map.core import integrator
+    from photon_map.core.integrators import photon_mapping as integrator
 
     monkeypatch.setattr(integrator, "TARGET_SAMPLES_PER_TILE", 32)
     monkeypatch.setattr(integrator, "UPDATE_SECONDS", 0.0)
@@ -158,7 +158,7 @@ def progressive(scene, **values):
 
 
 def test_each_pass_updates_the_image_and_the_status(lit_plane, monkeypatch, capfd):
-    from photon_map.core import sppm
+    from photon_map.core.integrators import sppm
     from photon_map.photon_engine import render
     from photon_map.photon_engine.export import export_scene
     from photon_map.photon_engine.properties import to_core_settings
@@ -177,8 +177,9 @@ def test_each_pass_updates_the_image_and_the_status(lit_plane, monkeypatch, capf
     depsgraph = bpy.context.evaluated_depsgraph_get()
     settings = to_core_settings(lit_plane.photon_map)
     images = []
-    out = sppm.render_progressive(export_scene(depsgraph).scene, settings, 4, 2000,
-                                  on_pass=lambda k, image: images.append(image.copy()))
+    out = sppm.render(export_scene(depsgraph).scene,
+                      settings.with_values(progressive_passes=4, photons_per_pass=2000),
+                      on_tile=lambda k, image: images.append(image["combined"].copy()))
     np.testing.assert_allclose(engine.final()[..., :3], out.passes["combined"], rtol=1e-6)
     for partial, expected in zip(engine.updates, images):
         np.testing.assert_allclose(partial[..., :3], expected, rtol=1e-6)

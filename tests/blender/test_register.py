@@ -95,7 +95,7 @@ def test_translator_carries_every_value(pm):
     props.progressive_passes, props.photons_per_pass, props.time_budget = 9, 321, 2.5
     core = to_core_settings(props)
     assert core.passes() == ("emission", "environment", "specular", "caustics")
-    assert (core.integrator, core.progressive_passes, core.photons_per_pass,
+    assert (core.integrators.photon_mapping, core.progressive_passes, core.photons_per_pass,
             core.time_budget) == ('progressive', 9, 321, 2.5)
 
 
@@ -113,7 +113,8 @@ def test_enum_items_are_the_core_choices(pm):
     assert [i[3] for i in properties.INDIRECT_MODE_ITEMS] == [0, 1, 2]
     assert "Preview" in rna["indirect_mode"].enum_items["preview"].name
     assert properties.MAX_RADIUS == MAX_RADIUS
-    from photon_map.core import settings as core_settings, sppm
+    from photon_map.core import settings as core_settings
+    from photon_map.core.integrators import sppm
 
     assert tuple(i.identifier for i in rna["integrator"].enum_items) == core_settings.INTEGRATORS
     assert [i[3] for i in properties.INTEGRATOR_ITEMS] == [0, 1]

@@ -11,8 +11,11 @@ import time
 import numpy as np
 import pytest
 
-from core import geometry, integrator, shapes
-from core.scene import (LIGHT_AREA, LIGHT_POINT, LIGHT_SPOT, LIGHT_SUN, Camera, Lights,
+from tests.core.maps import trace
+from core.scene import geometry
+from core.integrators import photon_mapping as integrator
+from core.scene import shapes
+from core.scene.contract import (LIGHT_AREA, LIGHT_POINT, LIGHT_SPOT, LIGHT_SUN, Camera, Lights,
                         Materials, Scene, SceneError)
 from core.settings import MAX_RADIUS, RenderSettings
 
@@ -386,7 +389,8 @@ def test_white_furnace_stays_bounded(albedo):
 MEASURE = """
 import json, resource, sys, time
 sys.path.insert(0, {root!r})
-from core import integrator, tracing
+from core.integrators import photon_mapping as integrator
+from core.photons import tracing
 from core.settings import RenderSettings
 from tests.core.test_extremes import box_scene
 scene = box_scene(glass=False)
@@ -396,7 +400,7 @@ base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
 st = small.with_values(global_photons={n})
 t0 = time.perf_counter()
 if {what!r} == "photon_pass":
-    stored = len(tracing.trace_photons(scene, st).global_map)
+    stored = len(trace(scene, st).global_map)
 else:
     stored = integrator.render(scene, st).stats["global_photons_stored"]
 print(json.dumps({{"seconds": time.perf_counter() - t0, "stored": stored,

@@ -16,8 +16,9 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
-from core import integrator, shapes
-from core.scene import (CAMERA_ORTHOGRAPHIC, CAMERA_PERSPECTIVE, LIGHT_AREA, LIGHT_POINT,
+from core.integrators import photon_mapping as integrator
+from core.scene import shapes
+from core.scene.contract import (CAMERA_ORTHOGRAPHIC, CAMERA_PERSPECTIVE, LIGHT_AREA, LIGHT_POINT,
                         LIGHT_SPOT, LIGHT_SUN, Camera, Lights, Materials, Mesh, Scene,
                         SceneError, World)
 from core.settings import FILTERS, INDIRECT_MODES, RenderSettings, SettingsError

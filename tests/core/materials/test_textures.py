@@ -6,8 +6,13 @@ bleeding like the geometry it paints), and Principled alpha as a straight pass-t
 import numpy as np
 import pytest
 
-from core import integrator, scatter, shapes, sppm, textures
-from core.scene import (CAMERA_ORTHOGRAPHIC, LIGHT_POINT, LIGHT_SUN, Camera, Lights, Materials,
+from core.photons import store
+from core.integrators import photon_mapping as integrator
+from core.photons import scatter
+from core.scene import shapes
+from core.integrators import sppm
+from core.materials import textures
+from core.scene.contract import (CAMERA_ORTHOGRAPHIC, LIGHT_POINT, LIGHT_SUN, Camera, Lights, Materials,
                         Scene, SceneError, Textures)
 from core.settings import RenderSettings
 
@@ -131,7 +136,7 @@ def test_textured_plane_under_a_sun_shows_each_texel_times_e_over_pi():
 def _cornell_textured():
     """The integrator tests' Cornell box, its white and red walls painted by uniform
     textures of their own colours (lobe weight 1)."""
-    from tests.core.test_integrator import cornell
+    from tests.core.integrators.test_photon_mapping import cornell
 
     base = cornell(res=12)
     m = base.materials
@@ -171,8 +176,9 @@ def test_uniform_texture_renders_like_the_constant_albedo(mode):
 
 def test_uniform_texture_renders_like_the_constant_albedo_in_sppm():
     base, textured = _cornell_textured()
-    a = sppm.render_progressive(base, RenderSettings(seed=3), 3, 20_000)
-    b = sppm.render_progressive(textured, RenderSettings(seed=3), 3, 20_000)
+    settings = RenderSettings(seed=3, progressive_passes=3, photons_per_pass=20_000)
+    a = sppm.render(base, settings)
+    b = sppm.render(textured, settings)
     np.testing.assert_allclose(b.passes["combined"].mean(axis=(0, 1)),
                                a.passes["combined"].mean(axis=(0, 1)), rtol=2e-3)
     assert np.mean(np.abs(b.passes["combined"] - a.passes["combined"])) <= \
@@ -263,10 +269,10 @@ def test_photons_pass_a_cutout_straight_without_becoming_caustic():
     n = 100_000
     tri_v = np.array([[[-10, -10, 0], [10, -10, 0], [0, 10, 0]]], np.float32)
     tri_n = np.array([[[0, 0, 1]] * 3], np.float32)
-    from core import bsdf
+    from core.materials import bsdf
     m = bsdf.material_table(Materials.from_list([{"diffuse": [0.5] * 3, "alpha": 0.25}]))
     d = np.tile(np.array([0.6, 0.0, -0.8], np.float32), (n, 1))
-    for mode in (scatter.MODE_CAUSTIC, scatter.MODE_GLOBAL):
+    for mode in (store.MODE_CAUSTIC, store.MODE_GLOBAL):
         out = [np.zeros(n, bool), np.zeros((n, 3), np.float32), np.zeros((n, 3), np.float32),
                np.zeros((n, 3), np.float32), np.zeros(n, bool), np.zeros((n, 3), np.float32),
                np.zeros((n, 3), np.float32), np.zeros((n, 3))]
@@ -277,13 +283,13 @@ def test_photons_pass_a_cutout_straight_without_becoming_caustic():
                                np.full(n, 0.3, np.float32), np.full(n, 0.3, np.float32), d,
                                np.ones((n, 3)), np.arange(n, dtype=np.int64), n_diff, n_spec,
                                np.int64(5), np.arange(4, dtype=np.int64), np.int64(0), mode,
-                               scatter.STORE_ALL, False, *out)
+                               store.STORE_ALL, False, *out)
         stored, alive, o_new, d_new, f_new = out[0], out[4], out[5], out[6], out[7]
         straight = alive & np.all(d_new == d, axis=1)
         assert straight.mean() == pytest.approx(0.75, abs=0.01)
         assert np.all(f_new[straight] == 1.0) and np.all(o_new[straight, 2] < 0)
         assert np.all(n_spec == 0)
-        if mode == scatter.MODE_CAUSTIC:
+        if mode == store.MODE_CAUSTIC:
             assert not stored.any() and alive.sum() == straight.sum()
         else:
             # stored at full flux whether it passes or not; the rest bounce diffusely
@@ -300,7 +306,7 @@ def test_cutout_with_photon_terms_matches_the_blend_in_sppm_and_final_gathering(
     scene = _cutout_scene(res=12)
     fg = integrator.render(scene, RenderSettings(samples=16, seed=2, global_photons=100_000,
                                                  caustics=False, final_gather_rays=32))
-    sp = sppm.render_progressive(scene, RenderSettings(seed=2), 24, 50_000)
+    sp = sppm.render(scene, RenderSettings(seed=2, progressive_passes=24, photons_per_pass=50_000))
     a = fg.passes["combined"][:, 4:8].mean(axis=(0, 1))
     b = sp.passes["combined"][:, 4:8].mean(axis=(0, 1))
     np.testing.assert_allclose(a, b, rtol=0.05)

@@ -6,8 +6,8 @@ import math
 import numpy as np
 import pytest
 
-from core import estimate
-from core.photon_map import PhotonMap
+from core.photons import estimate
+from core.photons.photon_map import PhotonMap
 
 UP = np.array([0.0, 0.0, 1.0], np.float32)
 

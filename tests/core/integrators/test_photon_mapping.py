@@ -4,8 +4,10 @@ cancelling and degenerate scenes."""
 import numpy as np
 import pytest
 
-from core import bsdf, integrator, shapes
-from core.scene import (CAMERA_ORTHOGRAPHIC, LIGHT_AREA, LIGHT_POINT, LIGHT_SPOT, Camera,
+from core.materials import bsdf
+from core.integrators import photon_mapping as integrator
+from core.scene import shapes
+from core.scene.contract import (CAMERA_ORTHOGRAPHIC, LIGHT_AREA, LIGHT_POINT, LIGHT_SPOT, Camera,
                         Lights, Materials, Mesh, Scene, SceneError, World)
 from core.settings import RenderSettings, SettingsError
 
@@ -259,10 +261,13 @@ def test_progress_is_reported_and_cancel_stops_early(monkeypatch):
 
     def progress(fraction, message):
         calls.append((fraction, message))
+
+    def stop():
         # Cancel at the second tile of the camera pass (the photon pass reports first).
         return sum(m.startswith("Gathering") for _, m in calls) >= 2
 
-    out = integrator.render(cornell(res=16), RenderSettings(samples=4), progress=progress)
+    out = integrator.render(cornell(res=16), RenderSettings(samples=4), on_progress=progress,
+                            should_stop=stop)
     tiles = [f for f, m in calls if m.startswith("Gathering")]
     photons = [f for f, m in calls if not m.startswith("Gathering")]
     assert out.cancelled and len(tiles) == 2
@@ -275,14 +280,15 @@ def test_progress_is_reported_and_cancel_stops_early(monkeypatch):
     assert np.all(flat[done:] == 0) and flat[:done].max() > 0
     full = []
     out = integrator.render(cornell(res=16), RenderSettings(samples=4),
-                            progress=lambda f, m: full.append(f) or False)
+                            on_progress=lambda f, m: full.append(f),
+                            should_stop=lambda: False)
     assert not out.cancelled and full[-1] == 1.0 and full == sorted(full)
 
 
 def test_cancel_during_the_photon_pass_renders_nothing():
     calls = []
     out = integrator.render(cornell(res=16), RenderSettings(samples=4),
-                            progress=lambda f, m: calls.append(m) or True)
+                            on_progress=lambda f, m: calls.append(m), should_stop=lambda: True)
     assert out.cancelled and len(calls) == 1 and out.stats["pixels"] == 0
     assert all(np.all(v == 0) for v in out.passes.values())
 

@@ -3,9 +3,10 @@
 import numpy as np
 import pytest
 
-from core import exr, shapes
-from core.render import render_to_exr
-from core.scene import LIGHT_POINT, Lights, Materials, Scene
+from core.io import exr
+from core.scene import shapes
+from core.api import render_to_exr
+from core.scene.contract import LIGHT_POINT, Lights, Materials, Scene
 from core.settings import RenderSettings
 
 

@@ -5,8 +5,13 @@ projection map, skipped maps, determinism, and leaks through a thin wall."""
 import numpy as np
 import pytest
 
-from core import bsdf, scatter, shapes, tracing
-from core.scene import LIGHT_POINT, Lights, Materials, Scene
+from tests.core.maps import trace
+from core.photons import store
+from core.materials import bsdf
+from core.photons import scatter
+from core.scene import shapes
+from core.photons import tracing
+from core.scene.contract import LIGHT_POINT, Lights, Materials, Scene
 from core.settings import RenderSettings
 
 CAM = shapes.pinhole([0, 0, 0.5], [0, 0, 0], 8, 8, 1.0)
@@ -39,7 +44,7 @@ def test_closed_box_geometric_series(include_direct):
     # stored flux is phi (1 + a + a^2 + ...) with the direct hit, phi (a + a^2 + ...)
     # without; 20 bounces truncate the series at a^21 ~ 5e-7.
     a, phi = 0.5, 100.0
-    pm = tracing.trace_photons(_box_scene(a, phi), _settings(global_photons=100_000,
+    pm = trace(_box_scene(a, phi), _settings(global_photons=100_000,
                                                              photon_max_bounces=20),
                                include_direct=include_direct)
     assert pm.caustic_map is None
@@ -59,7 +64,7 @@ def test_coloured_albedo_keeps_flux_bounded():
     mats = Materials.from_list([{"diffuse": [0.6, 0.3, 0.0]}])
     lights = Lights.from_list([{"kind": LIGHT_POINT, "position": (0, 0, 0), "power": 10.0}])
     scene = Scene(mesh, mats, lights, CAM).validate()
-    pm = tracing.trace_photons(scene, _settings(global_photons=50_000, photon_max_bounces=30))
+    pm = trace(scene, _settings(global_photons=50_000, photon_max_bounces=30))
     f = pm.global_map.flux.astype(np.float64)
     assert f.max() <= 10.0 / pm.global_emitted * (1 + 1e-3)
     # Per channel: phi (1 + c + c^2 + ...), c the channel's albedo.
@@ -149,7 +154,7 @@ def _glass_scene(light_z=4.0, radius=0.5, centre_z=1.0, half_floor=20.0, power=1
 def test_glass_sphere_caustic_matches_analytic_sphere():
     power = 1000.0
     scene = _glass_scene(power=power)
-    pm = tracing.trace_photons(scene, _settings(global_photons=1000, caustic_photons=100_000))
+    pm = trace(scene, _settings(global_photons=1000, caustic_photons=100_000))
     _check_finite(pm)
     cm = pm.caustic_map
     flux = cm.flux.astype(np.float64)[:, 0]
@@ -190,7 +195,7 @@ def test_glass_never_adds_flux_to_a_channel():
     lights = Lights.from_list([{"kind": LIGHT_POINT, "position": [0, 0, 4.0], "power": 1000.0,
                                 "color": [1.0, 0.0, 0.0]}])
     scene = Scene(mesh, mats, lights, CAM).validate()
-    pm = tracing.trace_photons(scene, _settings(global_photons=1000, caustic_photons=50_000))
+    pm = trace(scene, _settings(global_photons=1000, caustic_photons=50_000))
     flux = pm.caustic_map.flux
     assert len(flux) > 1000
     assert np.all(flux[:, 1:] == 0.0)
@@ -201,7 +206,7 @@ def test_caustic_map_only_from_specular_first_hits():
     # A diffuse cube next to the glass sphere: photons that hit it first never enter the
     # caustic map, whatever they do next.
     scene = _glass_scene()
-    pm = tracing.trace_photons(scene, _settings(projection_map=False, global_photons=1000,
+    pm = trace(scene, _settings(projection_map=False, global_photons=1000,
                                                 caustic_photons=20_000))
     assert pm.caustic_map is not None
     assert pm.stats["caustic_emitted"] == 20_000
@@ -234,7 +239,7 @@ def test_projection_map_keeps_small_caustics_dense():
     counts = {}
     for size in (1.0, 10.0):
         for proj in (True, False):
-            pm = tracing.trace_photons(_room_scene(size), _settings(
+            pm = trace(_room_scene(size), _settings(
                 global_photons=1000, caustic_photons=n, projection_map=proj))
             counts[size, proj] = _focus_count(pm)
     # Aimed: every caustic photon heads for the sphere, so the focus holds the same count
@@ -250,7 +255,7 @@ def test_projection_map_keeps_small_caustics_dense():
 
 
 def test_no_caustic_map_without_specular_and_no_global_when_off():
-    pm = tracing.trace_photons(_box_scene(0.5), _settings(indirect_mode="off"))
+    pm = trace(_box_scene(0.5), _settings(indirect_mode="off"))
     assert pm.global_map is None and pm.caustic_map is None
     assert "global map: skipped, indirect light is off" in pm.stats["decisions"]
     assert "caustic map: skipped, no mirror, glass or glossy surface" in pm.stats["decisions"]
@@ -261,7 +266,7 @@ def test_no_global_map_when_nothing_diffuse():
     mesh = shapes.assemble([(shapes.box([-1, -1, -1], [1, 1, 1], inward=True), 0)])
     mats = Materials.from_list([{"specular": [0.9] * 3}])
     lights = Lights.from_list([{"kind": LIGHT_POINT, "position": (0, 0, 0), "power": 10.0}])
-    pm = tracing.trace_photons(Scene(mesh, mats, lights, CAM).validate(), _settings())
+    pm = trace(Scene(mesh, mats, lights, CAM).validate(), _settings())
     assert pm.global_map is None and pm.caustic_map is None
     assert any("global map: skipped, no surface has a diffuse lobe" in s
                for s in pm.stats["decisions"])
@@ -269,7 +274,7 @@ def test_no_global_map_when_nothing_diffuse():
 
 def test_deterministic_across_runs_and_threads():
     scene = _glass_scene(half_floor=3.0)
-    maps = [tracing.trace_photons(scene, _settings(threads=t, global_photons=5000,
+    maps = [trace(scene, _settings(threads=t, global_photons=5000,
                                                    caustic_photons=5000)) for t in (1, 2, 2)]
     for m in maps[1:]:
         for a, b in ((maps[0].global_map, m.global_map), (maps[0].caustic_map, m.caustic_map)):
@@ -277,7 +282,7 @@ def test_deterministic_across_runs_and_threads():
             assert np.array_equal(a.positions, b.positions)
             assert np.array_equal(a.flux, b.flux)
             assert np.array_equal(a.directions, b.directions)
-    other = tracing.trace_photons(scene, _settings(seed=1, global_photons=5000,
+    other = trace(scene, _settings(seed=1, global_photons=5000,
                                                    caustic_photons=5000))
     assert not np.array_equal(other.global_map.positions[:100], maps[0].global_map.positions[:100])
 
@@ -289,7 +294,7 @@ def test_thin_wall_blocks_photons():
                             (shapes.box([0.0, -1.0, -1.0], [0.001, 1.0, 1.0]), 0)])
     mats = Materials.from_list([{"diffuse": [0.8] * 3}])
     lights = Lights.from_list([{"kind": LIGHT_POINT, "position": (-0.5, 0.3, 0.2), "power": 10.0}])
-    pm = tracing.trace_photons(Scene(mesh, mats, lights, CAM).validate(),
+    pm = trace(Scene(mesh, mats, lights, CAM).validate(),
                                _settings(global_photons=50_000, photon_max_bounces=10))
     p = pm.global_map.positions
     assert len(p) > 50_000
@@ -307,7 +312,7 @@ def test_mirror_and_glossy_paths_reach_the_caustic_map():
                                     {"specular": [0.8] * 3, "roughness": rough}])
         lights = Lights.from_list([{"kind": LIGHT_POINT, "position": (0, 0, 1), "power": 100.0}])
         scene = Scene(mesh, mats, lights, CAM).validate()
-        pm = tracing.trace_photons(scene, _settings(global_photons=1000, caustic_photons=40_000))
+        pm = trace(scene, _settings(global_photons=1000, caustic_photons=40_000))
         _check_finite(pm)
         total = pm.caustic_map.flux.astype(np.float64)[:, 0].sum()
         # Solid angle of the 1 m square at 1 m: 4 asin(1/ (1 + 4)) ... of a square of
@@ -334,7 +339,7 @@ def test_projection_map_is_unbiased_for_an_area_light():
     scene = Scene(mesh, mats, lights, CAM).validate()
     totals, counts = {}, {}
     for proj in (True, False):
-        pm = tracing.trace_photons(scene, _settings(global_photons=1000, caustic_photons=100_000,
+        pm = trace(scene, _settings(global_photons=1000, caustic_photons=100_000,
                                                     projection_map=proj))
         _check_finite(pm)
         totals[proj] = pm.caustic_map.flux.astype(np.float64)[:, 0].sum()
@@ -351,7 +356,7 @@ def test_spot_aimed_away_costs_nothing():
     lights = Lights.from_list([
         {"kind": 1, "to_world": away, "power": 100.0, "spot_size": 0.6, "name": "Away"},
         {"kind": LIGHT_POINT, "position": (0, 0, 1), "power": 10.0, "name": "Bulb"}])
-    pm = tracing.trace_photons(Scene(mesh, mats, lights, CAM).validate(), _settings())
+    pm = trace(Scene(mesh, mats, lights, CAM).validate(), _settings())
     assert pm.stats["sources"] == ["Bulb"]
     assert any("'Away': no photons" in s for s in pm.stats["decisions"])
     # All the photons go to the bulb: the floor gets what a 10 W point light sends down.
@@ -369,7 +374,7 @@ def test_emissive_triangles_do_not_stop_their_own_photons():
     mats = Materials.from_list([{"diffuse": [0.0] * 3},
                                 {"diffuse": [0.5] * 3, "emission": [5.0, 5.0, 5.0]}])
     scene = Scene(mesh, mats, Lights.empty(), CAM).validate()
-    pm = tracing.trace_photons(scene, _settings(global_photons=50_000, photon_max_bounces=1))
+    pm = trace(scene, _settings(global_photons=50_000, photon_max_bounces=1))
     assert pm.stats["global_emitted"] == 50_000
     assert pm.global_map is None
     assert "global map: empty, no photon was stored" in pm.stats["decisions"]
@@ -393,7 +398,7 @@ def _scatter_once(material, theta, n=200_000):
                            np.full(n, 0.3, np.float32), np.full(n, 0.3, np.float32), d,
                            np.ones((n, 3)), np.arange(n, dtype=np.int64), np.zeros(n, np.int32),
                            np.zeros(n, np.int32), np.int64(5), np.arange(4, dtype=np.int64),
-                           np.int64(0), scatter.MODE_GLOBAL, scatter.STORE_ALL, False, *out)
+                           np.int64(0), store.MODE_GLOBAL, store.STORE_ALL, False, *out)
     alive, d_new, f_new = out[4], out[6].astype(np.float64), out[7]
     return alive, d_new, np.where(alive[:, None], f_new, 0.0)
 
@@ -401,7 +406,7 @@ def _scatter_once(material, theta, n=200_000):
 def test_glossy_lobe_reflects_the_ggx_albedo():
     # The flux leaving a rough glossy surface, in total and per band of outgoing angle,
     # equals the integral of the GGX BRDF (bsdf.ggx_brdf, evaluated, not sampled) x cos.
-    from core import bsdf
+    from core.materials import bsdf
     theta, rough = np.radians(40), 0.5
     alive, d_new, f = _scatter_once({"specular": [1, 1, 1], "roughness": rough}, theta)
     # Quadrature of f cos over the hemisphere (midpoint in cos(theta_i) and phi).
@@ -462,9 +467,9 @@ def test_lambert_bounce_is_cosine_distributed_with_the_albedo():
 
 
 @pytest.mark.parametrize("rule, stored_for", [
-    (scatter.STORE_ALL, {(0, 0), (0, 1), (1, 0), (2, 3)}),
-    (scatter.STORE_BOUNCED, {(1, 0), (2, 3)}),
-    (scatter.STORE_NOT_DIRECT, {(0, 1), (1, 0), (2, 3)}),   # all but light -> diffuse
+    (store.STORE_ALL, {(0, 0), (0, 1), (1, 0), (2, 3)}),
+    (store.STORE_BOUNCED, {(1, 0), (2, 3)}),
+    (store.STORE_NOT_DIRECT, {(0, 1), (1, 0), (2, 3)}),   # all but light -> diffuse
 ])
 def test_global_store_rules_by_path(rule, stored_for):
     """Which photons the global map stores at a diffuse plane, by the (diffuse, specular)
@@ -485,6 +490,6 @@ def test_global_store_rules_by_path(rule, stored_for):
                            np.zeros(n, np.int32), np.full(n, 0.3, np.float32),
                            np.full(n, 0.3, np.float32), d, np.ones((n, 3)),
                            np.arange(n, dtype=np.int64), n_diff, n_spec, np.int64(5),
-                           np.arange(4, dtype=np.int64), np.int64(0), scatter.MODE_GLOBAL,
+                           np.arange(4, dtype=np.int64), np.int64(0), store.MODE_GLOBAL,
                            np.int64(rule), False, *out)
     assert {p for p, s in zip(paths, out[0]) if s} == stored_for

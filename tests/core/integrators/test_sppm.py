@@ -1,6 +1,7 @@
-"""Stochastic progressive photon mapping (core/sppm.py): convergence against a reference
-and against an independent oracle (the integrator's shadow-ray direct light), the SPPM
-statistics rules, bounded memory, cancelling, determinism and scale invariance."""
+"""Stochastic progressive photon mapping (core/integrators/sppm.py): convergence against
+references it did not make (the photon-mapping integrator at high settings, cached with
+make_caustic_reference.py; the integrator's shadow-ray direct light), the SPPM statistics
+rules, bounded memory, cancelling, determinism and scale invariance."""
 
 import pathlib
 import tracemalloc
@@ -8,11 +9,13 @@ import tracemalloc
 import numpy as np
 import pytest
 
-from core import integrator, shapes, sppm
-from core.scene import LIGHT_POINT, Lights, Materials, Scene
+from core.integrators import photon_mapping as integrator
+from core.scene import shapes
+from core.integrators import sppm
+from core.scene.contract import LIGHT_POINT, Lights, Materials, Scene
 from core.settings import RenderSettings, SettingsError
 
-DATA = pathlib.Path(__file__).resolve().parents[1] / "data"
+DATA = pathlib.Path(__file__).resolve().parents[2] / "data"
 SETTINGS = RenderSettings().with_values(threads=1)
 
 
@@ -23,7 +26,7 @@ def rel_mse(a, b):
 
 def caustic_scene(scale=1.0, width=32, height=32):
     """Glass sphere on a floor under a point light: the scene of benchmarks/sppm_convergence.py
-    (keep them equal: the stored reference was rendered from it)."""
+    and of the cached reference (make_caustic_reference.py renders it)."""
     s = scale
     mesh = shapes.assemble([(shapes.quad([0, 0, 0], [2 * s, 0, 0], [0, 2 * s, 0]), 0),
                             (shapes.uv_sphere([0, 0, 0.6 * s], 0.5 * s, 16, 32), 1)])
@@ -50,35 +53,43 @@ def _finite_nonnegative(img):
     assert img.min() >= 0.0, f"negative radiance {img.min()}"
 
 
-@pytest.mark.parametrize("direct", sppm.DIRECT_MODES)
-def test_caustic_converges_to_the_reference(direct):
-    """Both forms (direct light by shadow rays, the default; and standard SPPM, all by
-    photons) converge to the same reference (rendered by the photon form)."""
-    ref = np.load(DATA / "sppm_caustic_ref.npz")["image"]
+def progressive(scene, settings, passes, photons_per_pass, **values):
+    """``sppm.render`` of ``passes`` passes of ``photons_per_pass`` photons; values: other
+    settings (progressive_direct, time_budget, ...) and the render's callbacks."""
+    callbacks = {k: values.pop(k) for k in ("on_progress", "on_tile", "should_stop")
+                 if k in values}
+    return sppm.render(scene, settings.with_values(progressive_passes=passes,
+                                                   photons_per_pass=photons_per_pass, **values),
+                       **callbacks)
+
+
+def caustic_errors(direct):
+    """relMSE at 1, 4, 16, 64 passes against the photon-mapping reference, and the image."""
+    ref = np.load(DATA / "pm_caustic_ref.npz")["image"]
     errors = {}
-    for state in sppm.progressive_passes(caustic_scene(), SETTINGS, 25_000, max_passes=64,
-                                         direct=direct):
+    settings = SETTINGS.with_values(photons_per_pass=25_000, progressive_direct=direct)
+    for state in sppm.progressive_passes(caustic_scene(), settings, 64):
         if state.passes in (1, 4, 16, 64):
             img = state.radiance()
             _finite_nonnegative(img)
             errors[state.passes] = rel_mse(img, ref)
-    e = [errors[k] for k in (1, 4, 16, 64)]
-    # Monotone within noise: each 4x more passes must cut the error (by any amount).
-    assert all(b < a for a, b in zip(e, e[1:])), e
-    assert e[-1] < 0.02, e
-    # The image's mean is right, not just its noise low.
-    assert abs(img.mean() / ref.mean() - 1.0) < 0.03
-    CAUSTIC_ERRORS[direct] = e
+    return [errors[k] for k in (1, 4, 16, 64)], img, ref
 
 
-CAUSTIC_ERRORS: dict = {}
-
-
-def test_shadow_ray_direct_light_converges_faster():
-    """The hybrid's point: at every pass count its error is below standard SPPM's."""
-    if len(CAUSTIC_ERRORS) < 2:
-        pytest.skip("needs both test_caustic_converges_to_the_reference runs")
-    hybrid, photons = CAUSTIC_ERRORS["shadow_rays"], CAUSTIC_ERRORS["photons"]
+def test_caustic_converges_to_the_photon_map_reference_faster_with_shadow_rays():
+    """Both forms (direct light by shadow rays, the default; and standard SPPM, all by
+    photons) converge to the photon-mapping integrator's image of the scene; the hybrid's
+    error is below standard SPPM's at every pass count."""
+    found = {}
+    for direct in sppm.DIRECT_MODES:
+        e, img, ref = caustic_errors(direct)
+        # Monotone within noise: each 4x more passes must cut the error (by any amount).
+        assert all(b < a for a, b in zip(e, e[1:])), (direct, e)
+        assert e[-1] < 0.02, (direct, e)
+        # The image's mean is right, not just its noise low.
+        assert abs(img.mean() / ref.mean() - 1.0) < 0.03, direct
+        found[direct] = e
+    hybrid, photons = found["shadow_rays"], found["photons"]
     assert all(h < p for h, p in zip(hybrid, photons)), (hybrid, photons)
 
 
@@ -90,7 +101,7 @@ def test_floor_converges_to_the_integrators_direct_light(direct):
     scene = floor_scene()
     oracle = integrator.render(scene, RenderSettings().with_values(
         threads=1, samples=64, indirect_mode="off", caustics=False)).passes["combined"]
-    out = sppm.render_progressive(scene, SETTINGS, 48, 20_000, direct=direct)
+    out = progressive(scene, SETTINGS, 48, 20_000, progressive_direct=direct)
     img = out.passes["combined"]
     _finite_nonnegative(img)
     assert oracle.mean() > 0.05
@@ -107,8 +118,9 @@ def test_radius_shrinks_and_count_grows_per_pixel():
     prev_r = prev_n = None
     alpha = 2.0 / 3.0
     # Standard SPPM (direct photons too), so that every lit floor pixel catches photons.
-    for state in sppm.progressive_passes(caustic_scene(1.0, 16, 16), SETTINGS, 5_000,
-                                         alpha=alpha, max_passes=12, direct="photons"):
+    settings = SETTINGS.with_values(photons_per_pass=5_000, progressive_alpha=alpha,
+                                    progressive_direct="photons")
+    for state in sppm.progressive_passes(caustic_scene(1.0, 16, 16), settings, 12):
         r, n = state.radius.copy(), state.n.copy()
         assert np.all(np.isfinite(r)) and np.all(r > 0)
         if prev_r is not None:
@@ -128,14 +140,14 @@ def test_radius_shrinks_and_count_grows_per_pixel():
 def _peak_bytes(passes):
     tracemalloc.start()
     try:
-        out = sppm.render_progressive(caustic_scene(1.0, 16, 16), SETTINGS, passes, 20_000)
+        out = progressive(caustic_scene(1.0, 16, 16), SETTINGS, passes, 20_000)
         return tracemalloc.get_traced_memory()[1], out
     finally:
         tracemalloc.stop()
 
 
 def test_memory_is_bounded_whatever_the_pass_count():
-    sppm.render_progressive(caustic_scene(1.0, 8, 8), SETTINGS, 1, 100)  # load the kernels
+    progressive(caustic_scene(1.0, 8, 8), SETTINGS, 1, 100)  # load the kernels
     few, out_few = _peak_bytes(2)
     many, out_many = _peak_bytes(16)
     # One pass's photons alive at a time: the most held does not grow with passes.
@@ -150,16 +162,13 @@ def test_memory_is_bounded_whatever_the_pass_count():
 def test_cancel_after_pass_k_returns_k_passes():
     seen = []
     stop_after = 3
-
-    def progress(fraction, message):
-        return fraction >= stop_after / 10 - 1e-12
-
-    out = sppm.render_progressive(caustic_scene(1.0, 16, 16), SETTINGS, 10, 4_000, progress=progress,
-                                  on_pass=lambda k, img: seen.append((k, img.copy())))
+    out = progressive(caustic_scene(1.0, 16, 16), SETTINGS, 10, 4_000,
+                      should_stop=lambda: len(seen) >= stop_after,
+                      on_tile=lambda k, passes: seen.append((k, passes["combined"].copy())))
     assert out.cancelled
     assert out.stats["passes"] == stop_after
     assert [k for k, _ in seen] == [1, 2, 3]
-    done = sppm.render_progressive(caustic_scene(1.0, 16, 16), SETTINGS, stop_after, 4_000)
+    done = progressive(caustic_scene(1.0, 16, 16), SETTINGS, stop_after, 4_000)
     assert not done.cancelled
     np.testing.assert_array_equal(out.passes["combined"], done.passes["combined"])
     np.testing.assert_array_equal(seen[-1][1], done.passes["combined"])
@@ -167,32 +176,32 @@ def test_cancel_after_pass_k_returns_k_passes():
 
 def test_time_budget_stops_after_the_passes_that_fit():
     scene = caustic_scene(1.0, 16, 16)
-    sppm.render_progressive(scene, SETTINGS, 1, 100)  # load the kernels
-    out = sppm.render_progressive(scene, SETTINGS, 100_000, 4_000, time_budget=0.3)
+    progressive(scene, SETTINGS, 1, 100)  # load the kernels
+    out = progressive(scene, SETTINGS, 100_000, 4_000, time_budget=0.3)
     assert not out.cancelled
     assert out.stats["stopped_by"] == "time_budget"
     assert 2 <= out.stats["passes"] < 100_000
     assert out.stats["time_total"] < 0.3 + 0.5  # one pass takes ~5 ms; slack for a loaded machine
-    ample = sppm.render_progressive(scene, SETTINGS, 3, 4_000, time_budget=1e6)
+    ample = progressive(scene, SETTINGS, 3, 4_000, time_budget=1e6)
     assert ample.stats["passes"] == 3 and ample.stats["stopped_by"] == "passes"
     with pytest.raises(SettingsError, match="time_budget"):
-        sppm.render_progressive(scene, SETTINGS, 3, 100, time_budget=-1.0)
+        progressive(scene, SETTINGS, 3, 100, time_budget=-1.0)
 
 
 def test_deterministic_across_runs_and_threads():
-    a = sppm.render_progressive(caustic_scene(1.0, 16, 16), SETTINGS, 4, 4_000).passes["combined"]
-    b = sppm.render_progressive(caustic_scene(1.0, 16, 16), SETTINGS.with_values(threads=2), 4,
-                                4_000).passes["combined"]
+    a = progressive(caustic_scene(1.0, 16, 16), SETTINGS, 4, 4_000).passes["combined"]
+    b = progressive(caustic_scene(1.0, 16, 16), SETTINGS.with_values(threads=2), 4,
+                    4_000).passes["combined"]
     np.testing.assert_array_equal(a, b)
-    c = sppm.render_progressive(caustic_scene(1.0, 16, 16), SETTINGS.with_values(seed=1), 4,
-                                4_000).passes["combined"]
+    c = progressive(caustic_scene(1.0, 16, 16), SETTINGS.with_values(seed=1), 4,
+                    4_000).passes["combined"]
     assert not np.array_equal(a, c)
 
 
 @pytest.mark.parametrize("scale", [1e-3, 1e3])
 def test_scale_invariance(scale):
-    base = sppm.render_progressive(caustic_scene(1.0, 16, 16), SETTINGS, 8, 8_000)
-    scaled = sppm.render_progressive(caustic_scene(scale, 16, 16), SETTINGS, 8, 8_000)
+    base = progressive(caustic_scene(1.0, 16, 16), SETTINGS, 8, 8_000)
+    scaled = progressive(caustic_scene(scale, 16, 16), SETTINGS, 8, 8_000)
     a, b = scaled.passes["combined"], base.passes["combined"]
     _finite_nonnegative(a)
     np.testing.assert_allclose(scaled.stats["initial_radius"],
@@ -205,18 +214,19 @@ def test_scale_invariance(scale):
 def test_empty_and_unlit_scenes_are_black_and_finite():
     s = caustic_scene(1.0, 8, 8)
     dark = Scene(s.mesh, s.materials, Lights.empty(), s.camera).validate()
-    img = sppm.render_progressive(dark, SETTINGS, 2, 1_000).passes["combined"]
+    img = progressive(dark, SETTINGS, 2, 1_000).passes["combined"]
     assert np.all(img == 0.0)
 
 
-def test_bad_input_raises_errors_naming_the_parameter():
+def test_bad_input_raises_errors_naming_the_setting():
     s = caustic_scene(1.0, 8, 8)
-    for kwargs, name in (({"passes": 0}, "passes"), ({"photons_per_pass": -1}, "photons_per_pass"),
-                         ({"alpha": 1.0}, "alpha"), ({"alpha": 0.0}, "alpha"),
-                         ({"initial_radius": 0.0}, "initial_radius"),
-                         ({"initial_radius": float("nan")}, "initial_radius"),
-                         ({"direct": "both"}, '"direct"')):
-        args = {"passes": 2, "photons_per_pass": 100, **kwargs}
+    for values, name in (({"progressive_passes": 0}, "progressive_passes"),
+                         ({"photons_per_pass": -1}, "photons_per_pass"),
+                         ({"progressive_alpha": 1.0}, "progressive_alpha"),
+                         ({"progressive_alpha": 0.0}, "progressive_alpha"),
+                         ({"progressive_radius": -1.0}, "progressive_radius"),
+                         ({"progressive_radius": float("nan")}, "progressive_radius"),
+                         ({"progressive_direct": "both"}, "progressive_direct")):
         with pytest.raises(SettingsError, match=name):
-            sppm.render_progressive(s, SETTINGS, args.pop("passes"), args.pop("photons_per_pass"),
-                                    **args)
+            sppm.render(s, SETTINGS.with_values(**{"progressive_passes": 2,
+                                                   "photons_per_pass": 100, **values}))

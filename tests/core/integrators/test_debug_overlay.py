@@ -8,10 +8,10 @@ the camera), not against the code's own ray casts.
 import numpy as np
 import pytest
 
-from core import debug_overlay as dbg
-from core import shapes
-from core.accel import Accelerator, BruteForceAccelerator
-from core.scene import CAMERA_ORTHOGRAPHIC, Camera
+from core.integrators import debug_overlay as dbg
+from core.scene import shapes
+from core.scene.accel import Accelerator, BruteForceAccelerator
+from core.scene.contract import CAMERA_ORTHOGRAPHIC, Camera
 
 W, H = 64, 48
 EYE = np.array([0.0, -5.0, 1.0])
@@ -319,7 +319,7 @@ def test_photons_on_a_grazing_surface_far_from_the_origin_all_show(rng):
 def _wall_scene():
     """wall_mesh() (diffuse, albedo 0.5) lit by a point light in front of it, seen by
     camera_looking_along_y()."""
-    from core.scene import LIGHT_POINT, Lights, Materials, Scene
+    from core.scene.contract import LIGHT_POINT, Lights, Materials, Scene
 
     lights = Lights.from_list([{"kind": LIGHT_POINT, "position": [0.0, -1.0, 1.0], "power": 20.0}])
     return Scene(wall_mesh(), Materials.from_list([{"diffuse": [0.5, 0.5, 0.5]}]), lights,
@@ -329,7 +329,7 @@ def _wall_scene():
 def _hand_built_map():
     """Six photons on the wall, far enough apart for their dots (radius 0) not to meet;
     flux rises with the index so each dot's colour names its photon."""
-    from core.photon_map import PhotonMap
+    from core.photons.photon_map import PhotonMap
 
     x = np.array([-0.61, -0.23, 0.17, 0.41, 0.07, -0.37])
     z = np.array([0.83, 1.07, 1.31, 0.91, 0.71, 1.23])
@@ -342,7 +342,7 @@ def _hand_built_map():
 def test_render_adds_the_photons_pass_only_when_asked_and_combined_stays_the_sum():
     import types
 
-    from core import integrator
+    from core.integrators import photon_mapping as integrator
     from core.settings import RenderSettings
 
     scene = _wall_scene()

@@ -4,8 +4,13 @@ photons shared by power x visual importance, unbiased, the decisions in the log.
 import numpy as np
 import pytest
 
-from core import emission, importance, integrator, shapes, tracing
-from core.scene import LIGHT_AREA, LIGHT_POINT, LIGHT_SUN, Lights, Materials, Scene
+from tests.core.maps import trace
+from core.photons import emission
+from core.photons import importance
+from core.integrators import photon_mapping as integrator
+from core.scene import shapes
+from core.photons import tracing
+from core.scene.contract import LIGHT_AREA, LIGHT_POINT, LIGHT_SUN, Lights, Materials, Scene
 from core.settings import RenderSettings
 
 W = H = 16
@@ -40,8 +45,8 @@ def _in_room_a(pm):
 
 def test_light_in_the_other_room_gets_the_floor_share():
     scene = two_rooms()
-    on = tracing.trace_photons(scene, _settings())
-    off = tracing.trace_photons(scene, _settings(photon_importance=False))
+    on = trace(scene, _settings())
+    off = trace(scene, _settings(photon_importance=False))
     src = {s["name"]: s for s in on.stats["per_source"]}
     assert src["LampA"]["global_importance"] == 1.0
     assert src["LampB"]["global_fraction"] == 0.0
@@ -70,8 +75,8 @@ def test_the_emitted_flux_of_every_source_is_unchanged_by_the_allocation():
          "color": [1.0, 0.5, 0.25], "name": "Panel"},
         {"kind": LIGHT_SUN, "position": (0.0, 0.0, 5.0), "power": 2.0, "name": "Sun"}]
     scene = Scene(scene.mesh, scene.materials, Lights.from_list(rows), scene.camera).validate()
-    on = tracing.trace_photons(scene, _settings())
-    off = tracing.trace_photons(scene, _settings(photon_importance=False))
+    on = trace(scene, _settings())
+    off = trace(scene, _settings(photon_importance=False))
     counts_on = [s["global_photons"] for s in on.stats["per_source"]]
     counts_off = [s["global_photons"] for s in off.stats["per_source"]]
     assert counts_on != counts_off
@@ -98,7 +103,7 @@ def test_one_source_has_no_prepass():
     one = Scene(scene.mesh, scene.materials, Lights.from_list([
         {"kind": LIGHT_POINT, "position": (0.0, 0.0, 1.5), "power": 100.0, "name": "LampA"}]),
         scene.camera).validate()
-    pm = tracing.trace_photons(one, _settings())
+    pm = trace(one, _settings())
     assert pm.stats["importance"]["prepass"] is False
     assert pm.stats["importance"]["camera_rays"] == 0
     assert pm.stats["importance"]["pilot_rays"] == 0
@@ -106,7 +111,7 @@ def test_one_source_has_no_prepass():
 
 
 def test_decisions_name_each_source():
-    pm = tracing.trace_photons(two_rooms(glass=True), _settings())
+    pm = trace(two_rooms(glass=True), _settings())
     d = pm.stats["decisions"]
     assert any(s.startswith("global map: 20,000 photons for final gathering") for s in d)
     assert any(s.startswith("caustic map: 10,000 photons aimed at 2 specular object") for s in d)

@@ -8,8 +8,11 @@ each light type, with cos(theta) and 1/r^2.
 import numpy as np
 import pytest
 
-from core import integrator, lights, sampling, shapes
-from core.scene import (AREA_ELLIPSE, AREA_RECTANGLE, CAMERA_ORTHOGRAPHIC, LIGHT_AREA,
+from core import sampling
+from core.integrators import photon_mapping as integrator
+from core.lights import light_set as lights
+from core.scene import shapes
+from core.scene.contract import (AREA_ELLIPSE, AREA_RECTANGLE, CAMERA_ORTHOGRAPHIC, LIGHT_AREA,
                         LIGHT_POINT, LIGHT_SPOT, LIGHT_SUN, Camera, Lights, Materials, Scene,
                         World)
 from core.settings import RenderSettings

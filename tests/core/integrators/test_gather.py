@@ -11,9 +11,12 @@ import types
 import numpy as np
 import pytest
 
-from core import gather, integrator, shapes
-from core.photon_map import PhotonMap
-from core.scene import LIGHT_AREA, Camera, Lights, Materials, Scene
+from core.photons import estimate
+from core.integrators import gather
+from core.integrators import photon_mapping as integrator
+from core.scene import shapes
+from core.photons.photon_map import PhotonMap
+from core.scene.contract import LIGHT_AREA, Camera, Lights, Materials, Scene
 from core.settings import RenderSettings, SettingsError
 
 
@@ -79,17 +82,17 @@ def test_estimate_of_a_uniform_field_and_front_side_only(rng):
     inside = np.all(np.abs(pm.positions[:, :2]) < 0.55, axis=1)
     held = pm.flux[inside].astype(np.float64).sum(axis=0) / 1.1**2
     for filt in ("none", "cone", "gaussian"):
-        L = gather.radiance_estimate(pm, pts, up, albedo, 100, np.inf, filt)
+        L = estimate.radiance_estimate(pm, pts, up, albedo, 100, np.inf, filt)
         np.testing.assert_allclose(L.mean(axis=0), 0.5 / np.pi * held, rtol=0.02)
     # Seen from below, the same photons arrive from behind: nothing.
-    assert np.all(gather.radiance_estimate(pm, pts, -up, albedo, 100, np.inf) == 0)
+    assert np.all(estimate.radiance_estimate(pm, pts, -up, albedo, 100, np.inf) == 0)
 
 
 def test_auto_radius_holds_k_photons_and_scales_with_the_scene():
-    r = gather.auto_radius(4.0, 50, 10_000)
-    assert math.pi * (r / gather.RADIUS_FACTOR) ** 2 * 10_000 / 4.0 == pytest.approx(50)
-    assert gather.auto_radius(4.0e6, 50, 10_000) == pytest.approx(1e3 * r)
-    assert gather.auto_radius(4.0, 50, 0) == math.inf
+    r = estimate.auto_radius(4.0, 50, 10_000)
+    assert math.pi * (r / estimate.RADIUS_FACTOR) ** 2 * 10_000 / 4.0 == pytest.approx(50)
+    assert estimate.auto_radius(4.0e6, 50, 10_000) == pytest.approx(1e3 * r)
+    assert estimate.auto_radius(4.0, 50, 0) == math.inf
 
 
 # --- the white furnace ----------------------------------------------------------------------
@@ -339,7 +342,7 @@ def test_preview_and_final_gather_agree_on_the_cornell_box():
     """Both modes estimate the same indirect light (one from the map without direct
     photons seen directly, the other gathered from the map with them): their image means
     agree within 5 % per channel (the preview is blotchy, not biased)."""
-    from tests.core.test_integrator import cornell
+    from tests.core.integrators.test_photon_mapping import cornell
 
     means = {}
     for mode in ("final_gather", "preview"):
@@ -356,7 +359,7 @@ def test_radiance_cache_count_follows_the_gather_disc():
     area, stored = 7.0, 200_000
     for k, expected in ((10, stored // 4), (50, stored // 4), (100, stored // 8),
                         (200, stored // 16)):
-        r = gather.auto_radius(area, k, stored)
+        r = estimate.auto_radius(area, k, stored)
         assert abs(gather.cache_point_count(stored, area, r) - expected) <= 1, k
     assert gather.cache_point_count(stored, area, 1e-9) == stored // 4  # tiny hand-set radius
     assert gather.cache_point_count(stored, area, 1e9) == 1             # huge: one point
@@ -369,12 +372,12 @@ def test_radiance_cache_matches_the_full_estimate(k, monkeypatch):
     through it gives the indirect light of a k-nearest estimate at every gather hit
     (means per channel within 1.5 %, 4 x 4 blocks within 6 %), also at a k where it holds
     fewer points than photons / 4."""
-    from tests.core.test_integrator import cornell
+    from tests.core.integrators.test_photon_mapping import cornell
 
     settings = RenderSettings(samples=4, seed=5, caustics=False, global_photons=40_000,
                               global_k=k, final_gather_rays=256)
     cached = integrator.render(cornell(res=16), settings)
-    monkeypatch.setattr(gather, "build_radiance_cache", lambda terms, ctx: None)
+    monkeypatch.setattr(gather, "build_radiance_cache", lambda terms, prepared, settings: None)
     full = integrator.render(cornell(res=16), settings)
     a, b = cached.passes["indirect"], full.passes["indirect"]
     assert b.min() >= 0 and b.mean() > 0

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from core.accel import Accelerator, BruteForceAccelerator
-from core import shapes
+from core.scene.accel import Accelerator, BruteForceAccelerator
+from core.scene import shapes
 
 
 def random_rays(rng, n, spread=2.0):

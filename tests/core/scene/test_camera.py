@@ -3,8 +3,10 @@
 import numpy as np
 import pytest
 
-from core import camera, integrator, shapes
-from core.scene import (CAMERA_ORTHOGRAPHIC, Camera, Lights, Materials, Scene)
+from core.scene import camera
+from core.integrators import photon_mapping as integrator
+from core.scene import shapes
+from core.scene.contract import (CAMERA_ORTHOGRAPHIC, Camera, Lights, Materials, Scene)
 from core.settings import RenderSettings
 
 

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from core import shapes
-from core.scene import (LIGHT_AREA, LIGHT_POINT, LIGHT_SUN, Camera, Lights, Materials, Mesh,
+from core.scene import shapes
+from core.scene.contract import (LIGHT_AREA, LIGHT_POINT, LIGHT_SUN, Camera, Lights, Materials, Mesh,
                         Scene, SceneError, World)
 
 

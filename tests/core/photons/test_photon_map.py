@@ -6,9 +6,9 @@ import math
 import numpy as np
 import pytest
 
-from core import encoding
-from core.kdtree import balance
-from core.photon_map import BYTES_PER_PHOTON, PhotonMap
+from core.photons import encoding
+from core.photons.kdtree import balance
+from core.photons.photon_map import BYTES_PER_PHOTON, PhotonMap
 
 N = 300
 

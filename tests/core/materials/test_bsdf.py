@@ -3,7 +3,8 @@
 import numpy as np
 import pytest
 
-from core import bsdf, sampling
+from core import sampling
+from core.materials import bsdf
 
 
 @pytest.mark.parametrize("n", [1.33, 1.5, 2.4])
@@ -106,7 +107,7 @@ def test_ggx_weak_white_furnace(alpha):
     """Heitz's weak furnace: over ALL wi, D(h) G1(wo) / (4 cos_o) integrates to 1.
 
     It checks D's normalisation and that Lambda is Smith's for this D."""
-    from core.bsdf import ggx_lambda
+    from core.materials.bsdf import ggx_lambda
     wi, dw = _sphere_quadrature()
     for theta_o in (0.0, 0.6, 1.2):
         wo = np.array([np.sin(theta_o), 0.0, np.cos(theta_o)])
@@ -139,7 +140,7 @@ def test_ggx_distribution_is_normalised():
 
 
 def _delta(spec, alpha, trans, ior, d, n, entering, u_lobe, u_pick):
-    from core.bsdf import sample_delta
+    from core.materials.bsdf import sample_delta
     return sample_delta(*spec, alpha, *trans, ior, *d, *n, *n, entering, u_lobe, u_pick)
 
 

@@ -6,10 +6,13 @@ same spheres, and lights that cannot contribute get no photons."""
 import numpy as np
 import pytest
 
-from core import emission, shapes
-from core import light_kernels as lk
-from core.lights import EmissiveTriangles, LightSet
-from core.scene import (AREA_ELLIPSE, LIGHT_AREA, LIGHT_POINT, LIGHT_SPOT, LIGHT_SUN, Lights,
+from core.color import luminance
+from core.photons import emission
+from core.scene.bounds import Targets
+from core.scene import shapes
+from core.lights import kernels as lk
+from core.lights.light_set import EmissiveTriangles, LightSet
+from core.scene.contract import (AREA_ELLIPSE, LIGHT_AREA, LIGHT_POINT, LIGHT_SPOT, LIGHT_SUN, Lights,
                         Materials)
 
 N = 1 << 15
@@ -160,9 +163,9 @@ def test_mixed_set_shares_photons_by_power():
     ])
     sources = _powers(li)
     assert [s.index for s in sources] == [0, 2, 3]  # the zero-power light gets nothing
-    counts = emission.allocate(np.array([emission.luminance(s.power) for s in sources]), 10_000)
+    counts = emission.allocate(np.array([luminance(s.power) for s in sources]), 10_000)
     assert counts.sum() == 10_000
-    lum = np.array([emission.luminance(s.power) for s in sources])
+    lum = np.array([luminance(s.power) for s in sources])
     np.testing.assert_allclose(counts / 10_000, lum / lum.sum(), atol=1e-4)
     ls = LightSet.from_lights(li)
     total = np.zeros(3)
@@ -177,7 +180,7 @@ def test_mixed_set_shares_photons_by_power():
 
 
 def test_lights_that_reach_nothing_get_no_photons():
-    spheres = emission.Targets(np.array([[0.0, 0.0, -3.0]]), np.array([1.0]))
+    spheres = Targets(np.array([[0.0, 0.0, -3.0]]), np.array([1.0]))
     up = shapes.look_at([0, 0, 0], [0, 0, 5])      # pointing away from the object
     down = shapes.look_at([0, 0, 0], [0, 0, -5])
     li = Lights.from_list([
@@ -203,7 +206,7 @@ def test_aimed_emission_carries_the_flux_sent_into_the_targets(kind):
     # what the unaimed emission sends into them (mixture pdf, no double counting).
     centres = np.array([[0.3, 0.0, -2.0], [0.8, 0.2, -2.2]])
     radii = np.array([0.5, 0.4])
-    targets = emission.Targets(centres, radii)
+    targets = Targets(centres, radii)
     tris = NO_TRIS
     index = None
     if kind == "point":
