@@ -1,4 +1,4 @@
-"""What photon importance costs and what it gains (core/importance.py).
+"""What photon importance costs and what it gains (core/photons/importance.py).
 
     .venv/bin/python benchmarks/bench_importance.py [--photons 100000] [--reference 2000000]
         [--pass-photons 1000000] [--scenes behind,next]
@@ -31,9 +31,10 @@ sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 
 from bench_photons import demo_scene  # noqa: E402
-from core.integrators import photon_mapping as integrator
-from core.scene import shapes
-from core.photons import tracing# noqa: E402
+from core.integrators import photon_mapping as integrator  # noqa: E402
+from core.scene import shapes  # noqa: E402
+from core.integrators.photon_terms import trace_maps  # noqa: E402
+from core.prepared import prepare  # noqa: E402
 from core.scene.contract import LIGHT_POINT, Lights, Scene  # noqa: E402
 from core.settings import RenderSettings  # noqa: E402
 
@@ -71,6 +72,12 @@ def rel_mse(a, b):
     return float(np.mean((a - b) ** 2 / (b * b + 0.01)))
 
 
+def trace(scene, settings):
+    """The photon maps a render of ``scene`` traces (importance pre-pass included)."""
+    with prepare(scene, settings.threads) as prepared:
+        return trace_maps(prepared, settings)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--photons", type=int, default=200_000)
@@ -88,8 +95,8 @@ def main() -> None:
         # Cost: the pass with importance on, the pre-pass inside it.
         st = base.with_values(global_photons=args.pass_photons,
                               caustic_photons=args.pass_photons // 5)
-        tracing.trace_photons(scene, st.with_values(global_photons=20_000, caustic_photons=4000))
-        pm = tracing.trace_photons(scene, st)
+        trace(scene, st.with_values(global_photons=20_000, caustic_photons=4000))
+        pm = trace(scene, st)
         imp = pm.stats["importance"]
         work = pm.stats["time_emission"] + pm.stats["time_tracing"]
         print(f"pass {args.pass_photons:,} + {args.pass_photons // 5:,} photons: emission + "

@@ -25,6 +25,7 @@ Figures (every timing is the best of --rounds, the machine is shared):
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import pathlib
 import resource
 import sys
@@ -34,8 +35,10 @@ import numpy as np
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
 
-from core.scene import shapes
-from core.photons import tracing# noqa: E402
+from core.scene import shapes  # noqa: E402
+from core.prepared import prepare  # noqa: E402
+from core.integrators.photon_terms import trace_maps  # noqa: E402
+from core.photons import tracing  # noqa: E402
 from core.scene.accel import Accelerator  # noqa: E402
 from core.scene.contract import LIGHT_AREA, Lights, Materials, Scene  # noqa: E402
 from core.settings import RenderSettings  # noqa: E402
@@ -75,6 +78,16 @@ def raw_embree(scene: Scene, n_rays: int, seed: int = 0) -> float:
     return rates["intersect_2threads"]
 
 
+def trace(scene, settings, accel=None):
+    """The render's photon maps of ``scene`` (``photon_terms.trace_maps``), traced with
+    ``accel`` instead of the prepared scene's own when given."""
+    with prepare(scene, settings.threads) as prepared:
+        if accel is not None:
+            prepared.close()
+            prepared = dataclasses.replace(prepared, accel=accel)
+        return trace_maps(prepared, settings)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--global-photons", type=int, default=1_000_000)
@@ -93,7 +106,7 @@ def main() -> None:
           f"{args.global_photons} global + {args.caustic_photons} caustic photons, "
           f"{args.bounces} bounces, 2 threads, best of {args.rounds} rounds")
     # Compile / load the kernels and measure the RSS baseline of a small run.
-    tracing.trace_photons(scene, settings.with_values(global_photons=20_000, caustic_photons=5000))
+    trace(scene, settings.with_values(global_photons=20_000, caustic_photons=5000))
     rss0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
 
     best, raw, replay, peak = None, 0.0, np.inf, 0
@@ -103,7 +116,7 @@ def main() -> None:
             Accelerator(scene.mesh, threads=2)
         if rnd == 0:
             tracemalloc.start()
-        maps = tracing.trace_photons(scene, settings, accel=acc)
+        maps = trace(scene, settings, accel=acc)
         if rnd == 0:
             peak = tracemalloc.get_traced_memory()[1]
             tracemalloc.stop()
@@ -119,27 +132,27 @@ def main() -> None:
         best = maps.stats
     # Split the full run's peak: tracing (chunks + stored float32 photons) vs the
     # PhotonMap construction (balancing) that follows.
-    real_build, split = tracing._build, {"tracing": 0, "build": 0}
+    real_map, split = tracing.PhotonMap, {"tracing": 0, "build": 0}
 
-    def measured_build(store, counters):
+    def measured_map(*a, **kw):
         if not split["tracing"]:  # the first build: both maps are traced by then
             split["tracing"] = tracemalloc.get_traced_memory()[1]
         tracemalloc.reset_peak()
-        pm = real_build(store, counters)
+        pm = real_map(*a, **kw)
         split["build"] = max(split["build"], tracemalloc.get_traced_memory()[1])
         return pm
 
-    tracing._build = measured_build
+    tracing.PhotonMap = measured_map  # the tracer's maps, built through the measuring one
     tracemalloc.start()
     try:
-        tracing.trace_photons(scene, settings)
+        trace(scene, settings)
     finally:
         tracemalloc.stop()
-        tracing._build = real_build
+        tracing.PhotonMap = real_map
     quarter = settings.with_values(global_photons=args.global_photons // 4,
                                    caustic_photons=args.caustic_photons // 4)
     tracemalloc.start()
-    tracing.trace_photons(scene, quarter)
+    trace(scene, quarter)
     peak_q = tracemalloc.get_traced_memory()[1]
     tracemalloc.stop()
     n_q = args.global_photons // 4 + args.caustic_photons // 4

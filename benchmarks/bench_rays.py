@@ -24,8 +24,9 @@ import numpy as np
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
 
-from core.integrators import photon_mapping as integrator
-from core.scene import shapes# noqa: E402
+from core import prepared as prepared_scene  # noqa: E402
+from core.integrators import photon_mapping as integrator  # noqa: E402
+from core.scene import shapes  # noqa: E402
 from core.scene.contract import LIGHT_AREA, LIGHT_POINT, Lights, Materials, Scene  # noqa: E402
 from core.settings import RenderSettings  # noqa: E402
 
@@ -143,25 +144,25 @@ def main() -> None:
     integrator.render(build_scene(1000, 8), RenderSettings(samples=1))  # compile / load kernels
 
     raw, render_time, replay_time, stats = {}, np.inf, np.inf, None
-    real_prepare = integrator._prepare
+    real_accelerator = prepared_scene.Accelerator
     for _ in range(args.rounds):
         for k, v in raw_embree(scene, args.rays).items():
             raw[k] = max(raw.get(k, 0.0), v)
         recorder = {}
 
-        def recording_prepare(*a, **kw):
-            ctx = real_prepare(*a, **kw)
-            ctx.accel = recorder["acc"] = RecordingAccelerator(ctx.accel)
-            return ctx
+        def recording_accelerator(*a, **kw):
+            recorder["acc"] = RecordingAccelerator(real_accelerator(*a, **kw))
+            return recorder["acc"]
 
         out = integrator.render(scene, settings)
         if out.stats["time_render"] < render_time:
             render_time, stats = out.stats["time_render"], out.stats
-        integrator._prepare = recording_prepare  # the same render, keeping its batches
+        # The same render, keeping its batches: the prepared scene's accelerator records.
+        prepared_scene.Accelerator = recording_accelerator
         try:
             integrator.render(scene, settings)
         finally:
-            integrator._prepare = real_prepare
+            prepared_scene.Accelerator = real_accelerator
         replay_time = min(replay_time, replay_raw(scene, recorder.pop("acc").batches))
 
     for k, v in raw.items():

@@ -30,7 +30,7 @@ floor under which no method can be measured).
 Methods, interleaved in one process (preset, Cycles, preset, ... then SPPM) so the shared
 machine's load affects them alike: each preset of core/presets.py (wall time = the
 exporter on the evaluated depsgraph + the photon pass + the camera pass, numba already
-compiled), SPPM (core/sppm.py; wall time at 1, 4, 16, ... passes includes the export),
+compiled), SPPM (core/integrators/sppm.py; wall time at 1, 4, 16, ... passes includes the export),
 Cycles at CYCLES_SAMPLES samples (wall time = ``bpy.ops.render.render``: sync, BVH,
 render; same settings as the reference, seed 0).
 
@@ -254,9 +254,9 @@ class PhotonMap:
         """{passes: (image, wall s incl. export)} at each mark."""
         t0 = time.perf_counter()
         core_scene = self.export_scene()
-        settings = self.settings.RenderSettings().with_values(seed=seed)
+        settings = self.settings.RenderSettings().with_values(seed=seed, photons_per_pass=photons)
         found = {}
-        gen = self.sppm.progressive_passes(core_scene, settings, photons, max_passes=max(marks))
+        gen = self.sppm.progressive_passes(core_scene, settings, max(marks))
         try:
             for state in gen:
                 if state.passes in marks:

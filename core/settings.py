@@ -33,13 +33,18 @@ MAX_DOT_RADIUS_PX = 32.0
 
 INTEGRATORS = ("photon_map", "progressive")
 PROGRESSIVE_DIRECT = ("shadow_rays", "photons")
-"""``integrator`` values: photon maps + final gathering (core/integrator.py, a fixed
-budget) or stochastic progressive photon mapping (core/sppm.py, converges with passes)."""
+CORE_ONLY = ("progressive_alpha", "progressive_radius", "progressive_direct")
+"""Settings of the core with no Blender property: the progressive integrator's algorithm
+constants, for checks and experiments (tests, benchmarks); renders from Blender use the
+defaults. (Blender stores floats as float32, so alpha = 2/3 would not survive a property.)"""
+"""``integrator`` values: photon maps + final gathering (core/integrators/photon_mapping.py,
+a fixed budget) or stochastic progressive photon mapping (core/integrators/sppm.py,
+converges with passes)."""
 
 MAX_PROGRESSIVE_PASSES = 1 << 20
-"""Largest ``progressive_passes`` (core.sppm.MAX_PASSES)."""
+"""Largest ``progressive_passes``."""
 MAX_PHOTONS_PER_PASS = 1 << 26
-"""Largest ``photons_per_pass`` (core.sppm.MAX_PHOTONS_PER_PASS)."""
+"""Largest ``photons_per_pass``."""
 MAX_TIME_BUDGET = 1e7
 """Largest ``time_budget``, seconds (about 116 days: a bound that keeps it finite)."""
 

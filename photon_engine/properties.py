@@ -302,7 +302,7 @@ class PhotonMapRenderSettings(bpy.types.PropertyGroup):
         default=True, update=_update_passes,
     )
 
-    # Integrator and the progressive mode (core/sppm.py).
+    # Integrator and the progressive mode (core/integrators/sppm.py).
     integrator: EnumProperty(
         name="Integrator",
         description="How the image is computed",

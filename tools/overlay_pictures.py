@@ -22,12 +22,11 @@ import numpy as np
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from core.integrators import debug_overlay
-from core.scene import geometry
-from core.integrators import photon_mapping as integrator
-from core.scene import shapes
-from core.photons import tracing# noqa: E402
-from core.scene.accel import Accelerator  # noqa: E402
+from core.integrators import debug_overlay  # noqa: E402
+from core.integrators import photon_mapping as integrator  # noqa: E402
+from core.integrators.photon_terms import trace_maps  # noqa: E402
+from core.prepared import prepare  # noqa: E402
+from core.scene import geometry, shapes  # noqa: E402
 from core.io.exr import save_png  # noqa: E402
 from core.scene.contract import LIGHT_AREA, Lights, Materials, Scene  # noqa: E402
 from core.settings import RenderSettings  # noqa: E402
@@ -71,8 +70,9 @@ def main():
                               final_gather_rays=16)
     combined = integrator.render(scene, settings).passes["combined"]
     extent = geometry.scene_extent(*scene.bounds())
-    with Accelerator(scene.mesh) as accel:
-        maps = tracing.trace_photons(scene, settings, accel)
+    with prepare(scene, settings.threads) as prepared:
+        accel = prepared.accel
+        maps = trace_maps(prepared, settings)
         panels = [combined]
         for which in ("global", "caustic"):
             positions, flux = debug_overlay.select_photons(maps.global_map, maps.caustic_map, which)

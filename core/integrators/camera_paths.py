@@ -182,7 +182,7 @@ def visible_points(prepared: PreparedScene, cam: Camera, seed: int, k: int, max_
     """Pass k's visible points (one jittered camera ray per pixel of ``cam``, sample k),
     adding the radiance seen on the way (emitters, lights, background) to direct (P, 3)
     float64 (see core/integrators/sppm.py, step 1)."""
-    mats, ls = prepared.materials, prepared.light_set
+    mats = prepared.materials
     n = int(cam.width) * int(cam.height)
     pixel = np.arange(n, dtype=np.int64)
     sample = np.full(n, k, np.int64)

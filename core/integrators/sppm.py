@@ -80,7 +80,7 @@ from ..photons.store import STORE_ALL, STORE_NOT_DIRECT
 from ..photons.tracing import photon_sources, trace_stored_photons
 from ..prepared import PreparedScene, prepare
 from ..scene.contract import Scene
-from ..settings import MAX_PHOTONS_PER_PASS, MAX_PROGRESSIVE_PASSES as MAX_PASSES, RenderSettings, SettingsError
+from ..settings import MAX_PROGRESSIVE_PASSES as MAX_PASSES, RenderSettings, SettingsError
 from . import camera_paths
 from . import direct as direct_light
 from .camera_paths import VisiblePoints

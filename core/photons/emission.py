@@ -48,7 +48,6 @@ from ..scene import geometry
 from ..lights import kernels as lk
 from .. import sampling
 from ..lights.light_set import EmissiveTriangles, LightSet
-from ..color import luminance
 from ..scene.bounds import Targets
 from ..scene.contract import LIGHT_AREA, LIGHT_POINT, LIGHT_SPOT, LIGHT_SUN
 

@@ -136,7 +136,7 @@ def _widest_axis(work, lo, hi):
 
 
 @njit(parallel=True, cache=True, nogil=True)
-def _balance_kernel(positions):
+def balance_kernel(positions):
     """Balance (N, 3) float32 positions -> (tree positions, source index, split axis).
 
     Level by level, every node of a level in parallel: a node owns a contiguous segment of
@@ -199,7 +199,7 @@ def balance(positions: np.ndarray):
     positions = np.ascontiguousarray(positions, dtype=np.float32)
     if positions.ndim != 2 or positions.shape[1] != 3:
         raise ValueError(f"positions must have shape (N, 3), got {positions.shape}")
-    return _balance_kernel(positions)
+    return balance_kernel(positions)
 
 
 # --------------------------------------------------------------------------- locate
@@ -429,7 +429,7 @@ def sort_heap(heap, count):
 
 
 @njit(parallel=True, cache=True, nogil=True)
-def _nearest_kernel(tree, axis, depth, queries, order, k, r2, growth, out_idx, out_d2):
+def nearest_kernel(tree, axis, depth, queries, order, k, r2, growth, out_idx, out_d2):
     # The search is inlined in the parallel body: measured 20 % faster than calling a
     # plain njit function per block.
     m = order.shape[0]

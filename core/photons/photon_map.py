@@ -26,7 +26,7 @@ import numpy as np
 from numba import njit, prange
 
 from . import encoding
-from .kdtree import (_balance_kernel, _nearest_kernel, query_order, search_growth, tree_depth)
+from .kdtree import (balance_kernel, nearest_kernel, query_order, search_growth, tree_depth)
 
 BYTES_PER_PHOTON = 12 + 6 + 4 + 1
 _INF32 = np.float32(np.inf)
@@ -111,7 +111,7 @@ class PhotonMap:
         self._scale = encoding.flux_scale(flux)
         flux_codes = encoding.encode_flux(flux, self._scale)
         direction_codes = encoding.encode_direction(directions)
-        self._tree, source, self._axis = _balance_kernel(positions)
+        self._tree, source, self._axis = balance_kernel(positions)
         self._flux = np.empty((n, 3), np.uint16)
         self._direction = np.empty((n, 2), np.uint16)
         _gather_codes(flux_codes, direction_codes, source, self._flux, self._direction)
@@ -175,6 +175,6 @@ class PhotonMap:
         dist2 = np.empty((m, k), np.float32)
         order = query_order(points) if sort_queries else np.arange(m, dtype=np.int64)
         with numba.parallel_chunksize(1):
-            _nearest_kernel(self._tree, self._axis, self._depth, points, order, k, r2,
+            nearest_kernel(self._tree, self._axis, self._depth, points, order, k, r2,
                             search_growth(k), idx, dist2)
         return idx, dist2

@@ -42,7 +42,7 @@ from ..materials import bsdf
 from ..scene import geometry
 from .. import sampling
 
-from .store import MODE_CAUSTIC, MODE_GLOBAL, stores  # noqa: F401  (MODE_GLOBAL re-exported)
+from .store import MODE_CAUSTIC, stores
 # Photons per parallel task of scatter_kernel.
 _BLOCK = 4096
 

@@ -22,6 +22,7 @@ import numpy as np
 from numba import njit, prange
 
 from .. import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
+from .contract import SceneError
 
 OFFSET_SCALE = 2.0 ** -20
 
@@ -194,8 +195,6 @@ def check_float32_precision(scene) -> None:
     than MIN_FLOAT32_STEPS such steps, vertices snap and the ray offsets swallow gaps
     between objects (caustic photons are lost first), so the image would be silently wrong.
     """
-    from .contract import SceneError
-
     lo, hi = scene.bounds()
     far = float(max(np.max(np.abs(lo)), np.max(np.abs(hi))))
     extent = scene_extent(lo, hi)

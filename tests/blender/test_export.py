@@ -20,7 +20,7 @@ from tests.conftest import load_extension_package  # noqa: E402
 pytestmark = pytest.mark.blender
 
 photon_map = load_extension_package()
-from photon_map.core.scene import contract as core_scene# noqa: E402
+from photon_map.core.scene import contract as core_scene  # noqa: E402
 from photon_map.photon_engine.export import ExportError, NoCameraError, export_scene  # noqa: E402
 
 

@@ -11,7 +11,6 @@ import time
 import numpy as np
 import pytest
 
-from tests.core.maps import trace
 from core.scene import geometry
 from core.integrators import photon_mapping as integrator
 from core.scene import shapes

@@ -5,11 +5,9 @@ import numpy as np
 import pytest
 
 from tests.core.maps import trace
-from core.photons import emission
 from core.photons import importance
 from core.integrators import photon_mapping as integrator
 from core.scene import shapes
-from core.photons import tracing
 from core.scene.contract import LIGHT_AREA, LIGHT_POINT, LIGHT_SUN, Lights, Materials, Scene
 from core.settings import RenderSettings
 

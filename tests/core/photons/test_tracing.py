@@ -10,7 +10,6 @@ from core.photons import store
 from core.materials import bsdf
 from core.photons import scatter
 from core.scene import shapes
-from core.photons import tracing
 from core.scene.contract import LIGHT_POINT, Lights, Materials, Scene
 from core.settings import RenderSettings
 
