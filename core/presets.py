@@ -1,5 +1,5 @@
 """Quality presets: one dial that sets the photon counts, k, radii, final-gather rays and
-camera samples together (issue 7).
+camera samples together.
 
 ``PRESETS[name]`` holds RenderSettings field values; ``preset_settings(name, base)``
 applies one to a base RenderSettings. "custom" means hand-set values (no preset applied).

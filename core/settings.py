@@ -20,13 +20,13 @@ INDIRECT_MODES = ("final_gather", "preview", "off")
 """``indirect_mode`` values: final gathering, direct visualisation of the global map, none."""
 
 FILTERS = ("none", "cone", "gaussian")
-"""``filter`` values: the radiance-estimate kernel (core/estimate.py)."""
+"""``filter`` values: the radiance-estimate kernel (core/photons/estimate.py)."""
 
 MAX_RADIUS = 1e9
 """Largest explicit gather radius, metres (a bound that keeps the value finite)."""
 
 OVERLAY_MAPS = ("global", "caustic", "both")
-"""``overlay_map`` values: the photon map(s) the debug pass shows (core/debug_overlay.py)."""
+"""``overlay_map`` values: the photon map(s) the debug pass shows (core/integrators/debug_overlay.py)."""
 
 MAX_DOT_RADIUS_PX = 32.0
 """Largest ``overlay_dot_radius``, pixels (debug_overlay.MAX_DOT_RADIUS_PX)."""
@@ -62,7 +62,7 @@ class RenderSettings:
     threads: int = 0
     """Worker threads for ray tracing and shading; 0 = all cores."""
 
-    # Photon pass (core/tracing.py).
+    # Photon pass (core/photons/tracing.py).
     global_photons: int = 200_000
     """Photons emitted for the global map (indirect diffuse light)."""
     caustic_photons: int = 100_000
@@ -73,9 +73,9 @@ class RenderSettings:
     """Aim caustic photons at the specular objects only (flux weighted by the aimed fraction)."""
     photon_importance: bool = True
     """Share each map's photons by power x visual importance (a camera pre-pass and pilot
-    photons, core/importance.py) instead of by power alone; unbiased either way."""
+    photons, core/photons/importance.py) instead of by power alone; unbiased either way."""
 
-    # Radiance estimates (core/estimate.py).
+    # Radiance estimates (core/photons/estimate.py).
     global_k: int = 50
     """Photons per radiance estimate in the global map."""
     caustic_k: int = 50
@@ -95,7 +95,7 @@ class RenderSettings:
     final_gather_rays: int = 64
     """Final-gather rays per pixel at the first diffuse hit (shared among its samples)."""
 
-    # Photon debug pass (core/debug_overlay.py).
+    # Photon debug pass (core/integrators/debug_overlay.py).
     photon_debug_pass: bool = False
     """Add the "photons" pass: (H, W, 4) RGBA dots where the camera sees a stored photon."""
     overlay_map: str = "both"
@@ -105,7 +105,7 @@ class RenderSettings:
     overlay_composite: bool = False
     """Draw the dots over "combined" too (which is then no longer the sum of the passes)."""
 
-    # Output passes (issue 6): which light terms are produced as their own images. A
+    # Output passes: which light terms are produced as their own images. A
     # switched-off term is still rendered into "combined" (as in Cycles) but gets no image
     # of its own: not allocated, accumulated, returned or transferred (see passes()).
     pass_emission: bool = True

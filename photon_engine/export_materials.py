@@ -1,4 +1,4 @@
-"""Blender shader node trees -> the core's material lobes (see core/scene.py, Materials).
+"""Blender shader node trees -> the core's material lobes (see core/scene/contract.py, Materials).
 
 A surface is read by following the active output's Surface input through the shader
 nodes the core can express. Each node becomes a ``Closure``: the four lobe colours

@@ -237,7 +237,7 @@ class PhotonMapRenderSettings(bpy.types.PropertyGroup):
         min=1, max=1 << 16, soft_max=1024, default=64,
     )
 
-    # Photon debug pass and viewport display (core/debug_overlay.py, overlay.py).
+    # Photon debug pass and viewport display (core/integrators/debug_overlay.py, overlay.py).
     photon_debug_pass: BoolProperty(
         name="Photon Debug Pass",
         description="Add a Photons pass: a dot wherever the camera sees a stored photon, "

@@ -39,7 +39,7 @@ from ..scene.contract import CAMERA_ORTHOGRAPHIC, Camera
 # Names of the photon selection (the panel's "Overlay Map" enum uses the same identifiers).
 OVERLAY_MAPS = ("global", "caustic", "both")
 # Occlusion rays stop this many offset epsilons short of the photon. Measured on a tilted
-# plane far from the origin (tests/core/test_debug_overlay.py), Embree's hit distance on
+# plane far from the origin (tests/core/integrators/test_debug_overlay.py), Embree's hit distance on
 # the photon's own surface errs by up to ~eps/40 / cos(incidence): 1 eps hides photons
 # seen within ~1.5 degrees of grazing, 4 eps none down to 0.75 degrees. 16 leaves a
 # margin, and an occluder must still be closer than 2^-16 of the scene size to be missed.

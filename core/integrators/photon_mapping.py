@@ -3,7 +3,7 @@ photon terms at the diffuse surfaces it reaches (the seed lecture's split).
 
 Wavefront: a tile of pixels x samples becomes one batch of camera rays; each bounce
 intersects the whole batch in Embree, shades it in numba kernels (emission, the direct
-light of core/direct.py: one shadow ray per light per light sample, the photon estimates
+light of core/integrators/direct.py: one shadow ray per light per light sample, the photon estimates
 of core/integrators/gather.py), and spawns at most one specular ray per path
 (core/integrators/camera_paths.py: intersection through cut-outs, lights seen along the
 rays, the mirror/glass continuation).

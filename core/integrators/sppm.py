@@ -41,7 +41,7 @@ direct light by photons too): directly lit diffuse surfaces are then exact in
 expectation from the first pass on, without the blotches of a photon estimate, at the
 cost of one shadow ray per light and visible point per pass; the photon estimate is
 left with the paths only photons find well (caustics) and the smooth indirect light.
-Both converge to the same image (tests/core/test_sppm.py checks the split against the
+Both converge to the same image (tests/core/integrators/test_sppm.py checks the split against the
 all-photon form).
 
 Initial radius (when not given): R_0 = sqrt(K0 A_d / (pi photons_per_pass)) with A_d the
@@ -59,7 +59,7 @@ Determinism: camera numbers are hashes of (seed, pixel, pass, dimension) and pho
 numbers of (pass seed, photon, bounce, dimension) with pass seed a hash of (seed, pass).
 Glossy-only surfaces (no diffuse lobe) store no photons and end camera paths (black).
 Textures: the visible points carry the textured diffuse albedo of their hit; camera paths
-pass cut-outs stochastically like the integrator's (core/textures.py).
+pass cut-outs stochastically like the integrator's (core/materials/textures.py).
 """
 
 from __future__ import annotations
@@ -75,7 +75,7 @@ from .. import _numba_cache  # noqa: F401  (per-package numba cache, before any 
 from .. import sampling
 from ..materials import bsdf
 from ..passes import ProgressFn, RenderOutput, StopFn, TileFn
-from ..photons.hash_grid import HashGrid, cell_hash, cell_of
+from ..photons.hash_grid import HashGrid, within
 from ..photons.store import STORE_ALL, STORE_NOT_DIRECT
 from ..photons.tracing import photon_sources, trace_stored_photons
 from ..prepared import PreparedScene, prepare
@@ -130,41 +130,24 @@ def _gather_kernel(vp_pos, vp_ng, vp_ns, vp_wo, vp_mat, radius, ph_pos, ph_flux,
     for i in prange(vp_pos.shape[0]):
         px, py, pz = vp_pos[i, 0], vp_pos[i, 1], vp_pos[i, 2]
         r2 = radius[i] * radius[i]
-        cx = cell_of(px, lo[0], inv_h)
-        cy = cell_of(py, lo[1], inv_h)
-        cz = cell_of(pz, lo[2], inv_h)
         m = vp_mat[i]
         a0 = 0.0
         a1 = 0.0
         a2 = 0.0
         c = 0
         ring = np.int64(np.ceil(radius[i] * inv_h))
-        for ox in range(-ring, ring + 1):
-            for oy in range(-ring, ring + 1):
-                for oz in range(-ring, ring + 1):
-                    qx, qy, qz = cx + ox, cy + oy, cz + oz
-                    b = cell_hash(qx, qy, qz, mask)
-                    for j in range(start[b], start[b + 1]):
-                        k = order[j]
-                        # Another cell hashed into the same bucket: skip (counted there).
-                        if cells[k, 0] != qx or cells[k, 1] != qy or cells[k, 2] != qz:
-                            continue
-                        ex = ph_pos[k, 0] - px
-                        ey = ph_pos[k, 1] - py
-                        ez = ph_pos[k, 2] - pz
-                        if ex * ex + ey * ey + ez * ez > r2:
-                            continue
-                        wx, wy, wz = ph_dir[k, 0], ph_dir[k, 1], ph_dir[k, 2]
-                        # Front-side test: the photon arrived on the side the camera sees.
-                        if vp_ng[i, 0] * wx + vp_ng[i, 1] * wy + vp_ng[i, 2] * wz <= 0.0:
-                            continue
-                        c += 1
-                        kd, ks = bsdf.eval_reflection(
-                            0.0, 0.0, alpha[m], vp_ns[i, 0], vp_ns[i, 1], vp_ns[i, 2],
-                            vp_wo[i, 0], vp_wo[i, 1], vp_wo[i, 2], wx, wy, wz)
-                        a0 += (vp_albedo[i, 0] * kd + specular[m, 0] * ks) * ph_flux[k, 0]
-                        a1 += (vp_albedo[i, 1] * kd + specular[m, 1] * ks) * ph_flux[k, 1]
-                        a2 += (vp_albedo[i, 2] * kd + specular[m, 2] * ks) * ph_flux[k, 2]
+        for k in within(px, py, pz, r2, ring, ph_pos, lo, inv_h, mask, cells, start, order):
+            wx, wy, wz = ph_dir[k, 0], ph_dir[k, 1], ph_dir[k, 2]
+            # Front-side test: the photon arrived on the side the camera sees.
+            if vp_ng[i, 0] * wx + vp_ng[i, 1] * wy + vp_ng[i, 2] * wz <= 0.0:
+                continue
+            c += 1
+            kd, ks = bsdf.eval_reflection(
+                0.0, 0.0, alpha[m], vp_ns[i, 0], vp_ns[i, 1], vp_ns[i, 2],
+                vp_wo[i, 0], vp_wo[i, 1], vp_wo[i, 2], wx, wy, wz)
+            a0 += (vp_albedo[i, 0] * kd + specular[m, 0] * ks) * ph_flux[k, 0]
+            a1 += (vp_albedo[i, 1] * kd + specular[m, 1] * ks) * ph_flux[k, 1]
+            a2 += (vp_albedo[i, 2] * kd + specular[m, 2] * ks) * ph_flux[k, 2]
         phi[i, 0], phi[i, 1], phi[i, 2] = a0, a1, a2
         count[i] = c
 

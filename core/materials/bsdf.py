@@ -13,9 +13,10 @@ winding): a ray with d . n_g < 0 enters, eta = ior; otherwise it leaves, eta = 1
 Like Cycles for camera paths, refraction does not scale radiance by eta^2 (Cycles'
 singular refraction returns weight (1 - F) / pick-probability, ``bsdf_microfacet.h``).
 
-In this issue the delta lobes (mirror, smooth glass) are followed by the integrator as
-specular rays; the GGX lobe is only evaluated for direct light (no sampled glossy rays:
-they come with the transport issue), and the transmission lobe is always smooth.
+Camera paths follow the delta lobes (mirror, smooth glass) as specular rays
+(``continue_delta``, core/integrators/camera_paths.py); photons scatter off every lobe,
+GGX included (core/photons/scatter.py). Camera paths evaluate the GGX lobe for direct light
+only (they do not sample glossy rays yet), and the transmission lobe is always smooth.
 """
 
 from __future__ import annotations

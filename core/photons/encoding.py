@@ -16,7 +16,7 @@ accuracy and still fit the 24-byte budget (see ``photon_map.BYTES_PER_PHOTON``).
 
 Direction: the octahedral map (Meyer et al. 2010; Cigolle et al. 2014, "oct32"), two
 uint16 per unit vector, 4 bytes; measured maximum error 0.0037 degrees (4 million random
-directions, tests/core/test_photon_map.py).
+directions, tests/core/photons/test_photon_map.py).
 
 numpy encoders / decoders work on whole arrays; ``half_to_float`` and ``oct_decode`` are
 numba-callable scalars for kernels that read the compact arrays directly.

@@ -4,9 +4,10 @@ table, filled by one counting sort, for "which points lie within r of here" walk
 Cells are integer triples floor((x - lo) / h); a cell's bucket is ``cell_hash`` of the
 triple masked to the table size (a power of two, >= 2 N). Several cells can share a
 bucket: a walk compares each candidate's own cell (``cells``) with the cell it scans, so
-every point is found once, in its own cell. Walks are numba kernels of their callers
-(SPPM's photon gathering, the importance pre-pass's nearness test) over the arrays of a
-``HashGrid``.
+every point is found once, in its own cell. ``within`` is the one walk: a numba generator
+of the points within a radius of a query, in a fixed order (cells by offset, then bucket
+order), used by the kernels of SPPM's photon gathering and of the importance pre-pass's
+nearness test over the arrays of a ``HashGrid``.
 """
 
 from __future__ import annotations
@@ -53,6 +54,30 @@ def sort_into_cells(pos, lo, inv_h, mask, cells, start, order):
         b = buckets[i]
         order[fill[b]] = i
         fill[b] += 1
+
+
+@njit(cache=True, error_model="numpy")
+def within(px, py, pz, r2, ring, points, lo, inv_h, mask, cells, start, order):
+    """Yield the index of every point k with |points[k] - p|^2 <= r2 among the cells within
+    ``ring`` cells of p's (the caller chooses ring >= r * inv_h), each once, in walk order."""
+    cx = cell_of(px, lo[0], inv_h)
+    cy = cell_of(py, lo[1], inv_h)
+    cz = cell_of(pz, lo[2], inv_h)
+    for ox in range(-ring, ring + 1):
+        for oy in range(-ring, ring + 1):
+            for oz in range(-ring, ring + 1):
+                qx, qy, qz = cx + ox, cy + oy, cz + oz
+                b = cell_hash(qx, qy, qz, mask)
+                for j in range(start[b], start[b + 1]):
+                    k = order[j]
+                    # Another cell hashed into the same bucket: skip (found in its own).
+                    if cells[k, 0] != qx or cells[k, 1] != qy or cells[k, 2] != qz:
+                        continue
+                    ex = points[k, 0] - px
+                    ey = points[k, 1] - py
+                    ez = points[k, 2] - pz
+                    if ex * ex + ey * ey + ez * ez <= r2:
+                        yield k
 
 
 class HashGrid:

@@ -2,7 +2,7 @@
 
 Power alone shares photons badly when a bright light's photons never reach what the
 camera sees (a lamp in the next room, a sun on the roof of a closed room). Before the
-photon pass the tracer (core/tracing.py) measures, per source and map:
+photon pass the tracer (core/photons/tracing.py) measures, per source and map:
 
 1. Camera pre-pass: about PREPASS_PIXELS camera rays on a coarse pixel grid over the
    same film (one jittered ray per coarse pixel), following mirrors and glass exactly as
@@ -46,7 +46,7 @@ from .. import _numba_cache  # noqa: F401  (per-package numba cache, before any 
 from .. import sampling
 from . import emission
 from .estimate import auto_radius
-from .hash_grid import HashGrid, cell_hash, cell_of
+from .hash_grid import HashGrid, within
 
 PREPASS_PIXELS = 4096
 """Camera rays of the pre-pass (a coarse grid over the film, aspect kept)."""
@@ -116,28 +116,12 @@ def _near_kernel(ph_pos, ph_dir, vp_pos, vp_ng, cells, start, order, lo, inv_h, 
     the 27 cells around the photon's hold every candidate."""
     for p in prange(ph_pos.shape[0]):
         px, py, pz = ph_pos[p, 0], ph_pos[p, 1], ph_pos[p, 2]
-        cx = cell_of(px, lo[0], inv_h)
-        cy = cell_of(py, lo[1], inv_h)
-        cz = cell_of(pz, lo[2], inv_h)
         found = False
-        for ox in range(-1, 2):
-            for oy in range(-1, 2):
-                for oz in range(-1, 2):
-                    if found:
-                        continue
-                    qx, qy, qz = cx + ox, cy + oy, cz + oz
-                    b = cell_hash(qx, qy, qz, mask)
-                    for j in range(start[b], start[b + 1]):
-                        i = order[j]
-                        if cells[i, 0] != qx or cells[i, 1] != qy or cells[i, 2] != qz:
-                            continue
-                        ex, ey, ez = vp_pos[i, 0] - px, vp_pos[i, 1] - py, vp_pos[i, 2] - pz
-                        if ex * ex + ey * ey + ez * ez > r2:
-                            continue
-                        if (vp_ng[i, 0] * ph_dir[p, 0] + vp_ng[i, 1] * ph_dir[p, 1]
-                                + vp_ng[i, 2] * ph_dir[p, 2]) > 0.0:
-                            found = True
-                            break
+        for i in within(px, py, pz, r2, 1, vp_pos, lo, inv_h, mask, cells, start, order):
+            if (vp_ng[i, 0] * ph_dir[p, 0] + vp_ng[i, 1] * ph_dir[p, 1]
+                    + vp_ng[i, 2] * ph_dir[p, 2]) > 0.0:
+                found = True
+                break
         out[p] = found
 
 

@@ -15,7 +15,7 @@ irradiance, W/m^2):
   stored at the first diffuse hit of paths light -> specular+ -> diffuse.
 
 With more than one source, each map's photons are shared by power x visual importance
-(``photon_importance``; core/importance.py: a camera pre-pass and pilot photons), still
+(``photon_importance``; core/photons/importance.py: a camera pre-pass and pilot photons), still
 unbiased: every photon's flux is divided by its own source's count.
 
 What is skipped and why, and how many photons each source gets, is listed in

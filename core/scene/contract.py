@@ -187,7 +187,7 @@ class Textures:
     offset: (K,) int64, first row of ``pixels`` of texture k.
     width, height: (K,) int32 >= 1, texels; texture k is pixels[offset[k]:offset[k] + w * h].
     names: tuple of str, image names for messages.
-    Lookup (core/textures.py): bilinear, pixel centres at ((i + 0.5) / w, (j + 0.5) / h),
+    Lookup (core/materials/textures.py): bilinear, pixel centres at ((i + 0.5) / w, (j + 0.5) / h),
     repeat wrapping (Blender's default "Repeat" extension).
     """
 

@@ -29,13 +29,13 @@ def lit_plane(samples=4, **light):
 
 
 def test_every_core_pass_has_a_blender_pass(pm):
-    from photon_map.core.integrators import photon_mapping as integrator
+    from photon_map.core import passes
     from photon_map.photon_engine.render import EXTRA_PASSES
 
-    assert set(integrator.PASSES) <= set(EXTRA_PASSES)
+    assert set(passes.PASSES) <= set(EXTRA_PASSES)
     # ... under the names core/passes.py gives them (what the EXR writer uses too).
     for core_name, blender_name in EXTRA_PASSES.items():
-        assert integrator.BLENDER_PASS_NAMES[core_name] == blender_name, core_name
+        assert passes.BLENDER_PASS_NAMES[core_name] == blender_name, core_name
 
 
 def test_stats_say_which_maps_were_built_and_why_not(pm):
@@ -78,28 +78,30 @@ def test_image_is_not_upside_down(pm):
 
 
 class ProgressLog:
-    """Wraps render.progress_callback: records every call, optionally answers "cancel"
+    """Wraps render.progress_callbacks: records every progress call, and answers "stop"
     from the ``cancel_after``-th call on (what Esc does through test_break)."""
 
     def __init__(self, monkeypatch, cancel_after=None):
         from photon_map.photon_engine import render
 
         self.calls, self.cancel_after = [], cancel_after
-        original = render.progress_callback
+        original = render.progress_callbacks
 
         def factory(engine):
-            blender_progress = original(engine)
+            blender_progress, blender_stop = original(engine)
 
             def progress(fraction, message):
-                stop = blender_progress(fraction, message)  # the real update_progress/stats
+                blender_progress(fraction, message)  # the real update_progress/stats
                 self.calls.append((fraction, message))
+
+            def stop():
                 if self.cancel_after is not None and len(self.calls) >= self.cancel_after:
                     return True
-                return stop
+                return blender_stop()
 
-            return progress
+            return progress, stop
 
-        monkeypatch.setattr(render, "progress_callback", factory)
+        monkeypatch.setattr(render, "progress_callbacks", factory)
 
 
 def test_progress_reaches_one(pm, monkeypatch):

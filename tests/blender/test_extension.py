@@ -49,8 +49,8 @@ def test_zip_holds_the_runtime_and_nothing_else(extension_zip):
     names = set(zipfile.ZipFile(extension_zip).namelist())
     for needed in ("blender_manifest.toml", "__init__.py", "LICENSE",
                    "photon_engine/__init__.py", "photon_engine/engine.py",
-                   "photon_engine/export.py", "core/__init__.py", "core/scene.py",
-                   "core/integrator.py"):
+                   "photon_engine/export.py", "core/__init__.py", "core/scene/contract.py",
+                   "core/integrators/photon_mapping.py"):
         assert needed in names, needed
     for name in names:
         top = name.split("/", 1)[0]

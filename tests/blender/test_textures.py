@@ -55,7 +55,7 @@ def export(scene=None):
 
 
 def srgb_decode(c):
-    """IEC 61966-2-1, written out here independently of core/textures.py."""
+    """IEC 61966-2-1, written out here independently of core/materials/textures.py."""
     c = np.asarray(c, np.float64)
     return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
 

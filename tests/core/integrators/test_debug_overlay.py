@@ -314,7 +314,7 @@ def test_photons_on_a_grazing_surface_far_from_the_origin_all_show(rng):
     assert visible[seen].all()
 
 
-# --- in the render (core/integrator.py) ---------------------------------------------------
+# --- in the render (core/integrators/photon_mapping.py) ---------------------------------------------------
 
 def _wall_scene():
     """wall_mesh() (diffuse, albedo 0.5) lit by a point light in front of it, seen by

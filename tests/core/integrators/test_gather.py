@@ -1,8 +1,8 @@
 """The second pass's photon terms: radiance estimates, final gathering, the preview, the
-automatic radius, leaks, and the passes they fill (core/gather.py, core/integrator.py).
+automatic radius, leaks, and the passes they fill (core/integrators/gather.py, core/integrators/photon_mapping.py).
 
 Hand-built photon maps (photons placed with a known irradiance) test the gathering side on
-its own; the tests marked "traced" use core/tracing.py's maps end to end.
+its own; the tests marked "traced" use core/photons/tracing.py's maps end to end.
 """
 
 import math
@@ -128,7 +128,7 @@ def test_white_furnace_with_a_hand_built_global_map(albedo, rng):
 
 @pytest.mark.parametrize("albedo", [0.5, 0.8])
 def test_white_furnace_traced(albedo):
-    """The same furnace with photons traced from the emissive triangles (core/tracing.py):
+    """The same furnace with photons traced from the emissive triangles (core/photons/tracing.py):
     L_e / (1 - a) within 2 %. 64 photon bounces: at a = 0.8 the default 8 would cut the
     series by a^9 = 13 % of the indirect term."""
     scene, _ = furnace(albedo)

@@ -1,4 +1,4 @@
-"""Image textures and cut-outs (core/textures.py): the bilinear lookup and the sRGB decode
+"""Image textures and cut-outs (core/materials/textures.py): the bilinear lookup and the sRGB decode
 against hand-computed values, the scene contract's checks, textured albedo in every term
 (a uniform texture renders as the constant albedo it holds, a texture changes colour
 bleeding like the geometry it paints), and Principled alpha as a straight pass-through."""

@@ -1,4 +1,4 @@
-"""Photon emission (core/emission.py): the flux of every light kind sums to its power in
+"""Photon emission (core/photons/emission.py): the flux of every light kind sums to its power in
 Blender's units, directions follow the emission profile, the sun's disc covers the scene,
 aimed emission (projection map) carries the flux that the unaimed emission sends into the
 same spheres, and lights that cannot contribute get no photons."""

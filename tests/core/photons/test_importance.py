@@ -1,4 +1,4 @@
-"""Which photons are traced (core/importance.py, core/tracing.py, core/photon_pass.py):
+"""Which photons are traced (core/photons/importance.py, core/photons/tracing.py, core/integrators/photon_terms.py):
 photons shared by power x visual importance, unbiased, the decisions in the log."""
 
 import numpy as np

@@ -1,4 +1,4 @@
-"""Photon tracing (core/tracing.py, core/scatter.py): flux bookkeeping against analytic
+"""Photon tracing (core/photons/tracing.py, core/photons/scatter.py): flux bookkeeping against analytic
 series, the caustic of a glass sphere against an independent analytic-sphere tracer, the
 projection map, skipped maps, determinism, and leaks through a thin wall."""
 
