@@ -99,6 +99,19 @@ def disc_radius2(count, k, farthest_d2, max_r2):
     return np.float64(farthest_d2) if count == k else np.float64(max_r2)
 
 
+@njit(cache=True, nogil=True, inline="always")
+def gathered_disc(idx, dist2, i, k, max_r2):
+    """(count, r2) of query i's gathered photons (rows of PhotonMap.nearest's idx / dist2,
+    -1 after the last): how many were found and the squared disc radius (0 for k photons
+    exactly on the point; -1 when none were found)."""
+    c = 0
+    while c < k and idx[i, c] >= 0:
+        c += 1
+    if c == 0:
+        return 0, -1.0
+    return c, disc_radius2(c, k, dist2[i, c - 1], max_r2)
+
+
 @njit(parallel=True, cache=True, nogil=True)
 def _weights_kernel(tree, direction_codes, idx, dist2, points, normals, k, max_r2, kind,
                     k_cone, plane_fraction, out):
@@ -106,14 +119,11 @@ def _weights_kernel(tree, direction_codes, idx, dist2, points, normals, k, max_r
     Returns the number of zero-area discs holding photons."""
     degenerate = 0
     for i in prange(idx.shape[0]):
-        c = 0
-        while c < k and idx[i, c] >= 0:
-            c += 1
+        c, r2 = gathered_disc(idx, dist2, i, k, max_r2)
         for s in range(k):
             out[i, s] = 0.0
         if c == 0:
             continue
-        r2 = disc_radius2(c, k, dist2[i, c - 1], max_r2)
         if r2 == 0.0:
             degenerate += 1
             continue
@@ -271,12 +281,9 @@ def _estimate_kernel(tree, flux_codes, inv_scale, direction_codes, idx, dist2, p
         out[i, 0] = 0.0
         out[i, 1] = 0.0
         out[i, 2] = 0.0
-        c = 0
-        while c < k and idx[i, c] >= 0:
-            c += 1
+        c, r2 = gathered_disc(idx, dist2, i, k, max_r2)
         if c == 0:
             continue
-        r2 = disc_radius2(c, k, dist2[i, c - 1], max_r2)
         if r2 == 0.0:
             degenerate += 1
             continue

@@ -97,7 +97,7 @@ def test_translator_carries_every_value(pm):
     props.progressive_passes, props.photons_per_pass, props.time_budget = 9, 321, 2.5
     core = to_core_settings(props)
     assert core.passes() == ("emission", "environment", "specular", "caustics")
-    assert (core.integrators.photon_mapping, core.progressive_passes, core.photons_per_pass,
+    assert (core.integrator, core.progressive_passes, core.photons_per_pass,
             core.time_budget) == ('progressive', 9, 321, 2.5)
 
 
