@@ -11,6 +11,8 @@ Blender (BKE_camera_params_compute_viewplane) and Cycles frame the picture the s
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from ..core.scene import CAMERA_ORTHOGRAPHIC, CAMERA_PERSPECTIVE, Camera
@@ -93,3 +95,26 @@ def export_camera(depsgraph, warnings: list[str]) -> Camera:
         clip_end=float(cam.clip_end),
         name=cam_obj.name,
     )
+
+
+def render_origin(camera: Camera) -> np.ndarray:
+    """(3,) float64 world position of the render frame's origin: the camera's position.
+
+    The exporter moves everything (geometry, lights, camera) by -origin in float64 before
+    anything is stored as float32, so float32 only has to hold the scene's extent around
+    the camera, not its distance from Blender's world origin (architecture and GIS scenes
+    at 1e4 to 1e6 m). A uniform world and every image are independent of the origin.
+    """
+    return np.array(np.asarray(camera.to_world, np.float64)[:3, 3])
+
+
+def relative_matrix(matrix, origin) -> np.ndarray:
+    """(4, 4) float64 copy of ``matrix`` translated by -``origin`` (3,) metres."""
+    m = np.array(matrix, np.float64)
+    m[:3, 3] -= np.asarray(origin, np.float64)
+    return m
+
+
+def relative_camera(camera: Camera, origin) -> Camera:
+    """``camera`` in the render frame whose origin is at world ``origin`` (3,) metres."""
+    return dataclasses.replace(camera, to_world=relative_matrix(camera.to_world, origin))

@@ -100,7 +100,7 @@ def _render(engine, depsgraph):
             output = integrator.render(exported.scene, settings,
                                        progress=progress_callback(engine),
                                        on_tile=lambda done, passes: writer.update(passes))
-            show_in_viewport(output.photon_maps, settings.overlay_map)
+            show_in_viewport(output.photon_maps, settings.overlay_map, exported.origin)
         # A cancelled render still delivers what it has, like Cycles.
         writer.finish(output.passes)
     except BaseException:
@@ -185,9 +185,10 @@ def progressive_report(stats, elapsed, budget) -> str:
             f"{stats['photons_per_pass']:,} photons per pass")
 
 
-def show_in_viewport(maps, which):
+def show_in_viewport(maps, which, origin=None):
     """Hand the render's photons (``RenderOutput.photon_maps``, None = no map) of the map(s)
-    ``which`` to the viewport display; nothing in background mode, which draws nothing."""
+    ``which`` to the viewport display; nothing in background mode, which draws nothing.
+    origin: (3,) world position of the render frame (ExportResult.origin), added back."""
     import bpy
 
     if bpy.app.background:
@@ -197,6 +198,8 @@ def show_in_viewport(maps, which):
 
     positions, flux = debug_overlay.select_photons(
         maps.global_map if maps else None, maps.caustic_map if maps else None, which)
+    if origin is not None:
+        positions = positions + np.asarray(origin, np.float64)
     overlay.set_photons(positions, debug_overlay.display_colors(flux))
 
 

@@ -71,6 +71,7 @@ class ViewportRender:
 
     def __init__(self):
         self.scene = None        # core.Scene exported for this view
+        self.origin = None       # (3,) world position of its render frame (ExportResult.origin)
         self.state = None        # core.sppm.SPPMState after the latest pass
         self.error = None        # message of a scene the core refused
         self.target = 0          # passes to run
@@ -89,6 +90,7 @@ class ViewportRender:
         from ..core.scene import SceneError
         from ..core.settings import SettingsError
         from .export import export_scene
+        from .export_camera import relative_camera
         from .properties import to_core_settings
 
         if not self._stale and _view_key(camera) == self._view:
@@ -97,9 +99,11 @@ class ViewportRender:
         self._view, self.state, self.error, self._texture = _view_key(camera), None, None, None
         try:
             if self._stale or self.scene is None:
-                self.scene = export_scene(depsgraph, camera=camera).scene
-            else:
-                self.scene = dataclasses.replace(self.scene, camera=camera)
+                exported = export_scene(depsgraph, camera=camera)
+                self.scene, self.origin = exported.scene, exported.origin
+            else:  # the same render frame: only the view moved
+                self.scene = dataclasses.replace(self.scene,
+                                                 camera=relative_camera(camera, self.origin))
             props = depsgraph.scene.photon_map
             settings = to_core_settings(props)
             self.target = int(props.viewport_passes)

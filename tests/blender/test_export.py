@@ -25,6 +25,9 @@ from photon_map.photon_engine.compat import ensure_node_tree  # noqa: E402
 from photon_map.photon_engine.export import ExportError, NoCameraError, export_scene  # noqa: E402
 
 
+ORIGIN = np.zeros(3)  # world coordinates, to check against bpy's own (test_render_origin)
+
+
 class ExportProbe(bpy.types.RenderEngine):
     """Runs the exporter on the render depsgraph, as PhotonMapRenderEngine.render does."""
 
@@ -34,7 +37,7 @@ class ExportProbe(bpy.types.RenderEngine):
 
     def render(self, depsgraph):
         try:
-            type(self).outcome = export_scene(depsgraph)
+            type(self).outcome = export_scene(depsgraph, origin=ORIGIN)
         except Exception as exc:  # handed back to the test, which re-raises it
             type(self).outcome = exc
 
