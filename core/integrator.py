@@ -246,7 +246,11 @@ def _render_tile(ctx: _Context, pix: np.ndarray) -> dict[str, np.ndarray]:
     # Generate camera rays
     jitter = np.stack(sampling.stratified2(st.seed, pixel, sample, s_count,
                                            sampling.stream(sampling.PIXEL_JITTER)), axis=1)
-    rays = camera.generate_rays(ctx.scene.camera, pixel, jitter)
+    lens = None
+    if camera.has_aperture(ctx.scene.camera):  # depth of field: a point on the aperture
+        lens = np.stack(sampling.stratified2(st.seed, pixel, sample, s_count,
+                                             sampling.stream(sampling.PIXEL_JITTER, 1)), axis=1)
+    rays = camera.generate_rays(ctx.scene.camera, pixel, jitter, lens)
     origins, dirs, tmax = rays.origins, rays.directions, rays.tmax
     rows = np.arange(n)
     thr = np.ones((n, 3))

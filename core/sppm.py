@@ -92,6 +92,7 @@ MAX_PHOTONS_PER_PASS = 1 << 26
 
 # Random dimensions of the camera paths (stream indices; purposes from core/sampling.py).
 _DIM_JITTER = sampling.stream(sampling.PIXEL_JITTER, 7)
+_DIM_LENS = sampling.stream(sampling.PIXEL_JITTER, 8)
 
 
 def _dim_lobe(depth: int) -> int:
@@ -363,7 +364,11 @@ def _camera_pass(ctx: _Context, k: int, direct: np.ndarray) -> VisiblePoints:
     sample = np.full(n, k, np.int64)
     jitter = np.empty((n, 2))
     _jitter_kernel(np.int64(ctx.seed), np.int64(k), np.int64(_DIM_JITTER), jitter)
-    rays = camera.generate_rays(cam, pixel, jitter)
+    lens = None
+    if camera.has_aperture(cam):  # depth of field: a point on the aperture, per pass
+        lens = np.empty((n, 2))
+        _jitter_kernel(np.int64(ctx.seed), np.int64(k), np.int64(_DIM_LENS), lens)
+    rays = camera.generate_rays(cam, pixel, jitter, lens)
     origins, dirs, tmax = rays.origins, rays.directions, rays.tmax
     rows = pixel
     thr = np.ones((n, 3))
