@@ -58,6 +58,7 @@ import numpy as np
 from numba import njit, prange
 
 from . import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
+from . import denoise_features
 from . import (bsdf, camera, debug_overlay, direct, gather, geometry, lights, photon_pass,
                sampling, textures)
 from .accel import Accelerator, default_threads
@@ -252,6 +253,9 @@ def _render_tile(ctx: _Context, pix: np.ndarray) -> dict[str, np.ndarray]:
                                              sampling.stream(sampling.PIXEL_JITTER, 1)), axis=1)
     rays = camera.generate_rays(ctx.scene.camera, pixel, jitter, lens)
     origins, dirs, tmax = rays.origins, rays.directions, rays.tmax
+    features = None
+    if st.denoising_data:  # Cycles' Denoising Albedo / Normal (core/denoise_features.py)
+        features = denoise_features.FeatureAccumulator(n, camera.camera_frame(ctx.scene.camera)[1:])
     rows = np.arange(n)
     thr = np.ones((n, 3))
     transmitted = np.zeros(n, bool)
@@ -311,6 +315,9 @@ def _render_tile(ctx: _Context, pix: np.ndarray) -> dict[str, np.ndarray]:
             hits.v[h], d, ctx.extent)
         albedo = ctx.surfaces.albedo(hits.prim[h], hits.u[h], hits.v[h], mat)
         _add(emit_target, rows, thr * mats["emission"][mat])  # two-sided, like Cycles' closure
+        if features is not None:
+            features.surface(rows, albedo, mats["specular"][mat], mats["transmission"][mat],
+                             mats["alpha"][mat], nsf)
         ctx.stats["time_shading"] += time.perf_counter() - t1
 
         # Direct light at the hits' non-delta lobes
@@ -353,6 +360,8 @@ def _render_tile(ctx: _Context, pix: np.ndarray) -> dict[str, np.ndarray]:
 
     t0 = time.perf_counter()
     out = {}
+    if features is not None:
+        kept = {**kept, "denoising_albedo": features.albedo, "denoising_normal": features.normal}
     for name, per_sample in kept.items():
         mean = np.empty((pix.shape[0], 3))
         _pixel_mean_kernel(per_sample, s_count, mean)
@@ -408,7 +417,8 @@ def render(scene: Scene, settings: RenderSettings | None = None,
     cam = scene.camera
     w, h = int(cam.width), int(cam.height)
     n_pix = w * h
-    images = {name: np.zeros((n_pix, 3)) for name in ctx.outputs}
+    features = denoise_features.FEATURES if settings.denoising_data else ()
+    images = {name: np.zeros((n_pix, 3)) for name in (*ctx.outputs, *features)}
     done = 0
     # Start small (the first tile also pays for loading the kernels), then adapt.
     per_tile = max(1, TARGET_SAMPLES_PER_TILE // 8 // settings.samples)
@@ -422,7 +432,7 @@ def render(scene: Scene, settings: RenderSettings | None = None,
             t0 = time.perf_counter()
             pix = np.arange(done, min(n_pix, done + per_tile), dtype=np.int64)
             result = _render_tile(ctx, pix)
-            for name in ctx.outputs:
+            for name in (*ctx.outputs, *features):
                 images[name][pix] = result[name]
             done += pix.shape[0]
             tiles += 1
@@ -456,6 +466,8 @@ def render(scene: Scene, settings: RenderSettings | None = None,
     if progress is not None and not cancelled:
         progress(1.0, "Done")
     passes = _assemble(images, ctx.outputs, h, w)
+    for name in features:  # not light: not in combined
+        passes[name] = images[name].reshape(h, w, 3).astype(np.float32)
     if debug_dots is not None:
         passes["photons"] = debug_dots
         if settings.overlay_composite:

@@ -15,6 +15,9 @@ asks this module instead of testing ``bpy.app.version`` itself:
   finds an input by today's name or any older one.
 - 5.2's Principled BSDF has a boolean "Thin Wall" input (``thin_wall``), absent before.
 - EEVEE's engine id is "BLENDER_EEVEE_NEXT" in 4.2 to 4.5 (``EEVEE``).
+- The compositor: from 5.0 a ``CompositorNodeTree`` node group in
+  ``scene.compositing_node_group`` whose Group Output "Image" is the result; before, the
+  scene's own ``node_tree`` with ``use_nodes`` and a Composite node (``denoise_compositor``).
 - bpy 4.2 as a Python module crashes (SIGSEGV) while the interpreter shuts down once any
   registered property has an ``update`` callback, even after unregistering; the headless
   CLI leaves through ``exit_process`` (os._exit after flushing) there.
@@ -103,3 +106,62 @@ def thin_wall(node) -> bool:
     """True when a Principled BSDF's "Thin Wall" input (5.2+) is switched on (unlinked)."""
     sock = node.inputs.get("Thin Wall")
     return bool(sock is not None and getattr(sock, "default_value", False))
+
+
+DENOISE_TREE = "Photon Map Denoise"
+"""Name of the compositor node group (5.0+) or marker node (4.x) denoise_compositor makes."""
+
+
+def denoise_compositor(scene, on: bool) -> str:
+    """Set up (``on``) or remove the compositor that denoises a Photon Map render:
+    Render Layers (Image, Denoising Albedo, Denoising Normal) -> Denoise (OpenImageDenoise,
+    shipped with Blender) -> the compositor's output, with ``use_compositing`` on.
+
+    Leaves a scene's own compositor alone and says so: returns "" when done, else a
+    message for the user.
+    """
+    scene.render.use_compositing = True if on else scene.render.use_compositing
+    if hasattr(scene, "compositing_node_group"):  # 5.0+
+        current = scene.compositing_node_group
+        ours = current is not None and current.name.startswith(DENOISE_TREE)
+        if not on:
+            if ours:
+                scene.compositing_node_group = None
+                bpy.data.node_groups.remove(current)
+            return ""
+        if current is not None:
+            return "" if ours else (f"scene '{scene.name}' has its own compositor "
+                                    f"('{current.name}'): add a Denoise node to it by hand")
+        tree = bpy.data.node_groups.new(DENOISE_TREE, "CompositorNodeTree")
+        tree.interface.new_socket("Image", in_out="OUTPUT", socket_type="NodeSocketColor")
+        out = tree.nodes.new("NodeGroupOutput")
+        scene.compositing_node_group = tree
+    else:  # 4.x: the scene's own tree
+        if not on:
+            tree = scene.node_tree
+            if tree is not None and tree.nodes.get(DENOISE_TREE) is not None:
+                tree.nodes.clear()
+                scene.use_nodes = False
+            return ""
+        scene.use_nodes = True
+        tree = scene.node_tree
+        if tree.nodes.get(DENOISE_TREE) is not None:
+            return ""
+        if any(n.bl_idname not in ("CompositorNodeRLayers", "CompositorNodeComposite")
+               for n in tree.nodes):
+            return (f"scene '{scene.name}' has its own compositor: add a Denoise node to it "
+                    f"by hand")
+        tree.nodes.clear()
+        out = tree.nodes.new("CompositorNodeComposite")
+    layers = tree.nodes.new("CompositorNodeRLayers")
+    layers.scene = scene
+    denoise = tree.nodes.new("CompositorNodeDenoise")
+    denoise.name = DENOISE_TREE
+    links = tree.links
+    links.new(layers.outputs["Image"], denoise.inputs["Image"])
+    for name in ("Albedo", "Normal"):
+        source = layers.outputs.get(f"Denoising {name}")
+        if source is not None:
+            links.new(source, denoise.inputs[name])
+    links.new(denoise.outputs["Image"], out.inputs["Image"])
+    return ""
