@@ -95,8 +95,8 @@ def _update_denoise(self, context):
     from . import compat
 
     scene = getattr(context, "scene", None) or self.id_data
-    if self.denoise and not self.pass_denoising_data:
-        self.pass_denoising_data = True
+    if self.denoise and not self.denoising_data:
+        self.denoising_data = True
     message = compat.denoise_compositor(scene, self.denoise)
     if message:
         print(f"Photon Map: {message}")
@@ -315,7 +315,7 @@ class PhotonMapRenderSettings(bpy.types.PropertyGroup):
         description="Indirect pass: indirect diffuse light (colour bleeding) from the global map",
         default=True, update=_update_passes,
     )
-    pass_denoising_data: BoolProperty(
+    denoising_data: BoolProperty(
         name="Denoising Data",
         description="Denoising Albedo and Denoising Normal passes, as Cycles defines them, "
                     "for the compositor's Denoise node (Photon Map integrator)",
@@ -422,7 +422,7 @@ def to_core_settings(props):
         pass_specular=bool(props.pass_specular),
         pass_caustics=bool(props.pass_caustics),
         pass_indirect=bool(props.pass_indirect),
-        denoising_data=bool(props.pass_denoising_data),
+        denoising_data=bool(props.denoising_data),
         integrator=props.integrator,
         progressive_passes=props.progressive_passes,
         photons_per_pass=props.photons_per_pass,

@@ -55,7 +55,7 @@ def render_passes(props):
            if props is None or getattr(props, f"pass_{core_name}")]
     if props is not None and props.photon_debug_pass:
         out.append((*DEBUG_PASS, 4, "RGBA"))
-    if props is not None and props.pass_denoising_data:
+    if props is not None and props.denoising_data:
         out.extend((core, blender, 3, chan) for core, blender, chan in DENOISING_PASSES)
     return out
 

@@ -82,7 +82,7 @@ class PHOTON_MAP_VIEWLAYER_PT_passes(PhotonMapPanel, bpy.types.Panel):
             col.prop(settings, f"pass_{name}")
         col = layout.column(heading="Data", align=True)
         col.active = settings.integrator == 'photon_map'
-        col.prop(settings, "pass_denoising_data")
+        col.prop(settings, "denoising_data")
         col.prop(settings, "denoise")
         col = layout.column(heading="Debug", align=True)
         col.active = settings.integrator == 'photon_map'

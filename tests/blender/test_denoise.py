@@ -52,7 +52,7 @@ def test_denoising_passes_match_cycles():
     scene.view_layers[0].cycles.denoising_store_passes = True
     cycles = scenes.render_passes(scene)
     scene = feature_scene()
-    scenes.use_photon_map(scene, samples=64, pass_denoising_data=True, caustics=False,
+    scenes.use_photon_map(scene, samples=64, denoising_data=True, caustics=False,
                           indirect_mode='off', seed=1)
     ours = scenes.render_passes(scene)
     for name in ("Denoising Albedo", "Denoising Normal"):
@@ -108,7 +108,7 @@ def test_denoise_lowers_the_error_of_a_preview_render(tmp_path):
     apply_quality(scene.photon_map, "preview")
     noisy = composite(scene, tmp_path / "noisy.exr")
     scene.photon_map.denoise = True
-    assert scene.photon_map.pass_denoising_data
+    assert scene.photon_map.denoising_data
     denoised = composite(scene, tmp_path / "denoised.exr")
     before, after = relmse(noisy, reference), relmse(denoised, reference)
     print(f"\nPreview vs Converged relMSE: {before:.4f} noisy, {after:.4f} denoised")
