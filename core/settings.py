@@ -120,6 +120,9 @@ class RenderSettings:
     """Produce the "caustics" pass (the term itself is switched by ``caustics``)."""
     pass_indirect: bool = True
     """Produce the "indirect" pass (the term itself is switched by ``indirect_mode``)."""
+    denoising_data: bool = False
+    """Produce "denoising_albedo" and "denoising_normal" (core/integrators/denoise_features.py, Cycles'
+    definitions) for the compositor's Denoise node; the Photon Map integrator only."""
 
     # Integrator choice and the progressive mode (core/integrators/sppm.py).
     integrator: str = "photon_map"
@@ -191,7 +194,7 @@ class RenderSettings:
             raise SettingsError(f'"time_budget" must be a number in [0, {MAX_TIME_BUDGET:g}] '
                                 f'(seconds; 0 = no budget), got {v!r}')
         for name in ("projection_map", "photon_importance", "caustics", "photon_debug_pass",
-                     "overlay_composite") + tuple(
+                     "overlay_composite", "denoising_data") + tuple(
                 f"pass_{p}" for p in PASSES):
             v = getattr(self, name)
             if not isinstance(v, bool):

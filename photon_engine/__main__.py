@@ -28,4 +28,7 @@ def load_extension_package(name="photon_map"):
 if __name__ == "__main__":
     load_extension_package()
     cli = importlib.import_module("photon_map.photon_engine.cli")
-    sys.exit(cli.main(sys.argv[1:]))
+    code = cli.main(sys.argv[1:])
+    if "bpy" in sys.modules:  # leaves past bpy 4.2's crash at interpreter shutdown
+        importlib.import_module("photon_map.photon_engine.compat").exit_process(code)
+    sys.exit(code)

@@ -11,6 +11,10 @@ Mesh data is read with ``foreach_get`` into numpy once per distinct evaluated me
 transformed for all of its instances at once (normals by the inverse transpose).
 Images used by Image Texture nodes are read once per export (export_materials.ImageTable).
 What is exported and how shaders map to lobes: docs/export.md.
+
+Positions are exported relative to a render origin (export_camera.render_origin: the
+camera's position), in float64 until the final float32 arrays, so a scene far from
+Blender's world origin keeps its precision; ``ExportResult.origin`` says where it is.
 """
 
 from __future__ import annotations
@@ -20,7 +24,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..core.scene.contract import Lights, Materials, Mesh, Scene, World
-from .export_camera import export_camera
+from .export_camera import export_camera, relative_camera, relative_matrix, render_origin
 from .export_errors import ExportError, NoCameraError  # noqa: F401  (re-exported)
 from .export_lights import light_row
 from .export_materials import ImageTable, default_row, read_material, read_world
@@ -31,23 +35,30 @@ _VISIBILITY_FLAGS = ("visible_camera", "visible_diffuse", "visible_glossy",
 
 @dataclass
 class ExportResult:
-    """scene: the validated core.Scene; warnings: messages for the user (one per problem)."""
+    """scene: the validated core.Scene, in the render frame; warnings: messages for the user
+    (one per problem); origin: (3,) float64 world position (metres) of the render frame's
+    origin: world = scene coordinates + origin (rotation-free).
+    """
 
     scene: Scene
     warnings: list[str] = field(default_factory=list)
+    origin: np.ndarray = field(default_factory=lambda: np.zeros(3))
 
 
-def export_scene(depsgraph, camera=None) -> ExportResult:
+def export_scene(depsgraph, camera=None, origin=None) -> ExportResult:
     """Build the core scene from an evaluated depsgraph (render or viewport).
 
     ``camera``: a core Camera to render through instead of the scene camera (the 3D
     viewport's view, photon_engine/viewport.py). Raises NoCameraError without either and
     ExportError (a core SceneError) for data that cannot be rendered, e.g. a NaN in an
-    object's transform.
+    object's transform. ``origin``: (3,) world position of the render frame's origin
+    (default: the camera's position; zeros keep world coordinates).
     """
     warnings: list[str] = []
     if camera is None:
         camera = export_camera(depsgraph, warnings)  # fail fast, before reading geometry
+    origin = render_origin(camera) if origin is None else np.asarray(origin, np.float64)
+    camera = relative_camera(camera, origin)
     materials = _MaterialTable(warnings)
     geometry = _Geometry(warnings)
     light_rows = []
@@ -62,19 +73,20 @@ def export_scene(depsgraph, camera=None) -> ExportResult:
         if obj.type == 'LIGHT':
             row = light_row(obj, inst.matrix_world, name, warnings)
             if row is not None:
+                row["to_world"] = relative_matrix(row["to_world"], origin)
                 light_rows.append(row)
         else:
             geometry.add(obj, inst.matrix_world, name, materials)
 
     scene = Scene(
-        mesh=geometry.build(),
+        mesh=geometry.build(origin),
         materials=Materials.from_list(materials.rows),
         lights=Lights.from_list(light_rows),
         camera=camera,
         world=_export_world(depsgraph, warnings),
         textures=materials.images.textures(),
     )
-    return ExportResult(scene=scene.validate(), warnings=warnings)
+    return ExportResult(scene=scene.validate(), warnings=warnings, origin=origin)
 
 
 def _instance_name(inst) -> str:
@@ -257,7 +269,9 @@ class _Geometry:
         self.names.append(name)
         self._batches.setdefault((key, materials.slots(obj)), []).append((m, len(self.names) - 1))
 
-    def build(self) -> Mesh:
+    def build(self, origin) -> Mesh:
+        """The mesh in the render frame: world positions - ``origin`` (3,), in float64
+        until the float32 cast."""
         if not self._batches:
             return Mesh.empty()
         parts = []
@@ -269,6 +283,7 @@ class _Geometry:
             base += part[0].shape[0]
             parts.append(part)
         verts, tris, normals, uvs, mats, objs = (np.concatenate(col) for col in zip(*parts))
+        verts -= np.asarray(origin, np.float64)
         f32, i32 = np.float32, np.int32
         return Mesh(vertices=verts.astype(f32), triangles=tris.astype(i32, copy=False),
                     normals=normals.astype(f32, copy=False), uvs=uvs.astype(f32, copy=False),

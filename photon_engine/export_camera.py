@@ -11,6 +11,8 @@ Blender (BKE_camera_params_compute_viewplane) and Cycles frame the picture the s
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from ..core.scene.contract import CAMERA_ORTHOGRAPHIC, CAMERA_PERSPECTIVE, Camera
@@ -74,8 +76,6 @@ def export_camera(depsgraph, warnings: list[str]) -> Camera:
     if cam.type == 'PANO':
         warnings.append(f"Camera '{cam_obj.name}': panoramic cameras are not supported; "
                         f"rendering it as a perspective camera")
-    if getattr(cam, "dof", None) is not None and cam.dof.use_dof:
-        warnings.append(f"Camera '{cam_obj.name}': depth of field is not supported yet; ignored")
     render = scene.render
     width, height = render_size(render)
     if width < 1 or height < 1:
@@ -92,4 +92,60 @@ def export_camera(depsgraph, warnings: list[str]) -> Camera:
         clip_start=float(cam.clip_start),
         clip_end=float(cam.clip_end),
         name=cam_obj.name,
+        **depth_of_field(cam_obj, cam, warnings),
     )
+
+
+_FSTOP_INFINITY = float(np.finfo(np.float32).max)
+"""Blender's largest f-stop (typing inf stores it): a pinhole, exactly."""
+
+
+def depth_of_field(cam_obj, cam, warnings) -> dict:
+    """Camera fields for the Depth of Field panel, as Cycles reads it (blender/camera.cpp):
+    aperture radius = focal length / (2 f-stop) in metres (the lens in mm x 1e-3),
+    blades < 3 = round, rotation in radians, ratio; the focus distance is the focus
+    object's depth along the view axis, else ``focus_distance``. {} without DOF."""
+    dof = getattr(cam, "dof", None)
+    if dof is None or not dof.use_dof or cam.type == 'ORTHO':
+        if dof is not None and dof.use_dof:
+            warnings.append(f"Camera '{cam_obj.name}': depth of field on an orthographic "
+                            f"camera is not supported yet; ignored")
+        return {}
+    fstop = max(float(dof.aperture_fstop), 1e-5)
+    if fstop >= _FSTOP_INFINITY:  # "inf" typed into the field: Blender stores FLT_MAX
+        return {}
+    focus = float(dof.focus_distance)
+    if dof.focus_object is not None:
+        m = np.array(cam_obj.matrix_world, np.float64)
+        target = np.array(dof.focus_object.matrix_world, np.float64)[:3, 3]
+        view = -m[:3, 2] / np.linalg.norm(m[:3, 2])
+        focus = abs(float(np.dot(view, target - m[:3, 3])))
+    blades = int(dof.aperture_blades)
+    return {"aperture_radius": float(cam.lens) * 1e-3 / (2.0 * fstop),
+            "focus_distance": max(focus, 1e-6),
+            "aperture_blades": blades if blades >= 3 else 0,
+            "aperture_rotation": float(dof.aperture_rotation),
+            "aperture_ratio": max(float(dof.aperture_ratio), 1e-6)}
+
+
+def render_origin(camera: Camera) -> np.ndarray:
+    """(3,) float64 world position of the render frame's origin: the camera's position.
+
+    The exporter moves everything (geometry, lights, camera) by -origin in float64 before
+    anything is stored as float32, so float32 only has to hold the scene's extent around
+    the camera, not its distance from Blender's world origin (architecture and GIS scenes
+    at 1e4 to 1e6 m). A uniform world and every image are independent of the origin.
+    """
+    return np.array(np.asarray(camera.to_world, np.float64)[:3, 3])
+
+
+def relative_matrix(matrix, origin) -> np.ndarray:
+    """(4, 4) float64 copy of ``matrix`` translated by -``origin`` (3,) metres."""
+    m = np.array(matrix, np.float64)
+    m[:3, 3] -= np.asarray(origin, np.float64)
+    return m
+
+
+def relative_camera(camera: Camera, origin) -> Camera:
+    """``camera`` in the render frame whose origin is at world ``origin`` (3,) metres."""
+    return dataclasses.replace(camera, to_world=relative_matrix(camera.to_world, origin))

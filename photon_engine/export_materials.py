@@ -37,9 +37,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..core.color import luminance
-
-from ..core.scene.contract import Textures
 from ..core.materials.textures import srgb_to_linear
+from ..core.scene.contract import Textures
+from . import compat
 
 DEFAULT_GREY = 0.8
 """Albedo of the material used for empty slots and unreadable trees (Cycles' default surface)."""
@@ -150,10 +150,9 @@ class _Reader:
 
     # Socket values ------------------------------------------------------------------
     def _input(self, node, *names):
-        for name in names:
-            sock = node.inputs.get(name)
-            if sock is not None:
-                return sock
+        sock = compat.input_socket(node, *names)
+        if sock is not None:
+            return sock
         raise UnreadableTree(f"node '{node.name}' has none of the inputs {names}")
 
     def _value(self, node, *names, default=None):
@@ -238,16 +237,19 @@ class _Reader:
         tint = base if tex < 0 else self.images.mean_rgb(tex)
         metallic = float(np.clip(self.scalar(node, "Metallic"), 0.0, 1.0))
         roughness = float(np.clip(self.scalar(node, "Roughness"), 0.0, 1.0))
-        transmission = float(np.clip(self.scalar(node, "Transmission Weight", "Transmission",
+        transmission = float(np.clip(self.scalar(node, "Transmission Weight",
                                                  default=0.0), 0.0, 1.0))
         ior = max(self.scalar(node, "IOR", default=1.5), 1e-5)
-        emission = self.color(node, "Emission Color", "Emission", default=(0.0, 0.0, 0.0))
+        emission = self.color(node, "Emission Color", default=(0.0, 0.0, 0.0))
         strength = self.scalar(node, "Emission Strength", default=1.0)
         c = _glossy(spec=np.minimum(tint, 1.0) * metallic,
                     trans=tint * (1 - metallic) * transmission, roughness=roughness, ior=ior)
         c.diffuse = base * (1 - metallic) * (1 - transmission)
         c.diffuse_texture = tex
         c.emission = emission * max(strength, 0.0)
+        if transmission > 0 and compat.thin_wall(node):
+            self.note(f'Material "{self.material}": node "{node.name}": Thin Wall is not '
+                      f'supported yet; its transmission refracts as a solid volume')
         if tex >= 0 and (metallic > 0 or transmission > 0):
             self.note(f'Material "{self.material}": node "{node.name}": metallic and '
                       f'transmission use the image\'s mean colour (only the diffuse lobe '
@@ -282,7 +284,7 @@ class _Reader:
         return Closure(emission=self.color(node, "Color") * max(self.scalar(node, "Strength"), 0.0))
 
     def mix(self, node) -> Closure:
-        fac = float(np.clip(self.scalar(node, "Fac", "Factor"), 0.0, 1.0))
+        fac = float(np.clip(self.scalar(node, "Factor"), 0.0, 1.0))
         shaders = [s for s in node.inputs if s.type == 'SHADER']
         if len(shaders) != 2:
             raise UnreadableTree(f"mix node '{node.name}' without two shader inputs")
@@ -365,13 +367,8 @@ def read_surface(tree, output_idnames, reader=None) -> tuple[Closure, list[str]]
 
 
 def _node_tree(idblock):
-    """The ID's node tree if Cycles would use it (5.0 always does; ``use_nodes`` is deprecated)."""
-    import bpy
-
-    tree = getattr(idblock, "node_tree", None)
-    if tree is None or bpy.app.version >= (5, 0, 0):
-        return tree
-    return tree if idblock.use_nodes else None
+    """The ID's node tree if Cycles would use it (compat.node_tree)."""
+    return compat.node_tree(idblock)
 
 
 def read_material(mat, warnings: list[str], images: "ImageTable | None" = None) -> dict:
@@ -527,7 +524,7 @@ def read_world(world, warnings: list[str]) -> np.ndarray:
 
 def read_light_nodes(light, warnings: list[str]) -> np.ndarray:
     """The colour factor (3,) a light's own node tree applies to its emission (1 if none)."""
-    tree = light.node_tree if getattr(light, "use_nodes", False) else None
+    tree = compat.node_tree(light)
     if tree is None:
         return np.ones(3)
     try:

@@ -85,7 +85,21 @@ MAX_DOT_RADIUS_PX = 32.0  # core.settings.MAX_DOT_RADIUS_PX (kept equal by a tes
 
 # Properties of scene.photon_map that the core never sees (not in setting_names()).
 VIEWPORT_ONLY = ("show_photons_in_viewport", "viewport_passes")
-UI_ONLY = ("quality",)  # its values are in the governed settings the core does see
+UI_ONLY = ("quality", "denoise")  # quality: its values are in the governed settings the
+# core does see; denoise: a compositor set-up (compat.denoise_compositor), not a core setting
+
+
+def _update_denoise(self, context):
+    """Denoise on: the denoising passes and a compositor Render Layers -> Denoise -> output
+    (compat.denoise_compositor); off: that compositor is removed again."""
+    from . import compat
+
+    scene = getattr(context, "scene", None) or self.id_data
+    if self.denoise and not self.denoising_data:
+        self.denoising_data = True
+    message = compat.denoise_compositor(scene, self.denoise)
+    if message:
+        print(f"Photon Map: {message}")
 
 
 def _update_passes(self, context):
@@ -301,6 +315,19 @@ class PhotonMapRenderSettings(bpy.types.PropertyGroup):
         description="Indirect pass: indirect diffuse light (colour bleeding) from the global map",
         default=True, update=_update_passes,
     )
+    denoising_data: BoolProperty(
+        name="Denoising Data",
+        description="Denoising Albedo and Denoising Normal passes, as Cycles defines them, "
+                    "for the compositor's Denoise node (Photon Map integrator)",
+        default=False, update=_update_passes,
+    )
+    denoise: BoolProperty(
+        name="Denoise",
+        description="Denoise the render with OpenImageDenoise after it finishes: adds the "
+                    "denoising passes and a compositor Render Layers -> Denoise -> output "
+                    "(when the scene has no compositor of its own)",
+        default=False, update=_update_denoise,
+    )
 
     # Integrator and the progressive mode (core/integrators/sppm.py).
     integrator: EnumProperty(
@@ -395,6 +422,7 @@ def to_core_settings(props):
         pass_specular=bool(props.pass_specular),
         pass_caustics=bool(props.pass_caustics),
         pass_indirect=bool(props.pass_indirect),
+        denoising_data=bool(props.denoising_data),
         integrator=props.integrator,
         progressive_passes=props.progressive_passes,
         photons_per_pass=props.photons_per_pass,

@@ -35,6 +35,10 @@ EXTRA_PASSES = {
 }
 # The photon debug pass (core/integrators/debug_overlay.py): RGBA, not part of Combined.
 DEBUG_PASS = ("photons", "Photons")
+# Denoising features (core/denoise_features.py), under Cycles' pass names, which the
+# compositor's Denoise node takes: (core name, Blender name, channel ids).
+DENOISING_PASSES = (("denoising_albedo", "Denoising Albedo", "RGB"),
+                    ("denoising_normal", "Denoising Normal", "XYZ"))
 
 PASS_UPDATE_SECONDS = 0.2
 """Least time between two progressive images sent to Blender (very fast passes)."""
@@ -51,6 +55,8 @@ def render_passes(props):
            if props is None or getattr(props, f"pass_{core_name}")]
     if props is not None and props.photon_debug_pass:
         out.append((*DEBUG_PASS, 4, "RGBA"))
+    if props is not None and props.denoising_data:
+        out.extend((core, blender, 3, chan) for core, blender, chan in DENOISING_PASSES)
     return out
 
 
@@ -58,7 +64,8 @@ def register_passes(engine, scene, view_layer):
     """``RenderEngine.update_render_passes``: declare the passes a render will fill."""
     engine.register_pass(scene, view_layer, "Combined", 4, "RGBA", 'COLOR')
     for _, name, channels, chan_id in render_passes(getattr(scene, "photon_map", None)):
-        engine.register_pass(scene, view_layer, name, channels, chan_id, 'COLOR')
+        engine.register_pass(scene, view_layer, name, channels, chan_id,
+                             'VECTOR' if chan_id == "XYZ" else 'COLOR')
 
 
 def render_frame(engine, depsgraph):
@@ -101,7 +108,7 @@ def _render(engine, depsgraph):
             output = core_render(exported.scene, settings, on_progress=on_progress,
                                  on_tile=lambda done, passes: writer.update(passes),
                                  should_stop=should_stop)
-            show_in_viewport(output.photon_maps, settings.overlay_map)
+            show_in_viewport(output.photon_maps, settings.overlay_map, exported.origin)
         # A cancelled render still delivers what it has, like Cycles.
         writer.finish(output.passes)
     except BaseException:
@@ -187,9 +194,10 @@ def progressive_report(stats, elapsed, budget) -> str:
             f"{stats['photons_per_pass']:,} photons per pass")
 
 
-def show_in_viewport(maps, which):
+def show_in_viewport(maps, which, origin=None):
     """Hand the render's photons (``RenderOutput.photon_maps``, None = no map) of the map(s)
-    ``which`` to the viewport display; nothing in background mode, which draws nothing."""
+    ``which`` to the viewport display; nothing in background mode, which draws nothing.
+    origin: (3,) world position of the render frame (ExportResult.origin), added back."""
     import bpy
 
     if bpy.app.background:
@@ -199,6 +207,8 @@ def show_in_viewport(maps, which):
 
     positions, flux = debug_overlay.select_photons(
         maps.global_map if maps else None, maps.caustic_map if maps else None, which)
+    if origin is not None:
+        positions = positions + np.asarray(origin, np.float64)
     overlay.set_photons(positions, debug_overlay.display_colors(flux))
 
 
@@ -324,7 +334,8 @@ class ResultWriter:
         layer = self.result.layers[0]
         alpha = np.ones((height, width, 1), np.float32)
         _set_rect(layer.passes["Combined"], np.concatenate([combined, alpha], axis=2))
-        for core_name, blender_name in (*EXTRA_PASSES.items(), DEBUG_PASS):
+        for core_name, blender_name in (*EXTRA_PASSES.items(), DEBUG_PASS,
+                                        *((c, b) for c, b, _ in DENOISING_PASSES)):
             if core_name in passes:
                 render_pass = layer.passes.get(blender_name)
                 if render_pass is not None:

@@ -80,6 +80,10 @@ class PHOTON_MAP_VIEWLAYER_PT_passes(PhotonMapPanel, bpy.types.Panel):
         col.active = settings.integrator == 'photon_map'  # progressive: Combined only
         for name in ("emission", "environment", "direct", "specular", "caustics", "indirect"):
             col.prop(settings, f"pass_{name}")
+        col = layout.column(heading="Data", align=True)
+        col.active = settings.integrator == 'photon_map'
+        col.prop(settings, "denoising_data")
+        col.prop(settings, "denoise")
         col = layout.column(heading="Debug", align=True)
         col.active = settings.integrator == 'photon_map'
         col.prop(settings, "photon_debug_pass", text="Photons")

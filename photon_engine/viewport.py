@@ -43,13 +43,22 @@ MAX_PIXELS = 120_000
 with 100,000 photons per pass), and each pass holds Blender's interface while it runs."""
 
 
-def view_camera(region_data, width: int, height: int):
-    """The core Camera of a 3D view (``RegionView3D``) rendered at ``width`` x ``height``."""
+def view_camera(region_data, width: int, height: int, scene_camera=None):
+    """The core Camera of a 3D view (``RegionView3D``) rendered at ``width`` x ``height``.
+
+    scene_camera: the scene's camera object; when the view looks through it
+    (``view_perspective == 'CAMERA'``), its depth of field applies, as in Cycles' viewport.
+    """
     from ..core.scene.camera import camera_from_projection
+    from .export_camera import depth_of_field
 
     to_world = np.array(region_data.view_matrix.inverted(), np.float64)
     projection = np.array(region_data.window_matrix, np.float64)
-    return camera_from_projection(to_world, projection, width, height, name="Viewport")
+    camera = camera_from_projection(to_world, projection, width, height, name="Viewport")
+    if scene_camera is not None and getattr(region_data, "view_perspective", "") == 'CAMERA' \
+            and scene_camera.type == 'CAMERA':
+        camera = dataclasses.replace(camera, **depth_of_field(scene_camera, scene_camera.data, []))
+    return camera
 
 
 def render_size(width: int, height: int, pixel_size: int = 1) -> tuple[int, int]:
@@ -63,7 +72,9 @@ def render_size(width: int, height: int, pixel_size: int = 1) -> tuple[int, int]
 def _view_key(camera) -> tuple:
     return (camera.to_world.tobytes(), np.asarray(camera.film_size).tobytes(),
             np.asarray(camera.film_shift).tobytes(), camera.kind, camera.width,
-            camera.height, camera.clip_start, camera.clip_end)
+            camera.height, camera.clip_start, camera.clip_end, camera.aperture_radius,
+            camera.focus_distance, camera.aperture_blades, camera.aperture_rotation,
+            camera.aperture_ratio)
 
 
 class ViewportRender:
@@ -71,6 +82,7 @@ class ViewportRender:
 
     def __init__(self):
         self.scene = None        # core.Scene exported for this view
+        self.origin = None       # (3,) world position of its render frame (ExportResult.origin)
         self.state = None        # core.integrators.sppm.SPPMState after the latest pass
         self.error = None        # message of a scene the core refused
         self.target = 0          # passes to run
@@ -89,6 +101,7 @@ class ViewportRender:
         from ..core.scene.contract import SceneError
         from ..core.settings import SettingsError
         from .export import export_scene
+        from .export_camera import relative_camera
         from .properties import to_core_settings
 
         if not self._stale and _view_key(camera) == self._view:
@@ -97,9 +110,11 @@ class ViewportRender:
         self._view, self.state, self.error, self._texture = _view_key(camera), None, None, None
         try:
             if self._stale or self.scene is None:
-                self.scene = export_scene(depsgraph, camera=camera).scene
-            else:
-                self.scene = dataclasses.replace(self.scene, camera=camera)
+                exported = export_scene(depsgraph, camera=camera)
+                self.scene, self.origin = exported.scene, exported.origin
+            else:  # the same render frame: only the view moved
+                self.scene = dataclasses.replace(self.scene,
+                                                 camera=relative_camera(camera, self.origin))
             props = depsgraph.scene.photon_map
             settings = to_core_settings(props)
             self.target = int(props.viewport_passes)
@@ -188,7 +203,7 @@ def view_draw(engine, context, depsgraph) -> None:
                                 int(engine.get_preview_pixel_size(depsgraph.scene)))
     load_embree_isolated()
     try:
-        camera = view_camera(context.region_data, width, height)
+        camera = view_camera(context.region_data, width, height, depsgraph.scene.camera)
     except ValueError as error:  # a degenerate view matrix: nothing to render through
         engine.update_stats("", f"Photon Map: viewport: {error}")
         return

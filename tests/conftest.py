@@ -34,3 +34,11 @@ def load_extension_package():
 def rng():
     """A fixed-seed generator: tests are reproducible."""
     return np.random.default_rng(12345)
+
+
+def pytest_collection_modifyitems(config, items):
+    """Mark every test under tests/core ``core`` (CI selects them by marker, pytest.ini)."""
+    core = ROOT / "tests" / "core"
+    for item in items:
+        if core in pathlib.Path(str(item.fspath)).parents:
+            item.add_marker(pytest.mark.core)

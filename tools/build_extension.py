@@ -3,9 +3,11 @@
     .venv/bin/python tools/build_extension.py                      # every platform -> dist/
     .venv/bin/python tools/build_extension.py --platform linux-x64 # one platform
 
-For each platform, pip downloads the wheels of numba, llvmlite, embreex and OpenEXR (the
-versions installed in this Python, i.e. the tested set; never numpy, which Blender ships)
-into a cache (``dist/wheels/<platform>/cp311``; a rerun downloads nothing). A staged copy
+For each platform and each CPython a supported Blender embeds (3.11: Blender 4.2 to 5.0;
+3.13: 5.1 and later), pip downloads the wheels of numba, llvmlite, embreex and OpenEXR (the
+versions installed in this Python, i.e. the tested set, pinned alike in both test
+environments by requirements-common.txt; never numpy, which Blender ships) into a cache
+(``dist/wheels/<platform>/cp311``, ``.../cp313``; a rerun downloads nothing). A staged copy
 of the repository gets them in ``wheels/`` and a manifest listing them (``wheels = [...]``,
 ``platforms = [...]``); Blender's own ``blender_ext.py build --split-platforms`` then writes
 ``photon_map-<version>-<platform>.zip`` with only that platform's wheels, and
@@ -13,7 +15,8 @@ of the repository gets them in ``wheels/`` and a manifest listing them (``wheels
 the repository itself remains a valid extension source without any download.
 
 Blender installs the wheels into its user extensions folder
-(``<extensions>/.local/lib/python3.11/site-packages``) when the zip is installed.
+(``<extensions>/.local/lib/python3.X/site-packages``) when the zip is installed, only the
+ones whose tags match its own Python (the other CPython's wheels are skipped).
 """
 
 from __future__ import annotations
@@ -45,7 +48,7 @@ PLATFORMS = {
     "macos-arm64": ("macosx_13_0_arm64",),
 }
 
-DEFAULT_PYTHON = "3.11"  # Blender 4.2 to 5.0 embed CPython 3.11
+DEFAULT_PYTHONS = ("3.11", "3.13")  # Blender 4.2 to 5.0 embed CPython 3.11, 5.1+ 3.13
 
 
 class BuildError(Exception):
@@ -78,7 +81,7 @@ def cached_wheel(folder: pathlib.Path, name: str, version: str) -> pathlib.Path 
 
 
 def fetch_wheels(platform: str, versions: dict[str, str], cache: pathlib.Path,
-                 python: str = DEFAULT_PYTHON) -> list[pathlib.Path]:
+                 python: str = DEFAULT_PYTHONS[0]) -> list[pathlib.Path]:
     """Wheels of ``versions`` for ``platform`` and CPython ``python``, downloading only the
     missing ones (``pip download --only-binary=:all: --no-deps``). Returns their paths."""
     if platform not in PLATFORMS:
@@ -162,7 +165,7 @@ def run_tool(tool: pathlib.Path, *args) -> str:
     return done.stdout
 
 
-def build(platforms, output_dir: pathlib.Path, cache: pathlib.Path, pythons=(DEFAULT_PYTHON,),
+def build(platforms, output_dir: pathlib.Path, cache: pathlib.Path, pythons=DEFAULT_PYTHONS,
           tool: pathlib.Path | None = None, split: bool = True) -> list[pathlib.Path]:
     """Build and validate the extension zips; returns their paths.
 
@@ -215,8 +218,8 @@ def main(argv=None) -> int:
     parser.add_argument("--platform", dest="platforms", action="append", choices=list(PLATFORMS),
                         help="a platform to build (repeatable; default: all of them)")
     parser.add_argument("--python", dest="pythons", action="append", metavar="X.Y",
-                        help=f"CPython version of the target Blender (repeatable; default "
-                             f"{DEFAULT_PYTHON}, Blender 4.2 to 5.0)")
+                        help=f"CPython version of the target Blenders (repeatable; default "
+                             f"{' and '.join(DEFAULT_PYTHONS)}: Blender 4.2 to 5.0, 5.1 and later)")
     parser.add_argument("--output-dir", type=pathlib.Path, default=ROOT / "dist",
                         help="where the zips go (default: dist/)")
     parser.add_argument("--wheel-cache", type=pathlib.Path, default=ROOT / "dist" / "wheels",
@@ -228,7 +231,7 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     try:
         zips = build(args.platforms or list(PLATFORMS), args.output_dir.resolve(),
-                     args.wheel_cache.resolve(), tuple(args.pythons or (DEFAULT_PYTHON,)),
+                     args.wheel_cache.resolve(), tuple(args.pythons or DEFAULT_PYTHONS),
                      args.blender_ext, split=not args.single_zip)
     except BuildError as error:
         print(f"build_extension: error: {error}", file=sys.stderr)

@@ -36,6 +36,8 @@ from ..scene.contract import Camera
 
 DIM_JITTER = sampling.stream(sampling.PIXEL_JITTER, sampling.PROGRESSIVE)
 """The random dimension of the progressive camera rays' pixel jitter."""
+DIM_LENS = sampling.stream(sampling.PIXEL_JITTER, sampling.PROGRESSIVE + 1)
+"""The random dimension of the progressive camera rays' point on the lens (depth of field)."""
 
 
 def dim_lobe(depth: int) -> int:
@@ -188,7 +190,11 @@ def visible_points(prepared: PreparedScene, cam: Camera, seed: int, k: int, max_
     sample = np.full(n, k, np.int64)
     jitter = np.empty((n, 2))
     sampling.progressive2(np.int64(seed), np.int64(k), np.int64(DIM_JITTER), jitter)
-    rays = camera.generate_rays(cam, pixel, jitter)
+    lens = None
+    if camera.has_aperture(cam):  # depth of field: a point on the aperture, per pass
+        lens = np.empty((n, 2))
+        sampling.progressive2(np.int64(seed), np.int64(k), np.int64(DIM_LENS), lens)
+    rays = camera.generate_rays(cam, pixel, jitter, lens)
     origins, dirs, tmax = rays.origins, rays.directions, rays.tmax
     rows = pixel
     thr = np.ones((n, 3))

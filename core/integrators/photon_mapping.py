@@ -65,7 +65,7 @@ from ..prepared import PreparedScene, prepare
 from ..scene import camera, geometry
 from ..scene.contract import Scene
 from ..settings import RenderSettings
-from . import camera_paths, debug_overlay, direct, gather, photon_terms
+from . import camera_paths, debug_overlay, denoise_features, direct, gather, photon_terms
 
 # A tile holds about this many camera samples (all samples of its pixels); tiles grow
 # while they take less than TILE_SECONDS and shrink when longer, so that progress (and
@@ -173,8 +173,15 @@ def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> dict[str, np.ndarray]:
     # Generate camera rays
     jitter = np.stack(sampling.stratified2(st.seed, pixel, sample, s_count,
                                            sampling.stream(sampling.PIXEL_JITTER)), axis=1)
-    rays = camera.generate_rays(pr.scene.camera, pixel, jitter)
+    lens = None
+    if camera.has_aperture(pr.scene.camera):  # depth of field: a point on the aperture
+        lens = np.stack(sampling.stratified2(st.seed, pixel, sample, s_count,
+                                             sampling.stream(sampling.PIXEL_JITTER, 1)), axis=1)
+    rays = camera.generate_rays(pr.scene.camera, pixel, jitter, lens)
     origins, dirs, tmax = rays.origins, rays.directions, rays.tmax
+    features = None
+    if st.denoising_data:  # Cycles' Denoising Albedo / Normal (denoise_features.py)
+        features = denoise_features.FeatureAccumulator(n, camera.camera_frame(pr.scene.camera)[1:])
     rows = np.arange(n)
     thr = np.ones((n, 3))
     transmitted = np.zeros(n, bool)
@@ -220,6 +227,9 @@ def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> dict[str, np.ndarray]:
             hits.v[h], d, pr.extent)
         albedo = pr.surfaces.albedo(hits.prim[h], hits.u[h], hits.v[h], mat)
         _add(emit_target, rows, thr * mats["emission"][mat])  # two-sided, like Cycles' closure
+        if features is not None:
+            features.surface(rows, albedo, mats["specular"][mat], mats["transmission"][mat],
+                             mats["alpha"][mat], nsf)
         ctx.stats["time_shading"] += time.perf_counter() - t1
 
         # Direct light at the hits' non-delta lobes
@@ -257,6 +267,8 @@ def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> dict[str, np.ndarray]:
 
     t0 = time.perf_counter()
     out = {}
+    if features is not None:
+        kept = {**kept, "denoising_albedo": features.albedo, "denoising_normal": features.normal}
     for name, per_sample in kept.items():
         mean = np.empty((pix.shape[0], 3))
         _pixel_mean_kernel(per_sample, s_count, mean)
@@ -313,7 +325,8 @@ def render(scene: Scene, settings: RenderSettings | None = None,
     cam = scene.camera
     w, h = int(cam.width), int(cam.height)
     n_pix = w * h
-    images = {name: np.zeros((n_pix, 3)) for name in ctx.outputs}
+    features = denoise_features.FEATURES if settings.denoising_data else ()
+    images = {name: np.zeros((n_pix, 3)) for name in (*ctx.outputs, *features)}
     done = 0
     # Start small (the first tile also pays for loading the kernels), then adapt.
     per_tile = max(1, TARGET_SAMPLES_PER_TILE // 8 // settings.samples)
@@ -327,7 +340,7 @@ def render(scene: Scene, settings: RenderSettings | None = None,
             t0 = time.perf_counter()
             pix = np.arange(done, min(n_pix, done + per_tile), dtype=np.int64)
             result = _render_tile(ctx, pix)
-            for name in ctx.outputs:
+            for name in (*ctx.outputs, *features):
                 images[name][pix] = result[name]
             done += pix.shape[0]
             tiles += 1
@@ -362,6 +375,8 @@ def render(scene: Scene, settings: RenderSettings | None = None,
     if on_progress is not None and not cancelled:
         on_progress(1.0, "Done")
     passes = _assemble(images, ctx.outputs, h, w)
+    for name in features:  # not light: not in combined
+        passes[name] = images[name].reshape(h, w, 3).astype(np.float32)
     if debug_dots is not None:
         passes["photons"] = debug_dots
         if settings.overlay_composite:

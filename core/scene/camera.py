@@ -9,6 +9,15 @@ Clipping follows Cycles (``kernel/camera/camera.h``): it clips at the planes at 
 theta from the axis starts at distance ``clip_start / cos(theta)`` and ends at
 ``clip_end / cos(theta)``. The ray origin is moved to the near plane (Embree has no tnear)
 and ``tmax`` is measured from there.
+
+Depth of field (``Camera.aperture_radius`` > 0, perspective only) is Cycles' thin lens
+(kernel/camera/camera.h, ``camera_sample_perspective``): the pinhole ray through the
+film point meets the plane in focus at depth ``focus_distance``; the ray starts instead
+at a point of the aperture (a disk, or a regular polygon of ``aperture_blades`` corners
+turned by ``aperture_rotation``; x divided by ``aperture_ratio``) of radius
+``aperture_radius`` and aims at that focus point; the near clip distance is the pinhole
+ray's, measured along the new direction. Two more uniforms per ray (``lens``) pick the
+aperture point; a pinhole camera ignores them, so its rays are unchanged bit for bit.
 """
 
 from __future__ import annotations
@@ -82,8 +91,91 @@ def _rays_kernel(pixel, jitter, w, h, size, shift, pos, right, up, back, near, f
             t_out[i] = (far - near) * ln
 
 
-def generate_rays(camera: Camera, pixel: np.ndarray, jitter: np.ndarray) -> CameraRays:
-    """Rays for pixel indices (N,) int64 with jitter (N, 2) float64 in [0, 1)."""
+def has_aperture(camera: Camera) -> bool:
+    """True when the camera has depth of field (callers then pass ``lens`` samples)."""
+    return camera.kind == CAMERA_PERSPECTIVE and float(camera.aperture_radius) > 0.0
+
+
+@njit(cache=True, error_model="numpy")
+def aperture_point(u, v, blades, rotation, ratio):
+    """(x, y) on the unit aperture from two uniforms in [0, 1): uniform on the unit disk
+    (Shirley's concentric map) when blades < 3, else uniform on the regular polygon of
+    ``blades`` corners on the unit circle, the first at angle ``rotation``; x / ratio."""
+    if blades < 3:
+        a, b = 2.0 * u - 1.0, 2.0 * v - 1.0
+        if a == 0.0 and b == 0.0:
+            return 0.0, 0.0
+        if abs(a) > abs(b):
+            r, phi = a, 0.25 * np.pi * (b / a)
+        else:
+            r, phi = b, 0.5 * np.pi - 0.25 * np.pi * (a / b)
+        return r * np.cos(phi) / ratio, r * np.sin(phi)
+    # Pick a triangle (centre, corner k, corner k + 1), then a uniform point in it.
+    t = u * blades
+    k = min(np.floor(t), blades - 1.0)
+    u2 = t - k
+    step = 2.0 * np.pi / blades
+    a0, a1 = rotation + k * step, rotation + (k + 1.0) * step
+    su = np.sqrt(u2)
+    w1, w2 = su * (1.0 - v), su * v
+    x = w1 * np.cos(a0) + w2 * np.cos(a1)
+    y = w1 * np.sin(a0) + w2 * np.sin(a1)
+    return x / ratio, y
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def _lens_rays_kernel(pixel, jitter, lens, w, h, size, shift, pos, right, up, back, near, far,
+                      radius, focus, blades, rotation, ratio, o_out, d_out, t_out):
+    for i in prange(pixel.shape[0]):
+        col = pixel[i] % w
+        row = pixel[i] // w
+        x = ((col + jitter[i, 0]) / w - 0.5) * size[0] + shift[0]
+        y = (0.5 - (row + jitter[i, 1]) / h) * size[1] + shift[1]
+        ln = np.sqrt(x * x + y * y + 1.0)  # 1 / cos(theta) of the pinhole ray
+        lx, ly = aperture_point(lens[i, 0], lens[i, 1], blades, rotation, ratio)
+        lx *= radius
+        ly *= radius
+        # Focus point (camera space, depth focus) minus the lens point, normalised.
+        dx, dy, dz = x * focus - lx, y * focus - ly, focus
+        dl = np.sqrt(dx * dx + dy * dy + dz * dz)
+        dx, dy, dz = dx / dl, dy / dl, dz / dl
+        for k in range(3):
+            d = dx * right[k] + dy * up[k] - dz * back[k]
+            d_out[i, k] = d
+            o_out[i, k] = pos[k] + lx * right[k] + ly * up[k] + near * ln * d
+        t_out[i] = (far - near) * ln
+
+
+def generate_rays(camera: Camera, pixel: np.ndarray, jitter: np.ndarray,
+                  lens: np.ndarray | None = None) -> CameraRays:
+    """Rays for pixel indices (N,) int64 with jitter (N, 2) float64 in [0, 1).
+
+    lens: (N, 2) float64 uniforms in [0, 1) choosing each ray's point on the aperture;
+    needed when ``has_aperture(camera)``, ignored otherwise.
+    """
+    if has_aperture(camera):
+        if lens is None:
+            raise ValueError("a camera with depth of field needs lens samples")
+        pos, right, up, back = camera_frame(camera)
+        pixel = np.ascontiguousarray(pixel, np.int64)
+        jitter = np.ascontiguousarray(jitter, np.float64).reshape(-1, 2)
+        lens = np.ascontiguousarray(lens, np.float64).reshape(-1, 2)
+        n = pixel.shape[0]
+        origins, directions, tmax = np.empty((n, 3)), np.empty((n, 3)), np.empty(n)
+        if n:
+            _lens_rays_kernel(pixel, jitter, lens, int(camera.width), int(camera.height),
+                              np.asarray(camera.film_size, np.float64),
+                              np.asarray(camera.film_shift, np.float64), pos, right, up, back,
+                              float(camera.clip_start), float(camera.clip_end),
+                              float(camera.aperture_radius), float(camera.focus_distance),
+                              float(camera.aperture_blades), float(camera.aperture_rotation),
+                              float(camera.aperture_ratio), origins, directions, tmax)
+        return CameraRays(origins, directions, tmax)
+    return _pinhole_rays(camera, pixel, jitter)
+
+
+def _pinhole_rays(camera: Camera, pixel: np.ndarray, jitter: np.ndarray) -> CameraRays:
+    """Pinhole or orthographic rays (generate_rays without an aperture)."""
     pos, right, up, back = camera_frame(camera)
     pixel = np.ascontiguousarray(pixel, np.int64)
     jitter = np.ascontiguousarray(jitter, np.float64).reshape(-1, 2)

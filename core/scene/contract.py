@@ -356,6 +356,12 @@ class Camera:
         the view axis (-Z). Cycles clips perspective rays at these planes too, so a ray at
         angle theta from the axis runs from clip_start / cos(theta) to clip_end / cos(theta)
         (kernel/camera/camera.h: ``nearclip * z_inv``).
+    aperture_radius: float, metres: the thin lens's radius for depth of field (Cycles:
+        focal length / (2 f-stop)); 0 is a pinhole (perspective cameras only).
+    focus_distance: float, metres along the view axis to the plane in focus.
+    aperture_blades: int, 0 for a round aperture, else the polygon's corner count (>= 3).
+    aperture_rotation: float, radians: the polygon's rotation.
+    aperture_ratio: float: anamorphic distortion; the aperture's x extent is divided by it.
     """
 
     to_world: np.ndarray
@@ -367,6 +373,11 @@ class Camera:
     clip_start: float = 1e-3
     clip_end: float = 1e30
     name: str = "Camera"
+    aperture_radius: float = 0.0
+    focus_distance: float = 10.0
+    aperture_blades: int = 0
+    aperture_rotation: float = 0.0
+    aperture_ratio: float = 1.0
 
 
 @dataclass(frozen=True)

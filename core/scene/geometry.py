@@ -203,7 +203,8 @@ def check_float32_precision(scene) -> None:
     step = float(np.spacing(np.float32(far)))
     if extent < MIN_FLOAT32_STEPS * step:
         raise SceneError(
-            f"float32 precision cannot hold the scene: it lies {far:.4g} m from the world "
-            f"origin, where float32 resolves {step * 1e3:.3g} mm, only 1/{extent / step:.0f} "
-            f"of its {extent:.4g} m size (at least 1/{MIN_FLOAT32_STEPS} is needed); move "
-            f"the scene (and camera) towards the origin")
+            f"float32 precision cannot hold the scene: it reaches {far:.4g} m from the render "
+            f"origin (the camera, for scenes exported from Blender), where float32 resolves "
+            f"{step * 1e3:.3g} mm, only 1/{extent / step:.0f} of its {extent:.4g} m size (at "
+            f"least 1/{MIN_FLOAT32_STEPS} is needed); hide far objects from the render or "
+            f"render the near part of the scene on its own")

@@ -4,9 +4,11 @@ Blender 3.4 predates extensions: it loads Photon Map as a legacy add-on from
 ``$BLENDER_USER_SCRIPTS/addons/photon_map`` (``bl_info`` in the root ``__init__.py``) and
 imports third-party modules from ``$BLENDER_USER_SCRIPTS/addons/modules``, which is on
 its ``sys.path``. ``user_scripts()`` builds such a folder from symlinks: the repository
-as the add-on, and numpy, numba, llvmlite, embreex and OpenEXR from the Python running
-the tests (Debian's Blender runs the system CPython 3.11, ABI-compatible with the .venv's;
-its own Python has no numpy). Nothing is installed into the user's Blender folders.
+as the add-on, and numpy, numba, llvmlite, embreex and OpenEXR from a CPython 3.11
+environment: Debian's Blender runs the system CPython 3.11 (its own Python has no numpy),
+so the modules come from the Python running the tests when that is 3.11, else from
+``.venv-4.2`` (tools/setup.sh; the main ``.venv`` is CPython 3.13). Nothing is installed
+into the user's Blender folders.
 
 Not a test module: imported by tests/blender/test_blender_exe.py and test_animation.py.
 """
@@ -21,6 +23,7 @@ import pathlib
 import shutil
 import signal
 import subprocess
+import sys
 
 import pytest
 
@@ -57,18 +60,37 @@ def user_scripts(folder: pathlib.Path) -> pathlib.Path:
     link = scripts / "addons" / "photon_map"
     if not link.exists():
         link.symlink_to(ROOT, target_is_directory=True)
+    site = _cpython311_site()
     for name in DEPENDENCIES:
-        spec = importlib.util.find_spec(name)
-        if spec is None or spec.origin is None:
-            raise RuntimeError(f"{name} is not installed in this Python; run tools/setup.sh")
-        origin = pathlib.Path(spec.origin)
-        source = origin.parent if spec.submodule_search_locations else origin
+        if site is None:
+            spec = importlib.util.find_spec(name)
+            if spec is None or spec.origin is None:
+                raise RuntimeError(f"{name} is not installed in this Python; run tools/setup.sh")
+            origin = pathlib.Path(spec.origin)
+            source = origin.parent if spec.submodule_search_locations else origin
+        else:
+            found = [p for p in (site / name, *site.glob(f"{name}.cpython-311-*.so")) if p.exists()]
+            if not found:
+                raise RuntimeError(f"{name} is not installed in {site}; run tools/setup.sh")
+            source = found[0]
         # auditwheel puts a wheel's shared libraries in <name>.libs beside the package.
         for path in [source, *source.parent.glob(f"{name}.libs")]:
             target = modules / path.name
             if not target.exists():
                 target.symlink_to(path)
     return scripts
+
+
+def _cpython311_site() -> pathlib.Path | None:
+    """None when this Python is 3.11 (use its modules), else .venv-4.2's site-packages;
+    skips the calling test when there is none."""
+    if sys.version_info[:2] == (3, 11):
+        return None
+    found = sorted(ROOT.glob(".venv-4.2/lib/python3.11/site-packages"))
+    if not found:
+        pytest.skip("Debian's Blender 3.4 runs CPython 3.11 and needs CPython 3.11 builds of "
+                    "numpy/numba/embreex/OpenEXR: no .venv-4.2 (tools/setup.sh makes it)")
+    return found[0]
 
 
 def _environment(folder: pathlib.Path) -> dict:

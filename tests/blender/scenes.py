@@ -57,6 +57,27 @@ def add_camera(location=(0.0, -4.0, 1.0), look_at=(0.0, 0.0, 0.0), lens=50.0,
     return obj
 
 
+def ensure_node_tree(idblock):
+    """The node tree of a material or world, made to be used (photon_engine/compat.py keeps
+    the Blender-version rules: ``use_nodes`` before 5.0, always from 5.0)."""
+    from tests.conftest import load_extension_package
+
+    load_extension_package()
+    from photon_map.photon_engine.compat import ensure_node_tree as ensure
+
+    return ensure(idblock)
+
+
+def eevee_id() -> str:
+    """EEVEE's engine id in this Blender (photon_engine/compat.py)."""
+    from tests.conftest import load_extension_package
+
+    load_extension_package()
+    from photon_map.photon_engine.compat import EEVEE
+
+    return EEVEE
+
+
 def diffuse_material(name="Diffuse", color=(0.8, 0.8, 0.8)):
     """A node material: Diffuse BSDF of albedo ``color`` (linear RGB) -> Material Output."""
     mat = bpy.data.materials.new(name)  # 5.0: always node-based (use_nodes is deprecated)
@@ -175,9 +196,11 @@ def saved_render_result(scene=None) -> dict[str, np.ndarray]:
     scene = scene or bpy.context.scene
     image = bpy.data.images["Render Result"]
     settings = scene.render.image_settings
-    saved = (settings.media_type, settings.file_format, settings.color_depth)
+    has_media_type = hasattr(settings, "media_type")  # 5.0+: set before file_format
+    saved = (getattr(settings, "media_type", None), settings.file_format, settings.color_depth)
     try:
-        settings.media_type = 'MULTI_LAYER_IMAGE'
+        if has_media_type:
+            settings.media_type = 'MULTI_LAYER_IMAGE'
         settings.file_format = 'OPEN_EXR_MULTILAYER'
         settings.color_depth = '32'
         with tempfile.TemporaryDirectory() as folder:
@@ -185,6 +208,7 @@ def saved_render_result(scene=None) -> dict[str, np.ndarray]:
             image.save_render(filepath=str(path), scene=scene)
             return read_multilayer_exr(path)
     finally:
-        settings.media_type = saved[0]
+        if has_media_type:
+            settings.media_type = saved[0]
         settings.file_format = saved[1]
         settings.color_depth = saved[2]

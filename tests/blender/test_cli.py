@@ -12,7 +12,7 @@ import pytest
 from tests.blender import scenes
 from tests.conftest import ROOT
 
-pytestmark = pytest.mark.blender
+pytestmark = [pytest.mark.blender, pytest.mark.api]
 
 
 def cli(*args, timeout=300):
@@ -27,7 +27,7 @@ def blend_file(tmp_path_factory):
     path = tmp_path_factory.mktemp("cli") / "plane.blend"
     scene = scenes.plane_and_point_light(width=32, height=24)
     scenes.photon_map()
-    scene.render.engine = 'BLENDER_EEVEE'
+    scene.render.engine = scenes.eevee_id()
     scene.render.image_settings.file_format = 'PNG'
     scene.photon_map.samples = 2
     bpy.ops.wm.save_as_mainfile(filepath=str(path), copy=True)

@@ -7,7 +7,7 @@ import pytest
 
 from tests.blender import scenes
 
-pytestmark = pytest.mark.blender
+pytestmark = [pytest.mark.blender, pytest.mark.api]
 
 W, H = 32, 24
 

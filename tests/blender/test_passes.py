@@ -8,7 +8,7 @@ import pytest
 
 from tests.blender import scenes
 
-pytestmark = pytest.mark.blender
+pytestmark = [pytest.mark.blender, pytest.mark.api]
 
 LIGHT = {"emission": "Emission", "environment": "Environment", "direct": "Direct",
          "specular": "Specular", "caustics": "Caustics", "indirect": "Indirect"}
@@ -25,13 +25,15 @@ def every_term():
     scenes.set_resolution(24, 16)
     scenes.add_plane(size=4.0, material=scenes.diffuse_material("Grey", (0.7, 0.7, 0.7)))
     glass = bpy.data.materials.new("Glass")
-    nodes = glass.node_tree.nodes
+    scenes.ensure_node_tree(glass)
+    nodes = scenes.ensure_node_tree(glass).nodes
     nodes.clear()
     bsdf = nodes.new('ShaderNodeBsdfGlass')
     out = nodes.new('ShaderNodeOutputMaterial')
     glass.node_tree.links.new(bsdf.outputs[0], out.inputs['Surface'])
     scenes.add_sphere(radius=0.4, location=(0.0, 0.0, 0.4), material=glass, segments=16)
     red = bpy.data.materials.new("Red")
+    scenes.ensure_node_tree(red)
     nodes = red.node_tree.nodes
     nodes.clear()
     emit = nodes.new('ShaderNodeEmission')
@@ -43,6 +45,7 @@ def every_term():
     bpy.context.active_object.data.materials.append(red)
     scenes.add_light('POINT', location=(0.3, -0.3, 2.0), power=300.0, shadow_soft_size=0.0)
     world = bpy.data.worlds.new("World")
+    scenes.ensure_node_tree(world)
     background = world.node_tree.nodes["Background"]
     background.inputs['Color'].default_value = (0.1, 0.2, 0.6, 1.0)
     scene.world = world

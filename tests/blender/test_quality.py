@@ -6,7 +6,7 @@ import pytest
 
 from tests.blender import scenes
 
-pytestmark = pytest.mark.blender
+pytestmark = [pytest.mark.blender, pytest.mark.api]
 
 
 @pytest.fixture

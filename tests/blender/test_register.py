@@ -11,7 +11,7 @@ import pytest
 from tests.blender import scenes
 from tests.conftest import ROOT
 
-pytestmark = pytest.mark.blender
+pytestmark = [pytest.mark.blender, pytest.mark.api]
 
 
 @pytest.fixture
@@ -34,7 +34,7 @@ def _engine_ids():
     """The engines Blender offers in Render Properties (a dynamic enum: probe by setting)."""
     render = bpy.context.scene.render
     before, offered = render.engine, []
-    for engine in ('PHOTON_MAP', 'CYCLES', 'BLENDER_EEVEE'):
+    for engine in ('PHOTON_MAP', 'CYCLES', scenes.eevee_id()):
         try:
             render.engine = engine
         except TypeError:
@@ -156,7 +156,7 @@ def test_own_panels_poll_only_for_photon_map(pm):
         assert panel.__name__.startswith("PHOTON_MAP_")
         assert panel.poll(_context('PHOTON_MAP', scene=bpy.context.scene, object=obj))
         assert not panel.poll(_context('CYCLES', scene=bpy.context.scene, object=obj))
-        assert not panel.poll(_context('BLENDER_EEVEE', scene=bpy.context.scene, object=obj))
+        assert not panel.poll(_context(scenes.eevee_id(), scene=bpy.context.scene, object=obj))
 
 
 LIGHT_PANELS = ("DATA_PT_context_light", "DATA_PT_EEVEE_light", "DATA_PT_spot")
@@ -170,6 +170,7 @@ def test_light_material_world_camera_panels_show_with_photon_map(pm):
     mat = scenes.diffuse_material()
     plane = scenes.add_plane(material=mat)
     world = bpy.data.worlds.new("World")
+    scenes.ensure_node_tree(world)
     camera = scenes.add_camera()
     contexts = {
         LIGHT_PANELS: dict(light=spot.data, object=spot),
@@ -182,7 +183,7 @@ def test_light_material_world_camera_panels_show_with_photon_map(pm):
             panel = getattr(bpy.types, name)
             assert panel.poll(_context('PHOTON_MAP', **data)), name
             # The change must not leak to engines that hide these panels on purpose.
-            assert panel.poll(_context('BLENDER_EEVEE', **data)), name
+            assert panel.poll(_context(scenes.eevee_id(), **data)), name
     # DATA_PT_light shows only the type outside EEVEE; the full EEVEE panel replaces it.
     assert not bpy.types.DATA_PT_light.poll(_context('PHOTON_MAP', light=spot.data))
     assert not bpy.types.DATA_PT_EEVEE_light.poll(_context('CYCLES', light=spot.data))

@@ -14,7 +14,7 @@ bpy = pytest.importorskip("bpy")
 from tests.blender import scenes  # noqa: E402
 from tests.conftest import load_extension_package  # noqa: E402
 
-pytestmark = pytest.mark.blender
+pytestmark = [pytest.mark.blender, pytest.mark.api]
 
 photon_map = load_extension_package()
 from photon_map.photon_engine.export import export_scene  # noqa: E402
@@ -79,8 +79,7 @@ def block_image(name, colorspace="sRGB"):
 def textured_material(name, image, shader='ShaderNodeBsdfPrincipled', socket="Base Color",
                       interpolation='Closest', reroute=True):
     mat = bpy.data.materials.new(name)
-    if mat.node_tree is None:
-        mat.use_nodes = True
+    scenes.ensure_node_tree(mat)
     nodes, links = mat.node_tree.nodes, mat.node_tree.links
     nodes.clear()
     bsdf = nodes.new(shader)
@@ -181,8 +180,7 @@ def test_alpha_quarter_plane_over_a_lit_floor_is_the_blend():
     scenes.set_resolution(RES, RES)
     scenes.add_plane(size=4.0, material=scenes.diffuse_material("Floor", (0.8, 0.8, 0.8)))
     mat = bpy.data.materials.new("Cut-out")
-    if mat.node_tree is None:
-        mat.use_nodes = True
+    scenes.ensure_node_tree(mat)
     bsdf = mat.node_tree.nodes.get("Principled BSDF")
     bsdf.inputs["Base Color"].default_value = (0.9, 0.3, 0.1, 1.0)
     bsdf.inputs["Alpha"].default_value = 0.25
@@ -239,8 +237,7 @@ def test_exporter_reports_unsupported_nodes_missing_images_and_reads_images_once
     a = textured_material("Bark", shared)
     b = textured_material("Moss", shared, shader='ShaderNodeBsdfDiffuse', socket="Color")
     leaf = bpy.data.materials.new("Leaf")
-    if leaf.node_tree is None:
-        leaf.use_nodes = True
+    scenes.ensure_node_tree(leaf)
     noise = leaf.node_tree.nodes.new('ShaderNodeTexNoise')
     principled = leaf.node_tree.nodes.get("Principled BSDF")
     leaf.node_tree.links.new(noise.outputs["Color"], principled.inputs["Base Color"])
@@ -282,8 +279,7 @@ def test_transparent_mix_over_a_floor_matches_cycles():
     scenes.set_resolution(RES, RES)
     scenes.add_plane(size=4.0, material=scenes.diffuse_material("Floor", (0.8, 0.8, 0.8)))
     mat = bpy.data.materials.new("Veil")
-    if mat.node_tree is None:
-        mat.use_nodes = True
+    scenes.ensure_node_tree(mat)
     nodes, links = mat.node_tree.nodes, mat.node_tree.links
     nodes.clear()
     clear = nodes.new('ShaderNodeBsdfTransparent')
