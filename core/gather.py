@@ -161,9 +161,11 @@ def radiance_estimate(photon_map: PhotonMap, points: np.ndarray, normals: np.nda
 
 
 def radiance_estimate_sides(photon_map: PhotonMap, points, normals_list, albedo, k,
-                            max_radius, filter="cone", plane_fraction=PLANE_FRACTION):
+                            max_radius, filter="cone", plane_fraction=PLANE_FRACTION,
+                            should_stop=None):
     """``radiance_estimate`` for several normals per point (e.g. both sides of a
-    surface) from one neighbour search; returns a list of (M, 3) float64."""
+    surface) from one neighbour search; returns a list of (M, 3) float64.
+    should_stop() -> True between chunks of QUERY_CHUNK points stops: returns None."""
     m = points.shape[0]
     outs = [np.zeros((m, 3)) for _ in normals_list]
     if m == 0 or len(photon_map) == 0:
@@ -176,6 +178,8 @@ def radiance_estimate_sides(photon_map: PhotonMap, points, normals_list, albedo,
     albedo = np.ascontiguousarray(albedo, np.float64)
     bad = 0
     for lo in range(0, m, QUERY_CHUNK):
+        if lo and should_stop is not None and should_stop():
+            return None
         hi = min(m, lo + QUERY_CHUNK)
         idx, dist2 = photon_map.nearest(points32[lo:hi], k, max_radius)
         for normals, out in zip(normals_list, outs):
@@ -239,10 +243,11 @@ def cache_point_count(stored: int, diffuse_area: float, radius: float) -> int:
     return max(1, int(min(CACHE_FRACTION * stored, per_disc)))
 
 
-def build_radiance_cache(terms: "PhotonTerms", ctx) -> RadianceCache | None:
+def build_radiance_cache(terms: "PhotonTerms", ctx, should_stop=None) -> RadianceCache | None:
     """Precompute the global map's radiance at ``cache_point_count`` points spread
     uniformly over the diffuse surfaces (both sides of each). Deterministic: the points
-    are counter hashes of (seed, point index)."""
+    are counter hashes of (seed, point index). should_stop() -> True (asked between
+    chunks of points) abandons the cache: returns None."""
     mats = ctx.materials
     diffuse_tri = np.flatnonzero(np.any(mats["diffuse"] > 0, axis=1)[ctx.tri_material])
     if terms.global_map is None or diffuse_tri.size == 0:
@@ -273,8 +278,12 @@ def build_radiance_cache(terms: "PhotonTerms", ctx) -> RadianceCache | None:
     else:
         albedo = mats["diffuse"][ctx.tri_material[prim]]
     # One neighbour search per point serves both of its sides.
-    front, back = radiance_estimate_sides(terms.global_map, pos, [nrm, -nrm], albedo,
-                                          terms.global_k, terms.global_radius, terms.filter)
+    sides = radiance_estimate_sides(terms.global_map, pos, [nrm, -nrm], albedo,
+                                    terms.global_k, terms.global_radius, terms.filter,
+                                    should_stop=should_stop)
+    if sides is None:
+        return None
+    front, back = sides
     cache = RadianceCache(PhotonMap(np.concatenate([pos, pos]).astype(np.float32),
                                     np.concatenate([front, back]),
                                     np.concatenate([nrm, -nrm])), terms.global_radius)

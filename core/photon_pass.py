@@ -104,7 +104,17 @@ def run(ctx, maps, progress, share: float) -> tuple[dict, bool]:
             points = 2 * gather.cache_point_count(n_g, diffuse_area, r_g)
             cancelled = bool(progress(share, f"Precomputing the radiance cache ({points:,} points)"))
         if not cancelled:
-            ctx.terms.use_cache(gather.build_radiance_cache(ctx.terms, ctx))
+            asked = {"stop": False}
+
+            def stop():
+                # Between chunks of cache points: a cancel within a chunk's time.
+                asked["stop"] = bool(progress is not None and progress(
+                    share, "Precomputing the radiance cache"))
+                return asked["stop"]
+
+            cache = gather.build_radiance_cache(ctx.terms, ctx, should_stop=stop)
+            cancelled = asked["stop"]
+            ctx.terms.use_cache(None if cancelled else cache)
     stats.update({"caustic_photons_stored": n_c, "global_photons_stored": n_g,
                   "caustic_radius": r_c if n_c else 0.0, "global_radius": r_g if n_g else 0.0,
                   "gather_rays_per_sample": ctx.terms.gather_rays if n_g and

@@ -18,6 +18,7 @@ Heavy imports (``core``: numba, embreex) happen inside the functions, at render 
 
 import os
 import sys
+import threading
 import time
 
 import numpy as np
@@ -166,7 +167,7 @@ def render_progressive(engine, scene, settings, writer, started):
             text = f"Pass {k} of {passes}"
         engine.update_progress(fraction)
         engine.update_stats("", f"Photon Map | Progressive: {text}")
-        return engine.test_break()
+        return HEADLESS.stop_requested(fraction, text) or engine.test_break()
 
     engine.update_stats("", "Photon Map | Progressive: pass 1 (visible points, photons)")
     return sppm.render_progressive(scene, settings, passes, settings.photons_per_pass,
@@ -270,14 +271,34 @@ def load_embree_isolated():
         sys.setdlopenflags(flags)
 
 
+class HeadlessControl:
+    """What a headless caller (the CLI, photon_engine/cli.py) adds to a render's progress:
+    ``cancel``, set from a signal handler (it only sets the flag: raising inside
+    ``bpy.ops.render.render`` crashes Blender), makes the next progress call answer
+    "stop", as Esc does, so the core stops between batches; ``on_progress(fraction,
+    message)``, when set, sees every progress call (the CLI prints the stages)."""
+
+    def __init__(self):
+        self.cancel = threading.Event()
+        self.on_progress = None
+
+    def stop_requested(self, fraction, message) -> bool:
+        if self.on_progress is not None:
+            self.on_progress(fraction, message)
+        return self.cancel.is_set()
+
+
+HEADLESS = HeadlessControl()
+
+
 def progress_callback(engine):
     """The core's ``progress(fraction, message) -> cancel`` wired to Blender: progress bar,
-    status line, and Esc (``test_break``) as the answer."""
+    status line, and Esc (``test_break``) or a headless cancel (``HEADLESS``) as the answer."""
 
     def progress(fraction, message):
         engine.update_progress(fraction)
         engine.update_stats("", f"Photon Map | {message}")
-        return engine.test_break()
+        return HEADLESS.stop_requested(fraction, message) or engine.test_break()
 
     return progress
 
