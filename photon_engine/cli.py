@@ -10,14 +10,33 @@ own depsgraph and write it to ``OUT`` with ``#`` expanded to the frame number. U
 ``blender -b`` (which keeps the file's output format), the default format is a 32-bit float
 multilayer EXR holding every pass; ``-F PNG`` gives a display image.
 
+Progress goes to stdout as one line per stage ("frame 1: photon pass: ...", "frame 1:
+camera pass: ...", at most one a second within a stage), for people and farm managers.
+
+Cancelling: SIGINT (Ctrl-C) or SIGTERM (what farm managers send) only sets a flag
+(``render.HEADLESS``; raising inside ``bpy.ops.render.render`` crashes Blender); the
+render's next progress call answers "stop", so the core stops between batches (well
+within a second). Blender writes the frame to ``<name>.partial.<ext>`` beside the
+output, and the CLI deletes it (``--keep-partial`` keeps it), prints that the render was
+cancelled and exits 130 (SIGINT) or 143 (SIGTERM): a cancelled frame never carries the
+output's name. A complete frame is renamed to its name only once written, so the name
+never holds a half-written file either. A second signal quits at once.
+
+The output folders are checked before the first frame: one that cannot be created or
+written to is an error before any rendering.
+
 Exit status: 0 on success, 1 on a clear error (missing file, bad setting, a scene the
-engine cannot render), 2 on bad command-line usage.
+engine cannot render, an output folder that cannot be written), 2 on bad command-line
+usage, 130 / 143 when cancelled by SIGINT / SIGTERM.
 """
 
 import argparse
 import os
 import re
+import signal
 import sys
+import tempfile
+import time
 
 PROG = "python -m photon_engine"
 FORMATS = ("OPEN_EXR_MULTILAYER", "OPEN_EXR", "PNG")
@@ -25,6 +44,18 @@ FORMATS = ("OPEN_EXR_MULTILAYER", "OPEN_EXR", "PNG")
 
 class CliError(Exception):
     """A user error: printed as one line, exit status 1."""
+
+
+class Cancelled(Exception):
+    """The render was stopped by a signal (``signum``); exit status 128 + signum."""
+
+    def __init__(self, signum, frame=None, partial=None):
+        name = signal.Signals(signum).name
+        where = f" during frame {frame}" if frame is not None else ""
+        kept = (f"; the partial frame is in {partial}" if partial
+                else "; no output written for it")
+        super().__init__(f"cancelled by {name}{where}{kept}")
+        self.signum = signum
 
 
 def build_parser():
@@ -52,18 +83,59 @@ def build_parser():
                         metavar="KEY=VALUE",
                         help="a Photon Map setting (scene.photon_map.KEY), repeatable, "
                              "e.g. --set samples=64")
+    render.add_argument("--keep-partial", action="store_true",
+                        help="when cancelled (SIGINT, SIGTERM), keep the frame rendered so "
+                             "far as <name>.partial.<ext> (default: write nothing)")
     return parser
 
 
 def main(argv=None):
     """Run the CLI; returns the exit status."""
     args = build_parser().parse_args(argv)
+    from .render import HEADLESS
+
+    previous = install_signal_handlers(HEADLESS.cancel)
     try:
         render_command(args, on_written=lambda path: print(f"{PROG}: wrote {path}", flush=True))
     except CliError as error:
         print(f"{PROG}: error: {error}", file=sys.stderr)
         return 1
+    except Cancelled as cancelled:
+        print(f"{PROG}: {cancelled}", file=sys.stderr, flush=True)
+        return 128 + cancelled.signum
+    finally:
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
     return 0
+
+
+CANCEL_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+received = []
+"""The cancelling signals received, in order (the first one sets the exit status)."""
+
+
+def install_signal_handlers(cancel):
+    """SIGINT and SIGTERM set ``cancel`` (a threading.Event) and nothing else: Python runs
+    the handler between two bytecodes of the main thread, which during a render is
+    between two batches, never inside a numba kernel or Embree. A second signal exits at
+    once (os._exit, no cleanup). Returns the previous handlers."""
+
+    def handler(signum, _frame):
+        if received:
+            os._exit(128 + received[0])
+        received.append(signum)
+        cancel.set()
+        print(f"{PROG}: {signal.Signals(signum).name} received: cancelling (again to quit "
+              f"at once)", file=sys.stderr, flush=True)
+
+    received.clear()
+    cancel.clear()
+    return {signum: signal.signal(signum, handler) for signum in CANCEL_SIGNALS}
+
+
+def _check_cancel(frame=None):
+    if received:
+        raise Cancelled(received[0], frame)
 
 
 FRAME_ITEM = re.compile(r"^(-?\d+)(?:(?:\.\.|(?<=\d)-)(-?\d+))?$")
@@ -121,32 +193,107 @@ def render_command(args, on_written=None):
         scene.render.filepath = output
     pattern = scene.render.filepath
 
+    # write_still does not expand '#'; frame_path does (and adds the extension).
+    paths = [bpy.path.abspath(scene.render.frame_path(frame=frame)) for frame in frames]
+    check_writable(paths)
+    from .render import HEADLESS
+
+    keep_partial = bool(getattr(args, "keep_partial", False))
     written = []
-    for frame in frames:
-        # frame_set re-evaluates animation, drivers and the camera: the render exports
-        # this frame's depsgraph.
-        scene.frame_set(frame)
+    try:
+        for frame, path in zip(frames, paths):
+            _check_cancel(frame)
+            # frame_set re-evaluates animation, drivers and the camera: the render exports
+            # this frame's depsgraph.
+            scene.frame_set(frame)
+            HEADLESS.on_progress = StagePrinter(frame)
+            written.append(_render_still(bpy, scene, frame, path, keep_partial))
+            if on_written is not None:
+                on_written(written[-1])
+    finally:
+        HEADLESS.on_progress = None
         scene.render.filepath = pattern
-        written.append(_render_still(bpy, scene, frame))
-        if on_written is not None:
-            on_written(written[-1])
-    scene.render.filepath = pattern
     return written
 
 
-def _render_still(bpy, scene, frame):
-    """Render the current frame to the output pattern expanded for ``frame``; returns the path."""
-    # write_still does not expand '#'; frame_path does (and adds the extension).
-    path = bpy.path.abspath(scene.render.frame_path(frame=frame))
-    os.makedirs(os.path.dirname(path) or ".", exist_ok=True)
-    scene.render.filepath = path
+def partial_path(path):
+    """Where a frame is written until it is complete: ``frame_0001.exr`` ->
+    ``frame_0001.partial.exr`` (Blender keeps an extension it recognises)."""
+    stem, ext = os.path.splitext(path)
+    return f"{stem}.partial{ext}"
+
+
+def _render_still(bpy, scene, frame, path, keep_partial=False):
+    """Render the current frame and write it to ``path``; returns the path. Blender writes
+    it to ``partial_path(path)``, renamed to ``path`` once complete; when a signal
+    cancelled the render the partial file is removed (kept with ``keep_partial``) and
+    Cancelled is raised."""
+    partial = partial_path(path)
+    scene.render.filepath = partial
     try:
-        bpy.ops.render.render(write_still=True)
-    except RuntimeError as error:
-        raise CliError(str(error).removeprefix("Error: ").strip()) from None
-    if not os.path.isfile(path):
-        raise CliError(f"the render finished but {path} was not written (see the messages above)")
+        try:
+            bpy.ops.render.render(write_still=True)
+        except RuntimeError as error:
+            _check_cancel(frame)
+            raise CliError(str(error).removeprefix("Error: ").strip()) from None
+        if received:
+            if keep_partial and os.path.isfile(partial):
+                kept, partial = partial, None
+                raise Cancelled(received[0], frame, kept)
+            raise Cancelled(received[0], frame)
+        if not os.path.isfile(partial):
+            raise CliError(f"the render finished but {path} was not written (see the "
+                           f"messages above)")
+        os.replace(partial, path)
+        partial = None
+    finally:
+        if partial is not None and os.path.isfile(partial):
+            os.remove(partial)
     return path
+
+
+def check_writable(paths):
+    """Raise CliError naming the first output folder of ``paths`` that cannot be created
+    or written to (checked by creating and removing a file in it: permission bits do not
+    tell for root, read-only file systems or full disks)."""
+    for folder in dict.fromkeys(os.path.dirname(p) or "." for p in paths):
+        try:
+            os.makedirs(folder, exist_ok=True)
+            with tempfile.TemporaryFile(dir=folder):
+                pass
+        except OSError as error:
+            reason = error.strerror or str(error)
+            raise CliError(f"cannot write the output to {folder}: {reason} (choose another "
+                           f"folder with -o)") from None
+
+
+class StagePrinter:
+    """The render's progress as lines on stdout: "frame 1: photon pass: Traced 262144/
+    3000000 photons (8%)", one when the stage changes and at most one a second within a
+    stage. Stages: photon pass (tracing, the radiance cache), camera pass (tiles),
+    progressive pass (SPPM)."""
+
+    INTERVAL = 1.0
+
+    def __init__(self, frame):
+        self.frame, self.stage, self.last = frame, None, 0.0
+
+    def __call__(self, fraction, message):
+        stage = stage_of(message)
+        now = time.monotonic()
+        if stage == self.stage and now - self.last < self.INTERVAL:
+            return
+        self.stage, self.last = stage, now
+        print(f"{PROG}: frame {self.frame}: {stage}: {message} ({fraction:.0%})", flush=True)
+
+
+def stage_of(message) -> str:
+    """The stage a core progress message belongs to."""
+    if message.startswith(("Rendering", "Gathering", "Done")):
+        return "camera pass"
+    if message.startswith("Pass "):
+        return "progressive pass"
+    return "photon pass"
 
 
 def parse_settings(pairs):

@@ -18,6 +18,7 @@ Heavy imports (``core``: numba, embreex) happen inside the functions, at render 
 
 import os
 import sys
+import threading
 import time
 
 import numpy as np
@@ -174,6 +175,8 @@ def render_progressive(engine, scene, settings, writer, started):
             text = f"Pass {k} of {passes}"
         engine.update_progress(fraction)
         engine.update_stats("", f"Photon Map | Progressive: {text}")
+        if HEADLESS.on_progress is not None:
+            HEADLESS.on_progress(fraction, text)
 
     engine.update_stats("", "Photon Map | Progressive: pass 1 (visible points, photons)")
     return core_render(scene, settings.with_values(progressive_passes=passes,
@@ -282,16 +285,34 @@ def load_embree_isolated():
         sys.setdlopenflags(flags)
 
 
+class HeadlessControl:
+    """What a headless caller (the CLI, photon_engine/cli.py) adds to a render's progress:
+    ``cancel``, set from a signal handler (it only sets the flag: raising inside
+    ``bpy.ops.render.render`` crashes Blender), makes ``should_stop`` answer "stop", as
+    Esc does, so the core stops between batches; ``on_progress(fraction, message)``, when
+    set, sees every progress call (the CLI prints the stages)."""
+
+    def __init__(self):
+        self.cancel = threading.Event()
+        self.on_progress = None
+
+
+HEADLESS = HeadlessControl()
+
+
 def progress_callbacks(engine):
     """The core's ``on_progress(fraction, message)`` and ``should_stop()`` wired to Blender:
-    the progress bar and status line, and Esc (``test_break``)."""
+    the progress bar and status line, and Esc (``test_break``) or a headless cancel
+    (``HEADLESS``)."""
 
     def on_progress(fraction, message):
         engine.update_progress(fraction)
         engine.update_stats("", f"Photon Map | {message}")
+        if HEADLESS.on_progress is not None:
+            HEADLESS.on_progress(fraction, message)
 
     def should_stop():
-        return bool(engine.test_break())
+        return HEADLESS.cancel.is_set() or bool(engine.test_break())
 
     return on_progress, should_stop
 

@@ -107,10 +107,11 @@ def cache_point_count(stored: int, diffuse_area: float, radius: float) -> int:
 
 
 def build_radiance_cache(terms: "PhotonTerms", prepared: PreparedScene,
-                         settings: RenderSettings) -> RadianceCache | None:
+                         settings: RenderSettings, should_stop=None) -> RadianceCache | None:
     """Precompute the global map's radiance at ``cache_point_count`` points spread
     uniformly over the diffuse surfaces (both sides of each). Deterministic: the points
-    are counter hashes of (seed, point index)."""
+    are counter hashes of (seed, point index). should_stop() -> True (asked between
+    chunks of points) abandons the cache: returns None."""
     mats = prepared.materials
     diffuse_tri = np.flatnonzero(prepared.has_diffuse[prepared.tri_material])
     if terms.global_map is None or diffuse_tri.size == 0:
@@ -141,8 +142,12 @@ def build_radiance_cache(terms: "PhotonTerms", prepared: PreparedScene,
     else:
         albedo = mats["diffuse"][prepared.tri_material[prim]]
     # One neighbour search per point serves both of its sides.
-    front, back = radiance_estimate_sides(terms.global_map, pos, [nrm, -nrm], albedo,
-                                          terms.global_k, terms.global_radius, terms.filter)
+    sides = radiance_estimate_sides(terms.global_map, pos, [nrm, -nrm], albedo,
+                                    terms.global_k, terms.global_radius, terms.filter,
+                                    should_stop=should_stop)
+    if sides is None:
+        return None
+    front, back = sides
     cache = RadianceCache(PhotonMap(np.concatenate([pos, pos]).astype(np.float32),
                                     np.concatenate([front, back]),
                                     np.concatenate([nrm, -nrm])), terms.global_radius)

@@ -326,9 +326,11 @@ def radiance_estimate(photon_map: PhotonMap, points: np.ndarray, normals: np.nda
 
 
 def radiance_estimate_sides(photon_map: PhotonMap, points, normals_list, albedo, k,
-                            max_radius, filter="cone", plane_fraction=PLANE_FRACTION):
+                            max_radius, filter="cone", plane_fraction=PLANE_FRACTION,
+                            should_stop=None):
     """``radiance_estimate`` for several normals per point (e.g. both sides of a
-    surface) from one neighbour search; returns a list of (M, 3) float64."""
+    surface) from one neighbour search; returns a list of (M, 3) float64, or None when
+    should_stop() (asked between chunks of QUERY_CHUNK points) answers True."""
     m = points.shape[0]
     outs = [np.zeros((m, 3)) for _ in normals_list]
     if m == 0 or len(photon_map) == 0:
@@ -341,6 +343,8 @@ def radiance_estimate_sides(photon_map: PhotonMap, points, normals_list, albedo,
     albedo = np.ascontiguousarray(albedo, np.float64)
     bad = 0
     for lo in range(0, m, QUERY_CHUNK):
+        if lo and should_stop is not None and should_stop():
+            return None
         hi = min(m, lo + QUERY_CHUNK)
         idx, dist2 = photon_map.nearest(points32[lo:hi], k, max_radius)
         for normals, out in zip(normals_list, outs):

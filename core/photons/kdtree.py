@@ -136,23 +136,16 @@ def _widest_axis(work, lo, hi):
 
 
 @njit(parallel=True, cache=True, nogil=True)
-def balance_kernel(positions):
-    """Balance (N, 3) float32 positions -> (tree positions, source index, split axis).
+def _balance_into(work, src, seg_lo, seg_hi, tree, perm, axis):
+    """Balance the (N, 3) float32 positions in ``work`` (reordered in place) into
+    ``tree`` (heap order), ``perm`` (tree row -> input row, from ``src`` = arange(N)) and
+    ``axis``; seg_lo / seg_hi (N,) scratch. Index arrays int32 or int64 alike.
 
     Level by level, every node of a level in parallel: a node owns a contiguous segment of
     the work array, picks its widest axis, selects its median, and hands the two halves
     to its children. O(N log N): each level costs O(N) (bounding boxes and selections).
     """
-    n = positions.shape[0]
-    work = positions.copy()
-    src = np.arange(n)
-    seg_lo = np.empty(n, np.int64)
-    seg_hi = np.empty(n, np.int64)
-    tree = np.empty((n, 3), np.float32)
-    perm = np.empty(n, np.int64)
-    axis = np.zeros(n, np.uint8)
-    if n == 0:
-        return tree, perm, axis
+    n = work.shape[0]
     seg_lo[0] = 0
     seg_hi[0] = n
     first = 0
@@ -181,6 +174,26 @@ def balance_kernel(positions):
                 seg_hi[left + 1] = hi
         first += width
         width *= 2
+
+
+def balance_kernel(positions, in_place=False):
+    """Balance (N, 3) float32 positions -> (tree positions, source index, split axis).
+
+    in_place: reorder ``positions`` itself instead of a copy (12 B per photon less; the
+    PhotonMap does it on the array it owns). The index arrays (source and three scratch
+    ones) are int32 below 2^31 photons, int64 above: 41 B per photon at the peak with
+    ``in_place`` (12 work, 12 tree, 1 axis, 4 x 4 indices).
+    """
+    n = positions.shape[0]
+    index = np.int32 if n < 2**31 else np.int64
+    work = positions if in_place else positions.copy()
+    tree = np.empty((n, 3), np.float32)
+    perm = np.empty(n, index)
+    axis = np.zeros(n, np.uint8)
+    if n:
+        src = np.arange(n, dtype=index)
+        seg_lo, seg_hi = np.empty(n, index), np.empty(n, index)
+        _balance_into(work, src, seg_lo, seg_hi, tree, perm, axis)
     return tree, perm, axis
 
 
@@ -194,7 +207,8 @@ def balance(positions: np.ndarray):
 
     positions: (N, 3) float32, metres.
     Returns (tree, source, split_axis): tree (N, 3) float32 = positions[source] in heap
-    order, source (N,) int64 index into the input, split_axis (N,) uint8 (0 for leaves).
+    order, source (N,) int32 (int64 from 2^31 photons) index into the input, split_axis
+    (N,) uint8 (0 for leaves).
     """
     positions = np.ascontiguousarray(positions, dtype=np.float32)
     if positions.ndim != 2 or positions.shape[1] != 3:

@@ -26,9 +26,14 @@ import numpy as np
 from numba import njit, prange
 
 from . import encoding
-from .kdtree import (balance_kernel, nearest_kernel, query_order, search_growth, tree_depth)
+from .kdtree import balance_kernel, nearest_kernel, query_order, search_growth, tree_depth
 
 BYTES_PER_PHOTON = 12 + 6 + 4 + 1
+PEAK_BYTES_PER_PHOTON = 12 + 10 + 41 - 12
+"""Bytes per photon at the peak of ``PhotonMap.from_parts``: the codes (10) while the
+balance holds its 41 (core/photons/kdtree.py), whose work array is the positions (12) themselves."""
+ENCODE_CHUNK = 1 << 18
+"""Rows encoded together (float64 copies of this many rows only)."""
 _INF32 = np.float32(np.inf)
 
 
@@ -59,6 +64,26 @@ def check_k(k) -> int:
     if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 1:
         raise ValueError(f"k must be an integer >= 1, got {k!r}")
     return int(k)
+
+
+def _release_freed_memory():
+    """Hand memory freed by numpy back to the system (glibc's malloc_trim; elsewhere
+    nothing). glibc keeps freed blocks of a few MB (the tracer's per-bounce pieces) in its
+    heap, so without this the process's peak counts them again (measured: 66-69 B per
+    photon at the peak instead of 54-57, benchmarks/bench_photon_memory.py)."""
+    global _TRIM
+    if _TRIM is None:
+        try:
+            import ctypes
+
+            _TRIM = ctypes.CDLL(None).malloc_trim
+        except (OSError, AttributeError):
+            _TRIM = False
+    if _TRIM:
+        _TRIM(0)
+
+
+_TRIM = None
 
 
 @njit(parallel=True, cache=True, nogil=True)
@@ -94,24 +119,69 @@ class PhotonMap:
     def __init__(self, positions, flux, directions):
         positions = check_points(positions, "positions")
         n = positions.shape[0]
-        if n >= 2**32:  # the search's heap keys hold a photon index in 32 bits
-            raise ValueError(f"positions: at most 2^32 - 1 photons per map, got {n}")
-        flux = np.asarray(flux, dtype=np.float64)
-        directions = np.asarray(directions, dtype=np.float64)
+        flux = np.asarray(flux)
+        directions = np.asarray(directions)
         if flux.shape != (n, 3):
             raise ValueError(f"flux must have shape ({n}, 3) like positions, got {flux.shape}")
         if directions.shape != (n, 3):
             raise ValueError(
                 f"directions must have shape ({n}, 3) like positions, got {directions.shape}")
-        if not np.isfinite(flux).all() or (flux < 0).any():
-            raise ValueError("flux must be finite and >= 0 (watts)")
+        # The caller keeps its arrays (the balance reorders a copy of the positions).
+        self._build([positions], [flux], [directions])
 
-        # Encode in the input order (sequential reads), balance, then gather the codes
-        # into the tree's order.
-        self._scale = encoding.flux_scale(flux)
-        flux_codes = encoding.encode_flux(flux, self._scale)
-        direction_codes = encoding.encode_direction(directions)
-        self._tree, source, self._axis = balance_kernel(positions)
+    @classmethod
+    def from_parts(cls, positions, flux, directions) -> "PhotonMap":
+        """The map of photons given as lists of pieces (the tracer's per-bounce arrays,
+        concatenated in list order), (n_i, 3) each like ``__init__``'s arrays. The lists
+        are emptied as the pieces are used, so the construction peaks at about
+        ``PEAK_BYTES_PER_PHOTON`` with the pieces counted, instead of copies of them all.
+        The map is identical to ``PhotonMap(concatenated arrays)``."""
+        if not (len(positions) == len(flux) == len(directions)):
+            raise ValueError("positions, flux and directions need the same number of pieces")
+        for k, (p, f, d) in enumerate(zip(positions, flux, directions)):
+            if np.shape(f) != np.shape(p) or np.shape(d) != np.shape(p):
+                raise ValueError(f"piece {k}: flux {np.shape(f)} and directions "
+                                 f"{np.shape(d)} must match positions {np.shape(p)}")
+            positions[k] = check_points(p, "positions")
+        self = cls.__new__(cls)
+        self._build(positions, flux, directions)
+        return self
+
+    def _build(self, position_parts, flux_parts, direction_parts):
+        """Encode the flux and direction pieces in chunks of ENCODE_CHUNK rows, then join
+        the positions (in the memory the pieces freed) and balance them in place, then
+        gather the codes into the tree's order. Empties the three lists."""
+        n = sum(p.shape[0] for p in position_parts)
+        if n >= 2**32:  # the search's heap keys hold a photon index in 32 bits
+            raise ValueError(f"positions: at most 2^32 - 1 photons per map, got {n}")
+        peak = 0.0
+        for f in flux_parts:
+            f = np.asarray(f)
+            if f.size:
+                if not np.isfinite(f).all() or (f < 0).any():
+                    raise ValueError("flux must be finite and >= 0 (watts)")
+                peak = max(peak, float(f.max()))
+        self._scale = encoding.flux_scale(np.array([peak]))
+        # Encode in the input order (sequential reads), one chunk at a time: float64
+        # copies of a chunk only (the codes are the same as for the whole array).
+        flux_codes = np.empty((n, 3), np.uint16)
+        direction_codes = np.empty((n, 2), np.uint16)
+        row = 0
+        while flux_parts:
+            f, d = np.asarray(flux_parts.pop(0)), np.asarray(direction_parts.pop(0))
+            for lo in range(0, f.shape[0], ENCODE_CHUNK):
+                hi = min(f.shape[0], lo + ENCODE_CHUNK)
+                flux_codes[row + lo:row + hi] = encoding.encode_flux(f[lo:hi], self._scale)
+                direction_codes[row + lo:row + hi] = encoding.encode_direction(d[lo:hi])
+            row += f.shape[0]
+            del f, d
+        _release_freed_memory()  # the flux and direction pieces
+        positions = (np.concatenate(position_parts) if position_parts
+                     else np.zeros((0, 3), np.float32))
+        position_parts.clear()
+        _release_freed_memory()  # the position pieces, before the balance's arrays
+        self._tree, source, self._axis = balance_kernel(positions, in_place=True)
+        del positions
         self._flux = np.empty((n, 3), np.uint16)
         self._direction = np.empty((n, 2), np.uint16)
         _gather_codes(flux_codes, direction_codes, source, self._flux, self._direction)

@@ -155,8 +155,9 @@ def _trace_map(prepared, sources, counts, targets_per_source, mode, store_rule, 
 
 def _balance(store: PhotonStore, counters: dict):
     t0 = time.perf_counter()
-    pos, flux, direction = store.take()
-    pm = PhotonMap(pos, flux, direction) if pos.shape[0] else None
+    # From the per-bounce pieces, encoded piece by piece (no float64 copies of the map).
+    pm = PhotonMap.from_parts(store.pos, store.flux, store.dir) if store.count else None
+    store.count = 0
     counters["time_balancing"] += time.perf_counter() - t0
     return pm
 

@@ -115,3 +115,105 @@ def test_quality_and_progressive_settings_from_the_command_line(blend_file, tmp_
     bad = cli("render", blend_file, "-o", tmp_path / "x_####", "--quality", "ultra", timeout=120)
     assert bad.returncode == 1 and "--quality must be one of draft, preview, final, converged" in bad.stderr
     assert "Traceback" not in bad.stderr
+
+
+# --- cancelling and output failures (issue 11) ------------------------------------------
+
+def cli_until(line_part, signum, *args, timeout=300):
+    """Start the CLI, send ``signum`` to it when a stdout line contains ``line_part``;
+    returns (returncode, stdout, stderr, seconds from the signal to the "cancelled by"
+    line, or None when no signal was sent)."""
+    import signal as signal_module
+    import threading
+    import time
+
+    proc = subprocess.Popen([sys.executable, "-m", "photon_engine", *map(str, args)],
+                            cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    err_lines, out_lines, sent = [], [], {}
+
+    def read_err():
+        for line in proc.stderr:
+            err_lines.append(line)
+            if "cancelled by" in line and "at" in sent:
+                sent["done"] = time.monotonic()
+
+    reader = threading.Thread(target=read_err, daemon=True)
+    reader.start()
+    timer = threading.Timer(timeout, proc.kill)
+    timer.start()
+    try:
+        for line in proc.stdout:
+            out_lines.append(line)
+            if "at" not in sent and line_part in line:
+                proc.send_signal(signum)
+                sent["at"] = time.monotonic()
+        proc.wait()
+        reader.join(10)
+    finally:
+        timer.cancel()
+    latency = sent["done"] - sent["at"] if "done" in sent else None
+    assert signum in (signal_module.SIGINT, signal_module.SIGTERM)
+    return proc.returncode, "".join(out_lines), "".join(err_lines), latency
+
+
+@pytest.fixture(scope="module")
+def slow_blend(tmp_path_factory):
+    """The lit plane at 64 x 48: with 3 M photons the photon pass takes seconds, with 256
+    samples the camera pass too."""
+    path = tmp_path_factory.mktemp("cli_slow") / "slow.blend"
+    scenes.plane_and_point_light(width=64, height=48)
+    scenes.photon_map()
+    bpy.ops.wm.save_as_mainfile(filepath=str(path), copy=True)
+    return path
+
+
+@pytest.mark.parametrize("signame, stage, keep", [
+    ("SIGINT", "photon pass: Traced", False),
+    ("SIGTERM", "photon pass: Traced", False),
+    ("SIGINT", "camera pass:", False),
+    ("SIGTERM", "camera pass:", True),
+])
+def test_a_signal_cancels_writes_nothing_and_exits_non_zero(slow_blend, tmp_path, signame,
+                                                            stage, keep):
+    """SIGINT / SIGTERM at each stage: the render stops between batches (no crash), no
+    frame under the output's name (a partial one only with --keep-partial, named so),
+    "cancelled" said, exit status 128 + the signal (130 / 143)."""
+    import signal as signal_module
+
+    signum = getattr(signal_module, signame)
+    photons = "3000000" if stage.startswith("photon") else "20000"
+    extra = ["--keep-partial"] if keep else []
+    code, out, err, latency = cli_until(
+        stage, signum, "render", slow_blend, "-o", tmp_path / "c_####", "-f", 1,
+        "--set", f"global_photons={photons}", "--set", "samples=256", *extra)
+    assert code == 128 + signum, (code, out[-2000:], err[-2000:])
+    assert stage in out
+    assert f"cancelled by {signame} during frame 1" in err
+    assert "Traceback" not in err and "Fatal Python error" not in err
+    assert "wrote" not in out
+    # Well within a second on an idle machine (measured 0.02-0.2 s); loose for a shared one.
+    assert latency is not None and latency < 5.0, latency
+    names = sorted(p.name for p in tmp_path.iterdir())
+    if keep:
+        assert names == ["c_0001.partial.exr"]
+        assert f"the partial frame is in {tmp_path / 'c_0001.partial.exr'}" in err
+        combined = scenes.read_multilayer_exr(tmp_path / "c_0001.partial.exr")["Combined"]
+        assert combined.shape == (48, 64, 4) and np.isfinite(combined).all()
+    else:
+        assert names == [], names
+        assert "no output written" in err
+
+
+def test_unwritable_output_fails_before_rendering(blend_file, tmp_path):
+    """An output folder that cannot be written is an error naming it before any render
+    (/proc refuses new files even to root; a regular file cannot be a folder)."""
+    blocker = tmp_path / "file"
+    blocker.write_text("not a folder")
+    for target, reason in ((blocker / "sub" / "o_####", "Not a directory"),
+                           ("/proc/o_####", "")):
+        done = cli("render", blend_file, "-o", target, "-f", 1, timeout=120)
+        assert done.returncode == 1, done.stdout[-2000:] + done.stderr[-2000:]
+        folder = str(blocker / "sub") if reason else "/proc"
+        assert f"cannot write the output to {folder}: {reason}" in done.stderr, done.stderr
+        assert "Traceback" not in done.stderr
+        assert "Photon Map:" not in done.stdout  # no render started

@@ -230,3 +230,32 @@ def test_bad_queries_raise_naming_the_argument(k, radius, field, rng):
     pm = make_map(point_set("uniform", rng, 10), rng)
     with pytest.raises(ValueError, match=field):
         pm.nearest(np.zeros((1, 3)), k, radius)
+
+
+def test_from_parts_is_the_map_of_the_joined_pieces(rng):
+    """The tracer's path (pieces encoded one by one, the lists emptied, positions balanced
+    in place with int32 indices) gives the very arrays of the whole-array constructor and
+    of the int64 balance."""
+    from core.kdtree import _balance_into
+
+    sizes = [0, 1, 1000, 70_000, 3]
+    pos = [rng.random((m, 3), dtype=np.float32) for m in sizes]
+    flux = [(rng.random((m, 3)) * 10.0 ** rng.uniform(-6, 2)).astype(np.float32) for m in sizes]
+    dirs = [rng.normal(size=(m, 3)).astype(np.float32) for m in sizes]
+    whole = PhotonMap(np.concatenate(pos), np.concatenate(flux), np.concatenate(dirs))
+    joined = np.concatenate(pos)
+    lists = (list(pos), list(flux), list(dirs))
+    parts = PhotonMap.from_parts(*lists)
+    assert lists == ([], [], [])
+    for a, b in zip(whole.kernel_arrays(), parts.kernel_arrays()):
+        np.testing.assert_array_equal(a, b)
+    # The int32 balance equals the int64 one; the input of PhotonMap is left as it was.
+    n = joined.shape[0]
+    tree, perm, axis = np.empty((n, 3), np.float32), np.empty(n, np.int64), np.zeros(n, np.uint8)
+    _balance_into(joined.copy(), np.arange(n), np.empty(n, np.int64), np.empty(n, np.int64),
+                  tree, perm, axis)
+    np.testing.assert_array_equal(tree, parts.positions)
+    np.testing.assert_array_equal(axis, parts.split_axis)
+    np.testing.assert_array_equal(whole.positions, joined[perm])
+    with pytest.raises(ValueError, match="piece 1"):
+        PhotonMap.from_parts([pos[1], pos[2]], [flux[1], flux[1]], [dirs[1], dirs[2]])
