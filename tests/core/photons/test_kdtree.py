@@ -1,7 +1,7 @@
 """core/photons/kdtree.py on its own, without PhotonMap: the balancing pieces (subtree
 sizes, median selection, widest axis, the balanced heap checked subtree by subtree) and
 the search kernels (``knn_search``, ``knn_search_coherent``, ``sort_heap``,
-``heap_entry``, ``_nearest_kernel`` with any query order, ``query_order``) against brute
+``heap_entry``, ``nearest_kernel`` with any query order, ``query_order``) against brute
 force. tests/core/photons/test_photon_map.py checks the same rules through
 ``PhotonMap.nearest``; here each function is called directly."""
 
@@ -157,14 +157,14 @@ def _search_plain(tree, axis, depth, queries, k, r2):
 
 
 def search_coherent(tree, axis, queries, k, r2, growth, order=None):
-    """``knn_search_coherent`` through ``_nearest_kernel`` (the kernel PhotonMap.nearest
+    """``knn_search_coherent`` through ``nearest_kernel`` (the kernel PhotonMap.nearest
     runs): blocks of QUERY_BLOCK queries in ``order``, each query starting from the
     previous one's radius."""
     m = queries.shape[0]
     order = np.arange(m, dtype=np.int64) if order is None else order
     idx = np.empty((m, k), np.int64)
     d2 = np.empty((m, k), np.float32)
-    kdtree._nearest_kernel(tree, axis, tree_depth(tree.shape[0]), queries, order, k,
+    kdtree.nearest_kernel(tree, axis, tree_depth(tree.shape[0]), queries, order, k,
                            np.float32(r2), growth, idx, d2)
     return idx, d2
 
@@ -246,7 +246,7 @@ def test_coherent_search_survives_a_bad_first_radius(rng):
 
 
 @pytest.mark.parametrize("shape", ["random", "clustered", "duplicates"])
-def test_nearest_kernel_does_not_depend_on_the_query_order(shape, rng):
+def testnearest_kernel_does_not_depend_on_the_query_order(shape, rng):
     pts = point_set(shape, rng, 3000)
     tree, _, axis = balance(pts)
     queries = np.vstack([point_set(shape, rng, 700), rng.random((300, 3), np.float32)])

@@ -95,19 +95,13 @@ COMBOS = list(itertools.product((MODE_GLOBAL, MODE_CAUSTIC),
 
 
 def test_stores_truth_table():
-    # Caustic photons never carry a diffuse bounce (scatter ends them at one, see
-    # test_caustic_photons_end_at_a_diffuse_bounce), so those states are left to
-    # test_stores_caustic_with_a_diffuse_bounce below.
     for combo in COMBOS:
-        mode, _, _, nd, _ = combo
-        if mode == MODE_CAUSTIC and nd > 0:
-            continue
         assert stores(*combo) == rule(*combo), combo
 
 
-@pytest.mark.xfail(strict=True, reason="stores() ignores n_diffuse in MODE_CAUSTIC (store.py "
-                   "docstring: 'and no diffuse one'); unreachable through scatter_kernel")
 def test_stores_caustic_with_a_diffuse_bounce():
+    """A caustic path is L S+ D: a photon with a diffuse bounce behind it is not stored
+    (scatter_kernel ends caustic photons at their first diffuse bounce anyway)."""
     assert not stores(MODE_CAUSTIC, STORE_ALL, True, 1, 1)
 
 
