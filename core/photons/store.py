@@ -37,7 +37,7 @@ def stores(mode, store_rule, diffuse_lobe, n_diffuse, n_specular):
     if not diffuse_lobe:
         return False
     if mode == MODE_CAUSTIC:
-        return n_specular > 0
+        return n_specular > 0 and n_diffuse == 0
     return (store_rule == STORE_ALL or n_diffuse > 0
             or (store_rule == STORE_NOT_DIRECT and n_specular > 0))
 
