@@ -24,8 +24,8 @@ import numpy as np
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from core.scene import shapes
-from core.integrators import sppm# noqa: E402
+from core.scene import shapes  # noqa: E402
+from core.integrators import sppm  # noqa: E402
 from core.scene.contract import LIGHT_POINT, Lights, Materials, Scene  # noqa: E402
 from core.settings import RenderSettings  # noqa: E402
 
@@ -53,8 +53,9 @@ def rel_mse(a: np.ndarray, b: np.ndarray) -> float:
 def make_reference() -> None:
     t0 = time.perf_counter()
     # Standard SPPM (direct light by photons): the form the stored reference was made with.
-    out = sppm.render_progressive(caustic_scene(), RenderSettings().with_values(
-        seed=REF_SEED, threads=1), REF_PASSES, REF_PHOTONS, direct="photons")
+    out = sppm.render(caustic_scene(), RenderSettings().with_values(
+        seed=REF_SEED, threads=1, progressive_passes=REF_PASSES, photons_per_pass=REF_PHOTONS,
+        progressive_direct="photons"))
     REFERENCE.parent.mkdir(parents=True, exist_ok=True)
     np.savez_compressed(REFERENCE, image=out.passes["combined"],
                         command="benchmarks/sppm_convergence.py --make-reference",
@@ -71,10 +72,11 @@ def table(max_passes: int, seed: int) -> None:
     rows = {}
     for direct in sppm.DIRECT_MODES:
         # Load the numba kernels once so the first row does not include compilation.
-        sppm.render_progressive(caustic_scene(8, 8), settings, 1, 100, direct=direct)
+        sppm.render(caustic_scene(8, 8), settings.with_values(
+            progressive_passes=1, photons_per_pass=100, progressive_direct=direct))
         t0 = time.perf_counter()
-        for state in sppm.progressive_passes(caustic_scene(), settings, PHOTONS_PER_PASS,
-                                             max_passes=max_passes, direct=direct):
+        for state in sppm.progressive_passes(caustic_scene(), settings.with_values(
+                photons_per_pass=PHOTONS_PER_PASS, progressive_direct=direct), max_passes):
             if state.passes in marks:
                 img = state.radiance()
                 rows.setdefault(state.passes, []).append(
