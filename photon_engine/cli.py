@@ -52,6 +52,10 @@ def build_parser():
                         metavar="KEY=VALUE",
                         help="a Photon Map setting (scene.photon_map.KEY), repeatable, "
                              "e.g. --set samples=64")
+    render.add_argument("--dask", metavar="ADDRESS",
+                        help="spread the progressive passes of each frame over a Dask cluster: "
+                             "tcp://host:8786 (a scheduler) or local:N (N worker processes "
+                             "here); needs --set integrator=progressive and dask[distributed]")
     return parser
 
 
@@ -112,6 +116,18 @@ def render_command(args, on_written=None):
     if getattr(args, "quality", None) is not None:
         apply_quality(scene.photon_map, args.quality)
     apply_settings(scene.photon_map, overrides)
+    dask = getattr(args, "dask", None)
+    if dask:
+        if scene.photon_map.integrator != 'progressive':
+            raise CliError(f"--dask {dask} needs the progressive integrator (--set "
+                           f"integrator=progressive); the scene's is "
+                           f"{scene.photon_map.integrator!r}")
+        try:
+            import dask.distributed  # noqa: F401
+        except ImportError as error:
+            raise CliError(f"--dask {dask}: dask.distributed is not installed "
+                           f"(pip install 'dask[distributed]'): {error}") from None
+        scene.photon_map.dask_scheduler = dask
 
     frames = [scene.frame_current] if args.frames is None else args.frames
     set_format(scene.render.image_settings, args.format)
