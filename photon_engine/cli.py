@@ -116,18 +116,19 @@ def render_command(args, on_written=None):
     if getattr(args, "quality", None) is not None:
         apply_quality(scene.photon_map, args.quality)
     apply_settings(scene.photon_map, overrides)
-    dask = getattr(args, "dask", None)
-    if dask:
+    address = getattr(args, "dask", None)
+    if address:
         if scene.photon_map.integrator != 'progressive':
-            raise CliError(f"--dask {dask} needs the progressive integrator (--set "
+            raise CliError(f"--dask {address} needs the progressive integrator (--set "
                            f"integrator=progressive); the scene's is "
                            f"{scene.photon_map.integrator!r}")
         try:
-            import dask.distributed  # noqa: F401
+            import importlib
+            importlib.import_module("dask.distributed")
         except ImportError as error:
-            raise CliError(f"--dask {dask}: dask.distributed is not installed "
+            raise CliError(f"--dask {address}: dask.distributed is not installed "
                            f"(pip install 'dask[distributed]'): {error}") from None
-        scene.photon_map.dask_scheduler = dask
+        scene.photon_map.dask_scheduler = address
 
     frames = [scene.frame_current] if args.frames is None else args.frames
     set_format(scene.render.image_settings, args.format)
