@@ -47,6 +47,10 @@ PREPARED_FACTOR = 6
 """The prepared scene (tables, Embree's BVH) as a multiple of the scene's array bytes."""
 
 
+TASK_EXPRESSION = "__import__('cloudpickle').loads(blob)(*args)"
+"""What a worker evaluates for a block (``render``)."""
+
+
 class DistributedError(RuntimeError):
     """A cluster problem the user can act on (unreachable scheduler, no workers, a scene
     too large for them); the message names the address or the figures."""
@@ -224,15 +228,21 @@ def render(scene: Scene, settings: RenderSettings, client, on_progress: Progress
     n_workers = max(1, len(client.scheduler_info().get("workers", {})))
     in_flight = 2 * n_workers
     names, root = _core_names(), _core_root()
+    # The task is the builtin eval of a fixed expression: plain pickle sends a function by
+    # its module's name, which a worker may not have (Blender's bl_ext..., the CLI's
+    # photon_map); eval is everywhere, and _dask_task.run_block travels by value.
     from . import _dask_task
     import cloudpickle
     cloudpickle.register_pickle_by_value(_dask_task)
+    task_blob = cloudpickle.dumps(_dask_task.run_block)
+    cloudpickle.unregister_pickle_by_value(_dask_task)
 
     def submit(i):
         a, b = blocks[i]
-        return client.submit(_dask_task.run_block, names, root, scene_future, worker_settings,
-                             token, a, b, key=f"photon-map-{token[:8]}-{a}", pure=False,
-                             retries=2)
+        return client.submit(eval, TASK_EXPRESSION,
+                             {"blob": task_blob, "args": [names, root, scene_future,
+                                                          worker_settings, token, a, b]},
+                             key=f"photon-map-{token[:8]}-{a}", pure=False, retries=2)
 
     image = sppm.ImageSum(w, h)
     futures = {}
