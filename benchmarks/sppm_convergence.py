@@ -3,12 +3,12 @@
     .venv/bin/python benchmarks/sppm_convergence.py                  # the table (docs/sppm.md)
     .venv/bin/python benchmarks/sppm_convergence.py --make-reference # tests/data/sppm_caustic_ref.npz
 
-The scene (also built by tests/core/integrators/test_sppm.py, keep them equal): a 4 x 4 m diffuse floor
+The scene (also built by tests/core/test_sppm.py, keep them equal): a 4 x 4 m diffuse floor
 (albedo 0.8), a glass sphere (radius 0.5 m, ior 1.5) 0.1 m above it, a 200 W point light
 (radius 0) at (0.3, 0, 2.5) m, a 32 x 32 pinhole camera. The reference is SPPM itself with
 1024 passes of 32 000 photons and another seed, direct light by photons (about 25 s on
 one core); the test's independent oracle is the diffuse-only check against the
-integrator (tests/core/integrators/test_sppm.py). The table shows both forms (``sppm.DIRECT_MODES``).
+integrator (test_sppm.py). The table shows both forms (``sppm.DIRECT_MODES``).
 relMSE = mean((a - b)^2 / (b^2 + 0.01)) over pixels and channels.
 """
 
@@ -24,7 +24,7 @@ import numpy as np
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from core.scene import shapes
+from core.scene import shapes  # noqa: E402
 from core.integrators import sppm  # noqa: E402
 from core.scene.contract import LIGHT_POINT, Lights, Materials, Scene  # noqa: E402
 from core.settings import RenderSettings  # noqa: E402
@@ -71,13 +71,12 @@ def table(max_passes: int, seed: int) -> None:
     marks = {1, 4, 16, 64, 256, 1024}
     rows = {}
     for direct in sppm.DIRECT_MODES:
-        form = settings.with_values(progressive_direct=direct)
         # Load the numba kernels once so the first row does not include compilation.
-        sppm.render(caustic_scene(8, 8), form.with_values(progressive_passes=1,
-                                                          photons_per_pass=100))
+        sppm.render(caustic_scene(8, 8), settings.with_values(
+            progressive_passes=1, photons_per_pass=100, progressive_direct=direct))
         t0 = time.perf_counter()
-        for state in sppm.progressive_passes(
-                caustic_scene(), form.with_values(photons_per_pass=PHOTONS_PER_PASS), max_passes):
+        for state in sppm.progressive_passes(caustic_scene(), settings.with_values(
+                photons_per_pass=PHOTONS_PER_PASS, progressive_direct=direct), max_passes):
             if state.passes in marks:
                 img = state.radiance()
                 rows.setdefault(state.passes, []).append(

@@ -135,12 +135,18 @@ class RenderSettings:
     """Seconds for a progressive render, export included; 0 = no budget (run
     progressive_passes). With a budget the number of passes is chosen to fit it. The
     photon_map integrator has a fixed cost and ignores it."""
-    progressive_alpha: float = 2.0 / 3.0
-    """SPPM's alpha in (0, 1): the fraction of a pass's new photons kept (how fast the
-    gather radius shrinks)."""
+    progressive_alpha: float = 0.75
+    """The progressive mode's alpha in (0, 1): the global radius schedule
+    r_k^2 = r_1^2 prod_{j<k} (j + alpha) / (j + 1) ~ k^(alpha - 1) (Knaus & Zwicker 2011);
+    smaller shrinks the radius faster (less blur, more noise)."""
     progressive_radius: float = 0.0
-    """SPPM's initial gather radius in metres; 0 = automatic (about INITIAL_PHOTONS photons
-    per disc, scale-invariant)."""
+    """The progressive mode's first-pass gather radius r_1 in metres; 0 = automatic (about
+    INITIAL_PHOTONS photons per disc, scale-invariant)."""
+    progressive_block: int = 8
+    """Passes summed together before they join the image (the unit of work of a distributed
+    render, core/integrators/distributed.py): blocks are summed from zero in pass order and
+    added to the image in block order, so a render with the same settings and seed gives
+    the same image bit for bit on one machine or on many."""
     progressive_direct: str = "shadow_rays"
     """How SPPM gets direct light: one of PROGRESSIVE_DIRECT ("photons": standard SPPM)."""
 
@@ -163,6 +169,7 @@ class RenderSettings:
             "final_gather_rays": (1, 1 << 16),
             "progressive_passes": (1, MAX_PROGRESSIVE_PASSES),
             "photons_per_pass": (1, MAX_PHOTONS_PER_PASS),
+            "progressive_block": (1, MAX_PROGRESSIVE_PASSES),
         }
         for name, (lo, hi) in checks.items():
             v = getattr(self, name)

@@ -86,6 +86,10 @@ def build_parser():
     render.add_argument("--keep-partial", action="store_true",
                         help="when cancelled (SIGINT, SIGTERM), keep the frame rendered so "
                              "far as <name>.partial.<ext> (default: write nothing)")
+    render.add_argument("--dask", metavar="ADDRESS",
+                        help="spread the progressive passes of each frame over a Dask cluster: "
+                             "tcp://host:8786 (a scheduler) or local:N (N worker processes "
+                             "here); needs --set integrator=progressive and dask[distributed]")
     return parser
 
 
@@ -184,6 +188,19 @@ def render_command(args, on_written=None):
     if getattr(args, "quality", None) is not None:
         apply_quality(scene.photon_map, args.quality)
     apply_settings(scene.photon_map, overrides)
+    address = getattr(args, "dask", None)
+    if address:
+        if scene.photon_map.integrator != 'progressive':
+            raise CliError(f"--dask {address} needs the progressive integrator (--set "
+                           f"integrator=progressive); the scene's is "
+                           f"{scene.photon_map.integrator!r}")
+        try:
+            import importlib
+            importlib.import_module("dask.distributed")
+        except ImportError as error:
+            raise CliError(f"--dask {address}: dask.distributed is not installed "
+                           f"(pip install 'dask[distributed]'): {error}") from None
+        scene.photon_map.dask_scheduler = address
 
     frames = [scene.frame_current] if args.frames is None else args.frames
     set_format(scene.render.image_settings, args.format)

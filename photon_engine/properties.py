@@ -14,7 +14,8 @@ is imported (at ``register()``), so the tooltips and defaults follow their tunin
 """
 
 import bpy
-from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty
+from bpy.props import (BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty,
+                       StringProperty)
 
 from ..core.presets import DEFAULT_QUALITY, PRESET_FIELDS, PRESETS, QUALITIES
 from . import overlay
@@ -85,8 +86,10 @@ MAX_DOT_RADIUS_PX = 32.0  # core.settings.MAX_DOT_RADIUS_PX (kept equal by a tes
 
 # Properties of scene.photon_map that the core never sees (not in setting_names()).
 VIEWPORT_ONLY = ("show_photons_in_viewport", "viewport_passes")
-UI_ONLY = ("quality", "denoise")  # quality: its values are in the governed settings the
-# core does see; denoise: a compositor set-up (compat.denoise_compositor), not a core setting
+UI_ONLY = ("quality", "denoise", "dask_scheduler")  # quality: its values are in the
+# governed settings the core does see; denoise: a compositor set-up
+# (compat.denoise_compositor), not a core setting; dask_scheduler: where the render runs,
+# not what it renders (photon_engine/render.py)
 
 
 def _update_denoise(self, context):
@@ -170,6 +173,13 @@ class PhotonMapRenderSettings(bpy.types.PropertyGroup):
         name="Threads",
         description="Worker threads for ray tracing and shading; 0 uses all cores",
         min=0, max=1024, soft_max=64, default=0,
+    )
+    dask_scheduler: StringProperty(
+        name="Dask Scheduler",
+        description="Progressive renders (F12, blender -b) spread their passes over this Dask "
+                    "cluster: tcp://host:8786, or local:N for N worker processes here; empty "
+                    "renders on this machine (needs dask[distributed], docs/farm.md)",
+        default="",
     )
 
     # Photon pass.

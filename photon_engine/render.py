@@ -103,7 +103,8 @@ def _render(engine, depsgraph):
     writer = ResultWriter(engine, depsgraph.view_layer.name)
     try:
         if settings.integrator == "progressive":
-            output = render_progressive(engine, exported.scene, settings, writer, started)
+            output = render_progressive(engine, exported.scene, settings, writer, started,
+                                        dask_address(depsgraph.scene.photon_map))
         else:
             on_progress, should_stop = progress_callbacks(engine)
             output = core_render(exported.scene, settings, on_progress=on_progress,
@@ -136,7 +137,7 @@ def _render(engine, depsgraph):
         engine.update_progress(1.0)
 
 
-def render_progressive(engine, scene, settings, writer, started):
+def render_progressive(engine, scene, settings, writer, started, address=""):
     """Progressive (SPPM) render of the exported ``scene``: each pass updates the image
     (``writer``), the status shows "Pass k of n" and Esc stops after the pass running.
 
@@ -179,10 +180,27 @@ def render_progressive(engine, scene, settings, writer, started):
             HEADLESS.on_progress(fraction, text)
 
     engine.update_stats("", "Photon Map | Progressive: pass 1 (visible points, photons)")
-    return core_render(scene, settings.with_values(progressive_passes=passes,
-                                                   time_budget=remaining or 0.0),
-                       on_progress=on_progress, on_tile=on_pass,
+    run = settings.with_values(progressive_passes=passes, time_budget=remaining or 0.0)
+    if address:
+        # One frame on a Dask cluster (core/integrators/distributed.py, docs/farm.md).
+        from ..core.integrators import distributed
+        engine.update_stats("", f"Photon Map | Progressive: connecting to {address}")
+        try:
+            with distributed.connect(address) as cluster:
+                return distributed.render(scene, run, cluster.client, on_progress=on_progress,
+                                          on_tile=on_pass,
+                                          should_stop=progress_callbacks(engine)[1],
+                                          address=address)
+        except distributed.DistributedError as error:
+            from ..core.settings import SettingsError
+            raise SettingsError(str(error)) from None
+    return core_render(scene, run, on_progress=on_progress, on_tile=on_pass,
                        should_stop=progress_callbacks(engine)[1])
+
+
+def dask_address(props) -> str:
+    """The Performance panel's Dask scheduler (empty: this machine)."""
+    return str(getattr(props, "dask_scheduler", "") or "").strip()
 
 
 def progressive_report(stats, elapsed, budget) -> str:

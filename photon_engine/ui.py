@@ -149,6 +149,7 @@ class PHOTON_MAP_RENDER_PT_performance(PhotonMapPanel, bpy.types.Panel):
         layout.use_property_split = True
         layout.use_property_decorate = False
         layout.prop(context.scene.photon_map, "threads")
+        layout.prop(context.scene.photon_map, "dask_scheduler")
 
 
 class PHOTON_MAP_RENDER_PT_debug(PhotonMapPanel, bpy.types.Panel):

@@ -1,62 +1,64 @@
-"""Stochastic progressive photon mapping (SPPM; Hachisuka & Jensen 2009): a render whose
-error goes to zero as passes accumulate, with the memory of one photon pass.
+"""Progressive photon mapping in its probabilistic, pass-independent form (Knaus & Zwicker
+2011, "Progressive photon mapping: a probabilistic approach"), with stochastic visible
+points (SPPM): a render whose error goes to zero as passes accumulate, with the memory of
+one photon pass, and whose passes can run in any order, anywhere.
 
-Each pass k = 1, 2, ...:
+Pass k = 0, 1, 2, ... (0-based; K&Z's pass i = k + 1) is a function of (scene, settings,
+k) alone:
 
-1. Visible points. One jittered camera ray per pixel (a new sample each pass) follows
-   mirrors and glass (``bsdf.sample_delta``) to the first surface with a diffuse lobe:
-   the pixel's visible point x_k, with path weight beta_k (the throughput, lobe value /
-   probability). Emitters, visible lights and the background seen along the way are added
-   to the pixel's directly seen radiance sum D. At a material with both a diffuse and a
-   delta lobe the path stops at the diffuse lobe with probability
+1. Visible points. One jittered camera ray per pixel (point k of a per-pixel Owen-scrambled
+   Sobol sequence) follows mirrors and glass (``bsdf.sample_delta``) to the first surface
+   with a diffuse lobe: the pixel's visible point x_k, with path weight beta_k (the
+   throughput, lobe value / probability). Emitters, visible lights and the background seen
+   along the way are the pass's directly seen radiance D_k. At a material with both a
+   diffuse and a delta lobe the path stops at the diffuse lobe with probability
    p = mean(diffuse) / (mean(diffuse) + delta weight) and beta is divided by p (or by
    1 - p when it goes on), so there is one visible point per pixel and pass.
    Direct light at the visible point comes from shadow rays to every light, emissive
    triangle and the world (``direct.shade``, the photon-map integrator's own estimator,
-   ``light_samples`` per light and pass), added to D times beta_k.
+   ``light_samples`` per light and pass, sample index k of a set of
+   ``progressive_passes``), added to D_k times beta_k.
 2. Photons. ``photons_per_pass`` photons are traced with the global map's rules
    (``tracing.trace_stored_photons``), stored at every diffuse hit except the first hit
    of a photon straight from its source (``scatter.STORE_NOT_DIRECT``: that light is the
    shadow rays'), so caustics (light -> specular -> diffuse) and indirect light come from
-   photons; with a fresh counter-based seed per pass.
-   Each stored photon p has flux Phi_p (watts, already divided by photons_per_pass) and
-   incident direction w_p (towards where it came from).
-3. Gathering. For every visible point i (radius R_i), over the photons of this pass with
-   |x_p - x_i| <= R_i and w_p on the visible side of the surface (n_g . w_p > 0, the
-   front-side test; n_g faces the camera ray):
-       M_i   = number of such photons,
-       Phi_i = sum_p f_i(w_o, w_p) Phi_p        (f = diffuse / pi + rough glossy lobe),
-   then the SPPM update with alpha in (0, 1):
-       N_i' = N_i + alpha M_i
-       R_i' = R_i sqrt((N_i + alpha M_i) / (N_i + M_i))
-       tau_i' = (tau_i + beta_i Phi_i) (R_i'^2 / R_i^2)
-   (nothing changes where M_i = 0 or the pixel has no visible point this pass).
-4. The image after k passes, radiance W/(m^2 sr):
-       L_i = D_i / k + tau_i / (k pi R_i^2)
-   tau / k is the flux estimate per pass (each pass's photon flux is normalised by its
-   own photon count, so pbrt's N_emitted = k passes x photons_per_pass becomes k here).
+   photons; photon seed ``sampling.pass_seed(seed, k)``. Each stored photon p has flux
+   Phi_p (watts, already divided by photons_per_pass) and incident direction w_p.
+3. Gathering with the pass's radius from a global schedule (alpha in (0, 1)):
+       r_k^2 = r_1^2 prod_{j=1}^{k} (j + alpha) / (j + 1)        (~ k^(alpha - 1))
+   For every visible point, over the photons of this pass with |x_p - x| <= r_k on its
+   visible side (n_g . w_p > 0, the front-side test; n_g faces the camera ray):
+       Phi = sum_p f(w_o, w_p) Phi_p        (f = diffuse / pi + rough glossy lobe)
+   and the pass's estimate is L_k = D_k + beta_k Phi / (pi r_k^2).
+4. The image after n passes is the plain average: L = (1/n) sum_k L_k.
+
+The per-pixel statistics of Hachisuka's SPPM (N, R, tau updated pass after pass) made
+every pass depend on all the ones before; here the only state is a sum, so passes
+[a, b) can be rendered anywhere (``PassRenderer.render_block``, a ``PassSums``) and
+merged (``ImageSum``). The sum is made in a fixed order, so the image is the same bit for
+bit wherever its passes ran: passes are grouped into blocks of ``progressive_block``
+(blocks [0, B), [B, 2B), ..., the last one cut at the pass count); a block is summed from
+zero in pass order (float64) and the blocks are added to the image sum in block order.
+float64 addition is not associative, so this order is part of the definition of the
+image; every order-dependent step is fixed by it, and every pass's own numbers come from
+counter-based random numbers keyed by k.
 
 Direct light by shadow rays, everything else by photons (a hybrid; standard SPPM counts
-direct light by photons too): directly lit diffuse surfaces are then exact in
-expectation from the first pass on, without the blotches of a photon estimate, at the
-cost of one shadow ray per light and visible point per pass; the photon estimate is
-left with the paths only photons find well (caustics) and the smooth indirect light.
-Both converge to the same image (tests/core/integrators/test_sppm.py checks the split against the
-all-photon form).
+direct light by photons too, ``progressive_direct="photons"``): directly lit diffuse
+surfaces are then exact in expectation from the first pass on, without the blotches of a
+photon estimate; the photon estimate is left with the paths only photons find well
+(caustics) and the smooth indirect light.
 
-Initial radius (when not given): R_0 = sqrt(K0 A_d / (pi photons_per_pass)) with A_d the
-area of the triangles with a diffuse lobe and K0 = INITIAL_PHOTONS: about K0 photons per
-disc if every photon stored once on a uniformly lit surface. It scales with the scene
-(a scene scaled by s gets s R_0), so the image is scale-invariant.
+First-pass radius (when not given): r_1 = sqrt(K0 A_d / (pi photons_per_pass)) with A_d
+the area of the triangles with a diffuse lobe and K0 = INITIAL_PHOTONS: about K0 photons
+per disc if every photon stored once on a uniformly lit surface. It scales with the
+scene (a scene scaled by s gets s r_1), so the image is scale-invariant.
 
 Neighbour search: per pass, a hash grid over the pass's photons with cells as wide as the
-median current radius (at least the largest / MAX_RING); each visible point scans the
-ceil(R_i / h) rings of cells around its own (numba, parallel over visible points, so no
-write races; exact: every photon within R_i is found once). Memory: one pass's photons plus per-pixel
-statistics (N, R, tau, D: 8 float64 per pixel), whatever the number of passes.
+pass's radius; each visible point scans the neighbouring cells (numba, parallel over
+visible points, so no write races; exact: every photon within r_k is found once).
+Memory: one pass's photons plus two (P, 3) float64 sums, whatever the number of passes.
 
-Determinism: camera numbers are hashes of (seed, pixel, pass, dimension) and photon
-numbers of (pass seed, photon, bounce, dimension) with pass seed a hash of (seed, pass).
 Glossy-only surfaces (no diffuse lobe) store no photons and end camera paths (black).
 Textures: the visible points carry the textured diffuse albedo of their hit; camera paths
 pass cut-outs stochastically like the integrator's (core/materials/textures.py).
@@ -65,8 +67,8 @@ pass cut-outs stochastically like the integrator's (core/materials/textures.py).
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
-from typing import Iterator
+from dataclasses import dataclass, field
+from typing import Callable, Iterator
 
 import numpy as np
 from numba import njit, prange
@@ -80,44 +82,21 @@ from ..photons.store import STORE_ALL, STORE_NOT_DIRECT
 from ..photons.tracing import photon_sources, trace_stored_photons
 from ..prepared import PreparedScene, prepare
 from ..scene.contract import Scene
-from ..settings import MAX_PROGRESSIVE_PASSES as MAX_PASSES, RenderSettings, SettingsError
+from ..settings import (MAX_PHOTONS_PER_PASS, MAX_PROGRESSIVE_PASSES as MAX_PASSES,  # noqa: F401
+                        RenderSettings, SettingsError)
 from . import camera_paths
 from . import direct as direct_light
-from .camera_paths import VisiblePoints
 
-INITIAL_PHOTONS = 16.0
-"""K0 of the automatic initial radius: photons expected in a disc on a uniformly lit surface."""
+INITIAL_PHOTONS = 12.0
+"""K0 of the automatic first-pass radius: photons expected in a disc on a uniformly lit
+surface."""
 MAX_RING = 4
-"""Largest number of cell rings a visible point scans in the photon grid (cells >= R_max / 4)."""
+"""Largest number of cell rings a visible point scans in the photon grid."""
 
-@dataclass
-class SPPMState:
-    """Per-pixel statistics after ``passes`` passes (P = width x height pixels, row-major,
-    row 0 at the top).
-
-    n: (P,) float64, accumulated photon count N (grows by alpha M per pass).
-    radius: (P,) float64, current gather radius R, metres (never grows).
-    tau: (P, 3) float64, accumulated weighted flux, watts.
-    direct_sum: (P, 3) float64, sum over passes of the radiance seen directly (emitters,
-        lights, background), W/(m^2 sr).
-    stats: counters of the run so far (see ``render_progressive``).
-    """
-
-    width: int
-    height: int
-    passes: int
-    n: np.ndarray
-    radius: np.ndarray
-    tau: np.ndarray
-    direct_sum: np.ndarray
-    stats: dict
-
-    def radiance(self) -> np.ndarray:
-        """(H, W, 3) float32 image, W/(m^2 sr): L = D / k + tau / (k pi R^2)."""
-        k = max(self.passes, 1)
-        photon = self.tau / (k * np.pi * self.radius * self.radius)[:, None]
-        img = self.direct_sum / k + photon
-        return img.reshape(self.height, self.width, 3).astype(np.float32)
+DIRECT_MODES = ("shadow_rays", "photons")
+"""How the progressive mode gets direct light (``RenderSettings.progressive_direct``):
+shadow rays (the default, the module doc) or photons (standard SPPM, kept to check the
+hybrid against)."""
 
 
 # --- kernels --------------------------------------------------------------------------------
@@ -175,25 +154,12 @@ def gather_photons(vp_pos, vp_ng, vp_ns, vp_wo, vp_mat, radius, ph_pos, ph_flux,
     return phi, count
 
 
-def _update(state: SPPMState, vps: VisiblePoints, phi: np.ndarray, count: np.ndarray,
-            alpha: float) -> None:
-    """Step 3's statistics update at the pixels whose visible point caught photons."""
-    s = np.flatnonzero(count > 0)
-    if s.size == 0:
-        return
-    p, m = vps.pixel[s], count[s].astype(np.float64)
-    n_old, r_old = state.n[p], state.radius[p]
-    n_new = n_old + alpha * m
-    r_new = r_old * np.sqrt(n_new / (n_old + m))
-    state.tau[p] = (state.tau[p] + vps.weight[s] * phi[s]) * ((r_new / r_old) ** 2)[:, None]
-    state.n[p] = n_new
-    state.radius[p] = r_new
 
 
-# --- driver ---------------------------------------------------------------------------------
+# --- the radius schedule --------------------------------------------------------------------
 
 def initial_radius_for(prepared: PreparedScene, photons_per_pass: int) -> float:
-    """The automatic R_0 (metres) of the module doc; a scene with no diffuse area gets
+    """The automatic r_1 (metres) of the module doc; a scene with no diffuse area gets
     1e-3 of its size (no photon can be gathered there anyway)."""
     extent = prepared.extent
     area = prepared.diffuse_area
@@ -203,132 +169,310 @@ def initial_radius_for(prepared: PreparedScene, photons_per_pass: int) -> float:
     return float(min(r, 0.25 * extent)) if extent > 0 else float(r)
 
 
-DIRECT_MODES = ("shadow_rays", "photons")
-"""How SPPM gets direct light (``RenderSettings.progressive_direct``): shadow rays (the
-default, the module doc) or photons (standard SPPM, kept to check the hybrid against)."""
+def radius_schedule(r1: float, alpha: float, n: int) -> np.ndarray:
+    """(n,) float64: the gather radius r_k of passes k = 0 .. n-1,
+    r_k^2 = r_1^2 prod_{j=1}^{k} (j + alpha) / (j + 1) (one cumulative product in float64,
+    the same on every machine)."""
+    j = np.arange(1, max(int(n), 1), dtype=np.float64)
+    ratio = np.concatenate(([1.0], (j + alpha) / (j + 1.0)))
+    return float(r1) * np.sqrt(np.cumprod(ratio)[:int(n)])
 
 
-def progressive_passes(scene: Scene, settings: RenderSettings | None = None,
-                       max_passes: int | None = None) -> Iterator[SPPMState]:
-    """Run SPPM passes, yielding the (live, updated in place) state after each one.
+# --- partial sums and their exact merge -----------------------------------------------------
 
-    Settings read: photons_per_pass, progressive_alpha, progressive_radius (0 = automatic),
-    progressive_direct, seed, threads, max_specular_depth, photon_max_bounces,
-    light_samples. Stops after ``max_passes`` (default settings.progressive_passes) or when
-    the caller stops iterating (the Accelerator is released when the generator is closed
-    or garbage-collected).
-    """
-    scene.validate()
-    settings = (settings or RenderSettings()).validated()
-    max_passes = settings.progressive_passes if max_passes is None else max_passes
-    if (not isinstance(max_passes, (int, np.integer)) or isinstance(max_passes, bool)
-            or not 1 <= max_passes <= MAX_PASSES):
-        raise SettingsError(f'"progressive_passes" must be an integer in [1, {MAX_PASSES}], '
-                            f'got {max_passes!r}')
-    photons_per_pass = settings.photons_per_pass
-    alpha, direct = settings.progressive_alpha, settings.progressive_direct
-    prepared = prepare(scene, settings.threads)
-    try:
-        yield from _passes(prepared, settings, max_passes, photons_per_pass, alpha, direct)
-    finally:
-        prepared.close()
+def pass_blocks(passes: int, block: int) -> list[tuple[int, int]]:
+    """The blocks [a, b) of a render of ``passes`` passes: [0, B), [B, 2B), ..., the last
+    cut at ``passes``."""
+    return [(a, min(a + block, passes)) for a in range(0, passes, block)]
 
 
-def _passes(prepared: PreparedScene, settings: RenderSettings, max_passes: int,
-            photons_per_pass: int, alpha: float, direct: str) -> Iterator[SPPMState]:
-    scene = prepared.scene
-    w, h = int(scene.camera.width), int(scene.camera.height)
-    r0 = (float(settings.progressive_radius) if settings.progressive_radius > 0
-          else initial_radius_for(prepared, photons_per_pass))
-    state = SPPMState(width=w, height=h, passes=0, n=np.zeros(w * h),
-                      radius=np.full(w * h, r0), tau=np.zeros((w * h, 3)),
-                      direct_sum=np.zeros((w * h, 3)), stats={})
-    st = state.stats
-    st.update({"alpha": float(alpha), "initial_radius": r0, "photons_per_pass": photons_per_pass,
-               "photons_emitted": 0, "photons_stored": [], "photons_alive_max": 0,
-               "photon_bytes_max": 0, "visible_points": [], "rays_photon": 0, "rays_shadow": 0,
-               "time_camera": 0.0, "time_photons": 0.0, "time_gather": 0.0,
-               "direct_light": "shadow rays at the visible points; photons for the rest"
-               if direct == "shadow_rays" else "photons (standard SPPM: no shadow rays)"})
-    has_geometry = scene.mesh.triangle_count > 0
-    sources = photon_sources(prepared)
-    seed = int(settings.seed)
-    max_depth = int(settings.max_specular_depth)
-    shadow_rays = None
-    if has_geometry and direct == "shadow_rays":
-        # The sample index of the shadow rays' random numbers is the pass.
-        shadow_rays = direct_light.prepare(settings, prepared, max(1, min(max_passes, MAX_PASSES)))
-    for k in range(max_passes):
+def _new_stats() -> dict:
+    return {"photons_emitted": 0, "photons_stored": [], "photons_alive_max": 0,
+            "photon_bytes_max": 0, "visible_points": [], "rays_photon": 0, "rays_shadow": 0,
+            "time_camera": 0.0, "time_photons": 0.0, "time_gather": 0.0}
+
+
+def merge_stats(a: dict, b: dict) -> dict:
+    """The counters of two consecutive runs of passes (a's before b's)."""
+    out = {}
+    for key, v in a.items():
+        w = b.get(key, type(v)())
+        out[key] = v + w if not key.endswith("_max") else max(v, w)
+    return out
+
+
+@dataclass
+class PassSums:
+    """What a block of passes [start, stop) leaves: ``radiance`` (P, 3) float64, the sum
+    of the passes' estimates L_k summed from zero in pass order (P = width x height pixels,
+    row-major, row 0 at the top), and the block's counters (``_new_stats`` keys). It is
+    what a distributed task returns: 24 bytes per pixel plus the counters."""
+
+    start: int
+    stop: int
+    radiance: np.ndarray
+    stats: dict = field(default_factory=_new_stats)
+
+    @property
+    def passes(self) -> int:
+        return self.stop - self.start
+
+
+class ImageSum:
+    """The exact merge: takes blocks of passes in any order and adds them to the image sum
+    in pass order (a block waits until the blocks before it have arrived), so the sum is
+    the same bit for bit whatever order the blocks arrived in. ``passes`` counts the
+    passes merged: always a prefix [0, passes)."""
+
+    def __init__(self, width: int, height: int):
+        self.width, self.height = int(width), int(height)
+        self.total = np.zeros((self.width * self.height, 3))
+        self.passes = 0
+        self.stats = _new_stats()
+        self._pending: dict[int, PassSums] = {}
+
+    def add(self, sums: PassSums) -> int:
+        """Merge ``sums`` (or hold it until its predecessors come); returns the passes merged."""
+        if sums.start < self.passes or sums.start in self._pending:
+            raise ValueError(f"passes [{sums.start}, {sums.stop}) merged twice")
+        self._pending[sums.start] = sums
+        while self.passes in self._pending:
+            s = self._pending.pop(self.passes)
+            self.total += s.radiance
+            self.stats = merge_stats(self.stats, s.stats)
+            self.passes = s.stop
+        return self.passes
+
+    @property
+    def waiting(self) -> int:
+        """Blocks received but not merged yet (a block before them is still missing)."""
+        return len(self._pending)
+
+    def radiance(self, partial: PassSums | None = None) -> np.ndarray:
+        """(H, W, 3) float32, W/(m^2 sr): the average of the merged passes (and of
+        ``partial``, the running block that follows them, if given)."""
+        total, n = self.total, self.passes
+        if partial is not None and partial.passes:
+            total, n = total + partial.radiance, n + partial.passes
+        img = total / max(n, 1)
+        return img.reshape(self.height, self.width, 3).astype(np.float32)
+
+
+# --- rendering passes -----------------------------------------------------------------------
+
+class PassRenderer:
+    """Renders any pass k of a progressive render of ``prepared`` with ``settings`` (which
+    fix everything a pass depends on: seed, photons_per_pass, progressive_alpha,
+    progressive_radius, progressive_direct, progressive_passes (the size of the shadow rays'
+    sample set), light_samples, max_specular_depth, photon_max_bounces). The caller owns
+    ``prepared`` (and closes it)."""
+
+    def __init__(self, prepared: PreparedScene, settings: RenderSettings):
+        self.prepared, self.settings = prepared, settings
+        scene = prepared.scene
+        self.width, self.height = int(scene.camera.width), int(scene.camera.height)
+        self.photons_per_pass = int(settings.photons_per_pass)
+        self.alpha = float(settings.progressive_alpha)
+        self.direct = settings.progressive_direct
+        self.r1 = (float(settings.progressive_radius) if settings.progressive_radius > 0
+                   else initial_radius_for(prepared, self.photons_per_pass))
+        self.has_geometry = scene.mesh.triangle_count > 0
+        self.sources = photon_sources(prepared)
+        self.shadow_rays = None
+        if self.has_geometry and self.direct == "shadow_rays":
+            # The sample index of the shadow rays' random numbers is the pass, in a set of
+            # progressive_passes (a setting, so every pass's numbers are fixed by it).
+            self.shadow_rays = direct_light.prepare(settings, prepared,
+                                                    int(settings.progressive_passes))
+        self._radii = radius_schedule(self.r1, self.alpha, 1)
+
+    def radius(self, k: int) -> float:
+        """Pass k's gather radius r_k (metres)."""
+        if k >= self._radii.size:
+            self._radii = radius_schedule(self.r1, self.alpha, max(k + 1, 2 * self._radii.size))
+        return float(self._radii[k])
+
+    def new_sums(self, start: int) -> PassSums:
+        return PassSums(start, start, np.zeros((self.width * self.height, 3)))
+
+    def add_pass(self, sums: PassSums) -> None:
+        """Render pass ``sums.stop`` and add its estimate to ``sums`` (which then ends one
+        pass later)."""
+        sums.radiance += self.render_pass(sums.stop, sums.stats)
+        sums.stop += 1
+
+    def render_block(self, start: int, stop: int,
+                     on_pass: Callable[[PassSums], object] | None = None) -> PassSums:
+        """The sums of passes [start, stop) (summed from zero in pass order);
+        on_pass(sums) after each pass."""
+        sums = self.new_sums(start)
+        while sums.stop < stop:
+            self.add_pass(sums)
+            if on_pass is not None:
+                on_pass(sums)
+        return sums
+
+    def render_pass(self, k: int, st: dict) -> np.ndarray:
+        """Pass k's estimate L_k, (P, 3) float64, W/(m^2 sr); adds its counters to st."""
+        prepared, settings = self.prepared, self.settings
+        scene = prepared.scene
+        seed = int(settings.seed)
+        image = np.zeros((self.width * self.height, 3))
         t0 = time.perf_counter()
-        # Create visible points
-        if has_geometry:
-            vps = camera_paths.visible_points(prepared, scene.camera, seed, k, max_depth,
-                                              state.direct_sum)
-            # Direct light by shadow rays (the photons below leave it out)
-            if vps.pixel.size and shadow_rays is not None:
+        vps = None
+        if self.has_geometry:
+            vps = camera_paths.visible_points(prepared, scene.camera, seed, k,
+                                              int(settings.max_specular_depth), image)
+            if vps.pixel.size and self.shadow_rays is not None:
                 points = direct_light.ShadingPoints(
                     vps.position, vps.ng, vps.ns, -vps.wo, vps.material, vps.eps, vps.weight,
                     vps.albedo, vps.pixel)
-                direct_light.shade(shadow_rays, points, vps.pixel,
-                                   np.full(vps.pixel.size, k, np.int64), 0, state.direct_sum)
-        else:
-            vps = None
-            if np.any(prepared.world > 0) and scene.world.visible_to_camera:
-                state.direct_sum += prepared.world
+                before = int(self.shadow_rays.stats.get("rays_shadow", 0))
+                direct_light.shade(self.shadow_rays, points, vps.pixel,
+                                   np.full(vps.pixel.size, k, np.int64), 0, image)
+                st["rays_shadow"] += int(self.shadow_rays.stats.get("rays_shadow", 0)) - before
+        elif np.any(prepared.world > 0) and scene.world.visible_to_camera:
+            image += prepared.world
         t1 = time.perf_counter()
-        # Trace photons and accumulate their contributions
+        stored = 0
         if vps is not None and vps.pixel.size:
             pos, flux, wdir, counters = trace_stored_photons(
-                prepared, sources, photons_per_pass, seed=sampling.pass_seed(seed, k),
+                prepared, self.sources, self.photons_per_pass, seed=sampling.pass_seed(seed, k),
                 max_bounces=int(settings.photon_max_bounces),
-                store_rule=STORE_NOT_DIRECT if shadow_rays else STORE_ALL)
+                store_rule=STORE_NOT_DIRECT if self.shadow_rays is not None else STORE_ALL)
             st["rays_photon"] += counters["rays"]
             t2 = time.perf_counter()
+            r = self.radius(k)
             phi, count = gather_photons(vps.position, vps.ng, vps.ns, vps.wo, vps.material,
-                                        state.radius[vps.pixel], pos, flux, wdir,
+                                        np.full(vps.pixel.size, r), pos, flux, wdir,
                                         prepared.materials, vps.albedo)
-            _update(state, vps, phi, count, alpha)
+            s = np.flatnonzero(count > 0)
+            image[vps.pixel[s]] += vps.weight[s] * phi[s] / (np.pi * r * r)
             stored = int(pos.shape[0])
             st["photon_bytes_max"] = max(st["photon_bytes_max"],
                                          pos.nbytes + flux.nbytes + wdir.nbytes)
             del pos, flux, wdir
         else:
             t2 = time.perf_counter()
-            stored = 0
         t3 = time.perf_counter()
-        st["photons_emitted"] += photons_per_pass if sources else 0
+        st["photons_emitted"] += self.photons_per_pass if self.sources else 0
         st["photons_stored"].append(stored)
         st["photons_alive_max"] = max(st["photons_alive_max"], stored)
         st["visible_points"].append(0 if vps is None else int(vps.pixel.size))
         st["time_camera"] += t1 - t0  # the shadow rays included
-        if shadow_rays is not None:
-            st["rays_shadow"] = int(shadow_rays.stats["rays_shadow"])
         st["time_photons"] += t2 - t1
         st["time_gather"] += t3 - t2
-        state.passes = k + 1
-        yield state
+        return image
+
+    def base_stats(self) -> dict:
+        """The run's constants, for RenderOutput.stats."""
+        return {"alpha": self.alpha, "initial_radius": self.r1,
+                "photons_per_pass": self.photons_per_pass,
+                "progressive_block": int(self.settings.progressive_block),
+                "direct_light": "shadow rays at the visible points; photons for the rest"
+                if self.direct == "shadow_rays" else "photons (standard SPPM: no shadow rays)"}
+
+
+# --- one machine ----------------------------------------------------------------------------
+
+@dataclass
+class ProgressiveState:
+    """A progressive run after ``passes`` passes: ``image`` (the merged blocks), ``block``
+    (the running block after them), ``radius`` (the last pass's gather radius, metres)."""
+
+    width: int
+    height: int
+    passes: int
+    image: ImageSum
+    block: PassSums
+    radius: float
+    stats: dict
+
+    def radiance(self) -> np.ndarray:
+        """(H, W, 3) float32 image, W/(m^2 sr): the average of the passes so far."""
+        return self.image.radiance(self.block)
+
+
+SPPMState = ProgressiveState
+"""The former name (the viewport and ``core.progressive`` yield it)."""
+
+
+def check_passes(max_passes) -> int:
+    if (not isinstance(max_passes, (int, np.integer)) or isinstance(max_passes, bool)
+            or not 1 <= max_passes <= MAX_PASSES):
+        raise SettingsError(f'"progressive_passes" must be an integer in [1, {MAX_PASSES}], '
+                            f'got {max_passes!r}')
+    return int(max_passes)
+
+
+def progressive_passes(scene: Scene, settings: RenderSettings | None = None,
+                       max_passes: int | None = None) -> Iterator[ProgressiveState]:
+    """Run passes 0, 1, ... on this machine, yielding the (live) state after each one.
+
+    ``max_passes`` (default settings.progressive_passes) becomes the run's
+    progressive_passes. Stops after it or when the caller stops iterating (the Accelerator
+    is released when the generator is closed or garbage-collected).
+    """
+    scene.validate()
+    settings = (settings or RenderSettings()).validated()
+    max_passes = check_passes(settings.progressive_passes if max_passes is None else max_passes)
+    settings = settings.with_values(progressive_passes=max_passes)
+    prepared = prepare(scene, settings.threads)
+    try:
+        yield from _passes(PassRenderer(prepared, settings), max_passes)
+    finally:
+        prepared.close()
+
+
+def _passes(renderer: PassRenderer, max_passes: int) -> Iterator[ProgressiveState]:
+    image = ImageSum(renderer.width, renderer.height)
+    state = ProgressiveState(renderer.width, renderer.height, 0, image, renderer.new_sums(0),
+                             renderer.r1, renderer.base_stats())
+    for a, b in pass_blocks(max_passes, int(renderer.settings.progressive_block)):
+        state.block = renderer.new_sums(a)
+        while state.block.stop < b:
+            k = state.block.stop
+            renderer.add_pass(state.block)
+            state.radius = renderer.radius(k)
+            if state.block.stop == b:  # the block joins the image, in block order
+                image.add(state.block)
+                state.block = renderer.new_sums(b)
+            state.passes = k + 1
+            state.stats.update(merge_stats(image.stats, state.block.stats))
+            yield state
+
+
+def finish_stats(stats: dict, passes: int, radius: float, stopped_by: str,
+                 time_budget: float | None, t_start: float) -> dict:
+    stats = dict(stats)
+    stats.update({"passes": passes, "stopped_by": stopped_by, "time_budget": time_budget,
+                  "radius_min": radius, "radius_mean": radius, "radius_max": radius,
+                  "time_total": time.perf_counter() - t_start})
+    return stats
 
 
 def render(scene: Scene, settings: RenderSettings | None = None,
            on_progress: ProgressFn | None = None, on_tile: TileFn | None = None,
            should_stop: StopFn | None = None) -> RenderOutput:
-    """Render ``scene`` with ``settings.progressive_passes`` SPPM passes of
-    ``settings.photons_per_pass`` photons each (``progressive_passes`` for the others).
+    """Render ``scene`` with ``settings.progressive_passes`` passes of
+    ``settings.photons_per_pass`` photons each, on this machine.
 
     on_tile(k, {"combined": image}) after pass k (1-based) with the image so far, (H, W, 3)
     float32; on_progress(fraction, message) after each pass; should_stop() -> True stops
-    after the pass: the output then holds the k passes done and ``cancelled`` is True.
+    after the pass: the output then holds the k passes done and ``cancelled`` is True
+    (the same image as a render of k passes).
     settings.time_budget > 0 (seconds): ``progressive_passes`` is then an upper bound and
     the render stops (not cancelled) before the pass that would end past the budget,
     judged by the mean pass time so far (at least one pass is made); stats["stopped_by"]
     says why it ended.
 
     Returns RenderOutput with passes {"combined": (H, W, 3) float32 radiance W/(m^2 sr)}
-    and stats: passes, alpha, initial_radius, radius_min / radius_mean / radius_max
-    (metres, final), photons_per_pass, photons_emitted, photons_stored (list, one count
-    per pass), photons_alive_max (most photons held at once), photon_bytes_max,
-    visible_points (list per pass), rays_photon, rays_shadow, time_camera / time_photons /
-    time_gather / time_total (s). Raises SettingsError and SceneError on bad input.
+    and stats: passes, alpha, initial_radius (r_1), radius_min / radius_mean / radius_max
+    (the last pass's radius, metres), photons_per_pass, progressive_block, photons_emitted,
+    photons_stored (list, one count per pass), photons_alive_max (most photons held at
+    once), photon_bytes_max, visible_points (list per pass), rays_photon, rays_shadow,
+    time_camera / time_photons / time_gather / time_total (s). Raises SettingsError and
+    SceneError on bad input.
     """
     settings = (settings or RenderSettings()).validated()
     passes = settings.progressive_passes
@@ -355,11 +499,6 @@ def render(scene: Scene, settings: RenderSettings | None = None,
                 break
     finally:
         runner.close()
-    image = state.radiance()
-    stats = dict(state.stats)
-    stats.update({"passes": state.passes, "stopped_by": stopped_by,
-                  "time_budget": time_budget, "radius_min": float(state.radius.min()),
-                  "radius_mean": float(state.radius.mean()),
-                  "radius_max": float(state.radius.max()),
-                  "time_total": time.perf_counter() - t_start})
-    return RenderOutput(passes={"combined": image}, stats=stats, cancelled=cancelled)
+    stats = finish_stats(state.stats, state.passes, state.radius, stopped_by, time_budget,
+                         t_start)
+    return RenderOutput(passes={"combined": state.radiance()}, stats=stats, cancelled=cancelled)

@@ -217,3 +217,26 @@ def test_unwritable_output_fails_before_rendering(blend_file, tmp_path):
         assert f"cannot write the output to {folder}: {reason}" in done.stderr, done.stderr
         assert "Traceback" not in done.stderr
         assert "Photon Map:" not in done.stdout  # no render started
+
+
+def test_dask_local_2_renders_the_same_frame_and_needs_the_progressive_integrator(blend_file,
+                                                                                 tmp_path):
+    """--dask local:2 (a LocalCluster the CLI starts and stops) writes the same EXR pixels
+    as the render on this process; --dask without the progressive integrator is refused."""
+    pytest.importorskip("dask.distributed")
+    args = ("--set", "integrator=progressive", "--set", "progressive_passes=6",
+            "--set", "photons_per_pass=1500", "--set", "threads=1")
+    one = cli("render", blend_file, "-o", tmp_path / "one_####", "-f", 1, *args)
+    assert one.returncode == 0, one.stdout[-3000:] + one.stderr[-3000:]
+    many = cli("render", blend_file, "-o", tmp_path / "dask_####", "-f", 1, *args,
+               "--dask", "local:2")
+    assert many.returncode == 0, many.stdout[-3000:] + many.stderr[-3000:]
+    a = scenes.read_multilayer_exr(tmp_path / "one_0001.exr")["Combined"]
+    b = scenes.read_multilayer_exr(tmp_path / "dask_0001.exr")["Combined"]
+    np.testing.assert_array_equal(a, b)
+    bad = cli("render", blend_file, "-o", tmp_path / "x_####", "--dask", "local:2", timeout=120)
+    assert bad.returncode == 1 and "needs the progressive integrator" in bad.stderr
+    assert "Traceback" not in bad.stderr
+    gone = cli("render", blend_file, "-o", tmp_path / "y_####", *args,
+               "--dask", "tcp://127.0.0.1:9", timeout=120)
+    assert gone.returncode == 1 and "tcp://127.0.0.1:9" in gone.stderr, gone.stderr[-2000:]

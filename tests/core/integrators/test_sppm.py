@@ -114,27 +114,67 @@ def test_floor_converges_to_the_integrators_direct_light(direct):
         assert min(out.stats["photons_stored"]) > 0 and out.stats["rays_shadow"] == 0
 
 
-def test_radius_shrinks_and_count_grows_per_pixel():
-    prev_r = prev_n = None
-    alpha = 2.0 / 3.0
-    # Standard SPPM (direct photons too), so that every lit floor pixel catches photons.
-    settings = SETTINGS.with_values(photons_per_pass=5_000, progressive_alpha=alpha,
-                                    progressive_direct="photons")
-    for state in sppm.progressive_passes(caustic_scene(1.0, 16, 16), settings, 12):
-        r, n = state.radius.copy(), state.n.copy()
-        assert np.all(np.isfinite(r)) and np.all(r > 0)
-        if prev_r is not None:
-            assert np.all(r <= prev_r)
-            assert np.all(n >= prev_n)
-            grew = n > prev_n
-            assert grew.sum() > 0.3 * n.size  # most of the floor catches photons each pass
-            # The SPPM rule: R'^2 / R^2 = (N + alpha M) / (N + M) with M = (N' - N) / alpha.
-            m = (n[grew] - prev_n[grew]) / alpha
-            expect = (prev_n[grew] + alpha * m) / (prev_n[grew] + m)
-            np.testing.assert_allclose((r[grew] / prev_r[grew]) ** 2, expect, rtol=1e-9)
-            assert np.all(r[~grew] == prev_r[~grew])
-        prev_r, prev_n = r, n
-    assert state.radius.min() < 0.8 * state.stats["initial_radius"]
+def test_radius_follows_the_global_schedule():
+    """r_k^2 = r_1^2 prod_{j=1}^{k} (j + alpha) / (j + 1) (Knaus & Zwicker), ~ k^(alpha - 1)."""
+    alpha, r1 = 0.6, 0.25
+    r = sppm.radius_schedule(r1, alpha, 1000)
+    assert r[0] == r1 and np.all(np.diff(r) < 0)
+    expect = r1 * r1 * np.cumprod(np.r_[1.0, [(j + alpha) / (j + 1) for j in range(1, 1000)]])
+    np.testing.assert_allclose(r * r, expect, rtol=1e-12)
+    # Asymptotically r_k^2 ~ c k^(alpha - 1): the local slope of log r^2 against log k.
+    slope = np.log(r[999] ** 2 / r[499] ** 2) / np.log(1000 / 500)
+    assert abs(slope - (alpha - 1)) < 0.01
+    # A prefix of a longer schedule is the shorter schedule, bit for bit.
+    np.testing.assert_array_equal(sppm.radius_schedule(r1, alpha, 10), r[:10])
+    out = progressive(caustic_scene(1.0, 8, 8), SETTINGS, 5, 1_000)
+    assert out.stats["radius_max"] == sppm.radius_schedule(out.stats["initial_radius"],
+                                                           out.stats["alpha"], 5)[4]
+
+
+def _renderer(scene, settings):
+    from core.prepared import prepare
+    prepared = prepare(scene, settings.threads)
+    return prepared, sppm.PassRenderer(prepared, settings.validated())
+
+
+def test_a_pass_rendered_alone_equals_it_inside_a_run():
+    """Pass independence: pass k is a function of (scene, settings, k) alone, whatever was
+    rendered before it in the same process."""
+    scene = caustic_scene(1.0, 16, 16)
+    settings = SETTINGS.with_values(photons_per_pass=4_000, progressive_passes=8)
+    prepared, r = _renderer(scene, settings)
+    try:
+        run = [r.render_pass(k, sppm._new_stats()) for k in range(6)]
+    finally:
+        prepared.close()
+    prepared, r = _renderer(scene, settings)
+    try:
+        alone = r.render_pass(4, sppm._new_stats())
+        assert r.radius(4) < r.radius(0)
+    finally:
+        prepared.close()
+    np.testing.assert_array_equal(alone, run[4])
+    assert not np.array_equal(run[3], run[4])
+
+
+def test_blocks_merged_in_any_order_give_the_single_process_image_bit_for_bit():
+    scene = caustic_scene(1.0, 16, 16)
+    settings = SETTINGS.with_values(photons_per_pass=3_000, progressive_passes=10,
+                                    progressive_block=3)
+    single = sppm.render(scene, settings).passes["combined"]
+    prepared, r = _renderer(scene, settings)
+    try:
+        blocks = [r.render_block(a, b) for a, b in sppm.pass_blocks(10, 3)]
+    finally:
+        prepared.close()
+    assert [(s.start, s.stop) for s in blocks] == [(0, 3), (3, 6), (6, 9), (9, 10)]
+    merged = sppm.ImageSum(16, 16)
+    for s in (blocks[2], blocks[0], blocks[3], blocks[1]):
+        merged.add(s)
+    assert merged.passes == 10 and merged.waiting == 0
+    np.testing.assert_array_equal(merged.radiance(), single)
+    with pytest.raises(ValueError, match="twice"):
+        merged.add(blocks[1])
 
 
 def _peak_bytes(passes):
