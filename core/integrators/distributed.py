@@ -37,7 +37,7 @@ from ..prepared import prepare
 from ..scene import contract
 from ..scene.contract import Scene
 from ..settings import RenderSettings, SettingsError
-from . import sppm
+from . import dask_task, sppm
 
 CONNECT_TIMEOUT = 6.0
 """Seconds to reach a scheduler before the address is reported unreachable."""
@@ -230,12 +230,11 @@ def render(scene: Scene, settings: RenderSettings, client, on_progress: Progress
     names, root = _core_names(), _core_root()
     # The task is the builtin eval of a fixed expression: plain pickle sends a function by
     # its module's name, which a worker may not have (Blender's bl_ext..., the CLI's
-    # photon_map); eval is everywhere, and _dask_task.run_block travels by value.
-    from . import _dask_task
+    # photon_map); eval is everywhere, and dask_task.run_block travels by value.
     import cloudpickle
-    cloudpickle.register_pickle_by_value(_dask_task)
-    task_blob = cloudpickle.dumps(_dask_task.run_block)
-    cloudpickle.unregister_pickle_by_value(_dask_task)
+    cloudpickle.register_pickle_by_value(dask_task)
+    task_blob = cloudpickle.dumps(dask_task.run_block)
+    cloudpickle.unregister_pickle_by_value(dask_task)
 
     def submit(i):
         a, b = blocks[i]
