@@ -33,10 +33,11 @@ MAX_DOT_RADIUS_PX = 32.0
 
 INTEGRATORS = ("photon_map", "progressive")
 PROGRESSIVE_DIRECT = ("shadow_rays", "photons")
-CORE_ONLY = ("progressive_alpha", "progressive_radius", "progressive_direct")
+CORE_ONLY = ("progressive_alpha", "progressive_radius", "progressive_direct",
+             "progressive_block")
 """Settings of the core with no Blender property: the progressive integrator's algorithm
-constants, for checks and experiments (tests, benchmarks); renders from Blender use the
-defaults. (Blender stores floats as float32, so alpha = 2/3 would not survive a property.)"""
+constants and merge block, for checks and experiments (tests, benchmarks); renders from
+Blender use the defaults."""
 """``integrator`` values: photon maps + final gathering (core/integrators/photon_mapping.py,
 a fixed budget) or stochastic progressive photon mapping (core/integrators/sppm.py,
 converges with passes)."""
