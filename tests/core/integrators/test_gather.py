@@ -377,7 +377,7 @@ def test_radiance_cache_matches_the_full_estimate(k, monkeypatch):
     settings = RenderSettings(samples=4, seed=5, caustics=False, global_photons=40_000,
                               global_k=k, final_gather_rays=256)
     cached = integrator.render(cornell(res=16), settings)
-    monkeypatch.setattr(gather, "build_radiance_cache", lambda terms, prepared, settings: None)
+    monkeypatch.setattr(gather, "build_radiance_cache", lambda terms, prepared, settings, **kw: None)
     full = integrator.render(cornell(res=16), settings)
     a, b = cached.passes["indirect"], full.passes["indirect"]
     assert b.min() >= 0 and b.mean() > 0

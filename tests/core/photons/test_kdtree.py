@@ -115,7 +115,7 @@ def _subtree(node, n):
 def test_balance_is_a_kd_tree_at_every_node(shape, n, rng):
     pts = point_set(shape, rng, n)
     tree, source, axis = balance(pts)
-    assert tree.dtype == np.float32 and source.dtype == np.int64 and axis.dtype == np.uint8
+    assert tree.dtype == np.float32 and source.dtype == np.int32 and axis.dtype == np.uint8
     np.testing.assert_array_equal(np.sort(source), np.arange(n))
     np.testing.assert_array_equal(tree, pts[source])
     for node in range(n):

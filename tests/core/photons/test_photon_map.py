@@ -6,6 +6,7 @@ import math
 import numpy as np
 import pytest
 
+from core.photons import kdtree
 from core.photons import encoding
 from core.photons.kdtree import balance
 from core.photons.photon_map import BYTES_PER_PHOTON, PhotonMap
@@ -236,8 +237,6 @@ def test_from_parts_is_the_map_of_the_joined_pieces(rng):
     """The tracer's path (pieces encoded one by one, the lists emptied, positions balanced
     in place with int32 indices) gives the very arrays of the whole-array constructor and
     of the int64 balance."""
-    from core.kdtree import _balance_into
-
     sizes = [0, 1, 1000, 70_000, 3]
     pos = [rng.random((m, 3), dtype=np.float32) for m in sizes]
     flux = [(rng.random((m, 3)) * 10.0 ** rng.uniform(-6, 2)).astype(np.float32) for m in sizes]
@@ -252,7 +251,7 @@ def test_from_parts_is_the_map_of_the_joined_pieces(rng):
     # The int32 balance equals the int64 one; the input of PhotonMap is left as it was.
     n = joined.shape[0]
     tree, perm, axis = np.empty((n, 3), np.float32), np.empty(n, np.int64), np.zeros(n, np.uint8)
-    _balance_into(joined.copy(), np.arange(n), np.empty(n, np.int64), np.empty(n, np.int64),
+    kdtree._balance_into(joined.copy(), np.arange(n), np.empty(n, np.int64), np.empty(n, np.int64),
                   tree, perm, axis)
     np.testing.assert_array_equal(tree, parts.positions)
     np.testing.assert_array_equal(axis, parts.split_axis)
