@@ -17,9 +17,11 @@ MAX_MAGNITUDE) and ranges and raises
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
+
+from . import closures
 
 
 class SceneError(ValueError):
@@ -110,6 +112,16 @@ class Materials:
         probability alpha and a straight pass-through (no refraction, no Fresnel, no
         bounce) with probability 1 - alpha.
     alpha_texture: (M,) int32, texture whose texel ALPHA channel multiplies ``alpha``; -1 = none.
+
+    The closure table (core/scene/closures.py; None = derived from the lobes above by
+    ``closure_table()``): material m is the weighted sum of closures
+    [closure_first[m], closure_first[m] + closure_count[m]).
+    closure_kind: (C,) int32, ``closures.CLOSURE_*``.
+    closure_weight: (C, 3) float32 >= 0, the Mix / Add weight of each closure.
+    closure_params: (C, closures.PARAM_COUNT) float32, the node's inputs by slot.
+    closure_texture: (C,) int32, texture whose texel colour MULTIPLIES the COLOR slot (the
+        exporter stores COLOR with the image factored out, usually 1); -1 = none.
+    closure_first, closure_count: (M,) int32.
     """
 
     diffuse: np.ndarray
@@ -122,10 +134,56 @@ class Materials:
     diffuse_texture: np.ndarray | None = None
     alpha: np.ndarray | None = None
     alpha_texture: np.ndarray | None = None
+    closure_kind: np.ndarray | None = None
+    closure_weight: np.ndarray | None = None
+    closure_params: np.ndarray | None = None
+    closure_texture: np.ndarray | None = None
+    closure_first: np.ndarray | None = None
+    closure_count: np.ndarray | None = None
 
     @property
     def count(self) -> int:
         return int(self.diffuse.shape[0])
+
+    def closure_table(self) -> dict[str, np.ndarray]:
+        """The closure table (keys ``kind, weight, params, texture, first, count``, dtypes as
+        documented above): the stored one, or, when ``closure_kind`` is None, the lobes as
+        closures: Diffuse (weight = diffuse, texture = diffuse_texture), Glossy (weight =
+        specular, GGX, the roughness) and smooth Glass (weight = transmission, the IOR), each
+        with COLOR 1 and present only where its weight is non-zero."""
+        if self.closure_kind is not None:
+            return {"kind": np.asarray(self.closure_kind, np.int32),
+                    "weight": np.asarray(self.closure_weight, np.float32).reshape(-1, 3),
+                    "params": np.asarray(self.closure_params, np.float32)
+                    .reshape(-1, closures.PARAM_COUNT),
+                    "texture": np.asarray(self.closure_texture, np.int32),
+                    "first": np.asarray(self.closure_first, np.int32),
+                    "count": np.asarray(self.closure_count, np.int32)}
+        kind, weight, params, texture, first, count = [], [], [], [], [], []
+        tex = self.diffuse_texture_index()
+        for m in range(self.count):
+            first.append(len(kind))
+            lobes = (
+                (closures.CLOSURE_DIFFUSE, self.diffuse[m], {}, int(tex[m])),
+                (closures.CLOSURE_GLOSSY, self.specular[m],
+                 {"roughness": float(self.roughness[m]),
+                  "distribution": closures.DISTRIBUTION_GGX}, -1),
+                (closures.CLOSURE_GLASS, self.transmission[m],
+                 {"roughness": 0.0, "ior": float(self.ior[m]),
+                  "distribution": closures.DISTRIBUTION_GGX}, -1),
+            )
+            for k, w, values, t in lobes:
+                if np.any(np.asarray(w) > 0):
+                    kind.append(k)
+                    weight.append(np.asarray(w, np.float32))
+                    params.append(closures.params(color=1.0, **values))
+                    texture.append(t)
+            count.append(len(kind) - first[-1])
+        return {"kind": np.array(kind, np.int32),
+                "weight": np.array(weight, np.float32).reshape(-1, 3),
+                "params": np.array(params, np.float32).reshape(-1, closures.PARAM_COUNT),
+                "texture": np.array(texture, np.int32),
+                "first": np.array(first, np.int32), "count": np.array(count, np.int32)}
 
     def diffuse_texture_index(self) -> np.ndarray:
         """(M,) int32 texture of the diffuse lobe, -1 where none."""
@@ -151,6 +209,11 @@ class Materials:
 
         Defaults: ior 1.5, roughness 0, name "Material.<i>", diffuse_texture -1,
         alpha 1, alpha_texture -1 (the optional fields are None when no row sets them).
+
+        A row may instead give ``closures``: a list of dicts with ``kind`` (CLOSURE_*),
+        ``weight`` (3,) (default 1), ``params`` (a (PARAM_COUNT,) row or a dict for
+        ``closures.params``) and ``texture`` (default -1). When any row does, the closure
+        table is stored, rows without ``closures`` contributing their lobes as closures.
         """
         m = len(rows)
 
@@ -161,7 +224,7 @@ class Materials:
                     out[i] = r[key]
             return out
 
-        return Materials(
+        lobes = Materials(
             diffuse=col("diffuse", 3, 0.0),
             specular=col("specular", 3, 0.0),
             transmission=col("transmission", 3, 0.0),
@@ -175,6 +238,34 @@ class Materials:
             alpha_texture=(np.array([r.get("alpha_texture", -1) for r in rows], np.int32)
                            .reshape(m) if any("alpha_texture" in r for r in rows) else None),
         )
+        if not any("closures" in r for r in rows):
+            return lobes
+        derived = lobes.closure_table()
+        kind, weight, params, texture, first, count = [], [], [], [], [], []
+        for i, r in enumerate(rows):
+            first.append(len(kind))
+            if "closures" in r:
+                for c in r["closures"]:
+                    p = c.get("params", {})
+                    kind.append(int(c["kind"]))
+                    weight.append(np.broadcast_to(np.asarray(c.get("weight", 1.0), np.float32), (3,)))
+                    params.append(closures.params(**p) if isinstance(p, dict)
+                                  else np.asarray(p, np.float32))
+                    texture.append(int(c.get("texture", -1)))
+            else:
+                lo = derived["first"][i]
+                for j in range(lo, lo + derived["count"][i]):
+                    kind.append(derived["kind"][j])
+                    weight.append(derived["weight"][j])
+                    params.append(derived["params"][j])
+                    texture.append(derived["texture"][j])
+            count.append(len(kind) - first[-1])
+        return replace(
+            lobes, closure_kind=np.array(kind, np.int32),
+            closure_weight=np.array(weight, np.float32).reshape(-1, 3),
+            closure_params=np.array(params, np.float32).reshape(-1, closures.PARAM_COUNT),
+            closure_texture=np.array(texture, np.int32),
+            closure_first=np.array(first, np.int32), closure_count=np.array(count, np.int32))
 
 
 @dataclass(frozen=True)
@@ -544,6 +635,8 @@ def _validate_materials(m: Materials, texture_count: int = 0) -> None:
             i = int(np.argmax((a < -1) | (a >= texture_count)))
             raise SceneError(f"materials.{key}{_label(names, i)} is {a[i]}, not -1 (none) or "
                              f"an index into the scene's {texture_count} textures")
+    if m.closure_kind is not None:
+        _validate_closures(m, texture_count, names)
     if m.alpha is not None:
         _check_array("materials.alpha", m.alpha, (n,), dtype=np.float32, nonnegative=True,
                      labels=names, at_most=1.0)
@@ -560,6 +653,33 @@ def _validate_materials(m: Materials, texture_count: int = 0) -> None:
     if n and np.any(m.ior <= 0):
         i = int(np.argmax(m.ior <= 0))
         raise SceneError(f"materials.ior{_label(names, i)} must be > 0, got {m.ior[i]}")
+
+
+def _validate_closures(m: Materials, texture_count: int, names) -> None:
+    t = m.closure_table()
+    c = t["kind"].shape[0]
+    _check_array("materials.closure_kind", m.closure_kind, (c,), dtype=np.int32)
+    if c and not np.all(np.isin(t["kind"], list(closures.CLOSURE_KIND_NAMES))):
+        j = int(np.argmax(~np.isin(t["kind"], list(closures.CLOSURE_KIND_NAMES))))
+        raise SceneError(f"materials.closure_kind[{j}] is {t['kind'][j]}, not one of "
+                         f"{closures.CLOSURE_KIND_NAMES}")
+    _check_array("materials.closure_weight", m.closure_weight, (c, 3), dtype=np.float32,
+                 nonnegative=True)
+    _check_array("materials.closure_params", m.closure_params, (c, closures.PARAM_COUNT),
+                 dtype=np.float32)
+    _check_array("materials.closure_texture", m.closure_texture, (c,), dtype=np.int32)
+    if c and (t["texture"].min() < -1 or t["texture"].max() >= texture_count):
+        j = int(np.argmax((t["texture"] < -1) | (t["texture"] >= texture_count)))
+        raise SceneError(f"materials.closure_texture[{j}] is {t['texture'][j]}, not -1 (none) "
+                         f"or an index into the scene's {texture_count} textures")
+    for key in ("closure_first", "closure_count"):
+        _check_array(f"materials.{key}", getattr(m, key), (m.count,), dtype=np.int32,
+                     labels=names)
+    end = t["first"].astype(np.int64) + t["count"]
+    if m.count and (t["first"].min() < 0 or t["count"].min() < 0 or end.max() > c):
+        i = int(np.argmax((t["first"] < 0) | (t["count"] < 0) | (end > c)))
+        raise SceneError(f"materials.closure_first/count{_label(names, i)}: closures "
+                         f"[{t['first'][i]}, {end[i]}) outside the table of {c}")
 
 
 def _validate_lights(li: Lights) -> None:
