@@ -41,6 +41,8 @@ from . import dask_task, sppm
 
 CONNECT_TIMEOUT = 6.0
 """Seconds to reach a scheduler before the address is reported unreachable."""
+STOP_POLL_SECONDS = 0.25
+"""How often a cluster render asks should_stop() while it waits for blocks (s)."""
 BYTES_PER_PHOTON = 120
 """Memory per traced photon of a pass (positions, flux, directions, wavefront state)."""
 PREPARED_FACTOR = 6
@@ -204,7 +206,7 @@ def render(scene: Scene, settings: RenderSettings, client, on_progress: Progress
     stats add: workers, scene_bytes (the scattered payload), bytes_per_block (a task's
     result), time_scatter, time_merge (client time adding blocks), time_tasks (worker time
     in passes, summed), tasks."""
-    from dask.distributed import as_completed
+    from dask.distributed import wait
 
     settings = (settings or RenderSettings()).validated()
     if settings.integrator != "progressive":
@@ -246,46 +248,51 @@ def render(scene: Scene, settings: RenderSettings, client, on_progress: Progress
     image = sppm.ImageSum(w, h)
     futures = {}
     submitted = 0
-    queue = as_completed()
     while submitted < min(in_flight, len(blocks)):
         f = submit(submitted)
         futures[f.key] = f
-        queue.add(f)
         submitted += 1
     cancelled, stopped_by = False, "passes"
     time_merge, time_tasks, bytes_per_block, tasks = 0.0, 0.0, 0, 0
     r1 = float("nan")
     try:
-        for f in queue:
-            a, b, radiance, stats = f.result()
-            del futures[f.key]
-            tasks += 1
-            bytes_per_block = max(bytes_per_block, radiance.nbytes)
-            time_tasks += stats.pop("time_tasks", 0.0)
-            r1 = stats.pop("initial_radius", r1)
-            t0 = time.perf_counter()
-            merged = image.add(sppm.PassSums(a, b, radiance, stats))
-            time_merge += time.perf_counter() - t0
-            if on_tile is not None:
-                on_tile(merged, {"combined": image.radiance()})
-            if on_progress is not None:
-                on_progress(merged / passes, f"Pass {merged}/{passes} ({n_workers} workers)")
+        while futures:
+            # Esc / a signal is asked between short waits, not only when a block arrives:
+            # a block (progressive_block passes) can take minutes.
             if should_stop is not None and should_stop():
-                cancelled = merged < passes
+                cancelled = image.passes < passes
                 stopped_by = "cancelled" if cancelled else "passes"
                 break
-            if submitted < len(blocks):
-                elapsed = time.perf_counter() - t_start
-                rate = merged / max(elapsed, 1e-9)  # passes per second, whole cluster
-                ahead = blocks[submitted][1]        # passes submitted once this one is
-                if budget is not None and merged and ahead / rate > budget:
-                    stopped_by = "time_budget"
-                    submitted = len(blocks)         # no more; wait for those running
-                else:
-                    nf = submit(submitted)
-                    futures[nf.key] = nf
-                    queue.add(nf)
-                    submitted += 1
+            try:
+                done, _ = wait(list(futures.values()), timeout=STOP_POLL_SECONDS,
+                               return_when="FIRST_COMPLETED")
+            except TimeoutError:  # nothing finished yet (asyncio's is this one since 3.11)
+                continue
+            for f in sorted(done, key=lambda f: f.key):
+                a, b, radiance, stats = f.result()
+                del futures[f.key]
+                tasks += 1
+                bytes_per_block = max(bytes_per_block, radiance.nbytes)
+                time_tasks += stats.pop("time_tasks", 0.0)
+                r1 = stats.pop("initial_radius", r1)
+                t0 = time.perf_counter()
+                merged = image.add(sppm.PassSums(a, b, radiance, stats))
+                time_merge += time.perf_counter() - t0
+                if on_tile is not None:
+                    on_tile(merged, {"combined": image.radiance()})
+                if on_progress is not None:
+                    on_progress(merged / passes, f"Pass {merged}/{passes} ({n_workers} workers)")
+                if submitted < len(blocks):
+                    elapsed = time.perf_counter() - t_start
+                    rate = merged / max(elapsed, 1e-9)  # passes per second, whole cluster
+                    ahead = blocks[submitted][1]        # passes submitted once this one is
+                    if budget is not None and merged and ahead / rate > budget:
+                        stopped_by = "time_budget"
+                        submitted = len(blocks)         # no more; wait for those running
+                    else:
+                        nf = submit(submitted)
+                        futures[nf.key] = nf
+                        submitted += 1
     finally:
         for f in futures.values():
             f.cancel()

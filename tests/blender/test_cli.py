@@ -240,3 +240,21 @@ def test_dask_local_2_renders_the_same_frame_and_needs_the_progressive_integrato
     gone = cli("render", blend_file, "-o", tmp_path / "y_####", *args,
                "--dask", "tcp://127.0.0.1:9", timeout=120)
     assert gone.returncode == 1 and "tcp://127.0.0.1:9" in gone.stderr, gone.stderr[-2000:]
+
+
+def test_sigint_cancels_a_dask_render(blend_file, tmp_path):
+    """Ctrl-C during a --dask local:2 render: the cluster's tasks are dropped, no frame is
+    written, exit status 130, and the local cluster is shut down (the process ends)."""
+    pytest.importorskip("dask.distributed")
+    import signal as signal_module
+
+    code, out, err, latency = cli_until(
+        "Pass ", signal_module.SIGINT, "render", blend_file, "-o", tmp_path / "d_####", "-f", 1,
+        "--set", "integrator=progressive", "--set", "progressive_passes=256",
+        "--set", "photons_per_pass=20000", "--set", "threads=1", "--dask", "local:2",
+        timeout=300)
+    assert code == 130, (code, out[-2000:], err[-2000:])
+    assert "cancelled by SIGINT during frame 1" in err
+    assert "Traceback" not in err and "Fatal Python error" not in err
+    assert "wrote" not in out and sorted(p.name for p in tmp_path.iterdir()) == []
+    assert latency is not None and latency < 5.0, latency

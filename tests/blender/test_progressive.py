@@ -220,3 +220,26 @@ def test_time_budget_picks_the_pass_count_and_reports_it(lit_plane, capfd):
     fractions = [f for f in engine.fractions if f < 1.0]
     assert fractions == sorted(fractions)
     assert any(f"{passes} passes" in m for _, m in engine.reports)
+
+
+# --- the Performance panel's Dask Scheduler (issue 17) ---------------------------------------
+
+def test_dask_scheduler_setting_renders_the_same_image_and_esc_stops_it(lit_plane):
+    """Dask Scheduler "local:2" (a LocalCluster of two workers, started and stopped by the
+    render): the same Combined as this process, bit for bit (the passes merge exactly);
+    Esc stops the cluster render with a finite partial image, reported as cancelled."""
+    pytest.importorskip("dask.distributed")
+    progressive(lit_plane, progressive_passes=6, threads=1)
+    here = run(FakeEngine(names=("Combined",))).final()
+    lit_plane.photon_map.dask_scheduler = "local:2"
+    try:
+        there = run(FakeEngine(names=("Combined",)))
+        np.testing.assert_array_equal(there.final(), here)
+        assert any("connecting to local:2" in s for s in there.stats)
+        stopped = run(FakeEngine(names=("Combined",), cancel_at=2))
+    finally:
+        lit_plane.photon_map.dask_scheduler = ""
+    assert stopped.calls[-1] == "end"
+    assert any("Cancelled" in s and "stopped by Esc" in s for s in stopped.stats), stopped.stats
+    image = stopped.final()
+    assert np.isfinite(image).all() and image.min() >= 0.0

@@ -90,10 +90,27 @@ def test_cancel_keeps_what_was_merged(cluster):
     # Stop at the first merge that holds passes (a block may arrive before block 0).
     out = distributed.render(scene, settings, cluster.client,
                              on_tile=lambda k, p: merged.append(k),
-                             should_stop=lambda: merged[-1] > 0)
-    assert out.cancelled and out.stats["passes"] % 4 == 0 and out.stats["passes"] >= 4
+                             should_stop=lambda: bool(merged) and merged[-1] > 0)
+    assert out.stats["passes"] % 4 == 0 and out.stats["passes"] >= 4, merged
+    # Cancelled, unless block 0 came last (a worker restarted by the test above is slow to
+    # start): then nothing held passes before the end.
+    assert out.cancelled or not any(merged[:-1]), merged
     done = sppm.render(scene, settings.with_values(progressive_passes=out.stats["passes"]))
     np.testing.assert_array_equal(out.passes["combined"], done.passes["combined"])
+
+
+def test_cancel_does_not_wait_for_a_running_block(cluster):
+    """Esc while the only block runs: asked between short waits, the render returns
+    cancelled with nothing merged, well before the block could have finished."""
+    scene = caustic_scene(1.0, 16, 16)
+    settings = SETTINGS.with_values(photons_per_pass=20_000, progressive_passes=64,
+                                    progressive_block=64)
+    t0 = time.perf_counter()
+    out = distributed.render(scene, settings, cluster.client,
+                             should_stop=lambda: time.perf_counter() - t0 > 1.0)
+    assert out.cancelled and out.stats["passes"] == 0 and out.stats["tasks"] == 0
+    image = out.passes["combined"]
+    assert np.isfinite(image).all() and not image.any()
 
 
 def test_a_scene_too_large_for_the_workers_is_refused_before_any_task(cluster, monkeypatch):
