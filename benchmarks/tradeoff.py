@@ -12,7 +12,9 @@ Scenes (SCENES): ``demo`` (the Cornell box of examples/cornell_box.py: mirror an
 spheres, a small area light), ``caustic`` (a glass sphere on a floor under a small area
 light, tests/blender/cycles_caustic_reference.py's scene), ``interior`` (a closed room lit
 only by an area light facing the ceiling: almost every visible pixel is indirect light),
-``mirror`` (a room corner with a mirror wall, a diffuse sphere and box, a ceiling light).
+``mirror`` (a room corner with a mirror wall, a diffuse sphere and box, a ceiling light),
+``artist`` (a room of default Principled BSDF walls, a glossy floor, rough copper, gold and
+frosted-glass spheres: issue 13's scene).
 
 Resolutions: RESOLUTIONS (64 x 48, the caustic 96 x 72), or --resolution / --quick (48 x 36).
 References (cached in benchmarks/references/<scene>_<W>x<H>.npz with the command that
@@ -66,7 +68,8 @@ from tests.blender import scenes  # noqa: E402
 
 REF_DIR = ROOT / "benchmarks" / "references"
 DOCS = ROOT / "docs"
-RESOLUTIONS = {"demo": (64, 48), "caustic": (96, 72), "interior": (64, 48), "mirror": (64, 48)}
+RESOLUTIONS = {"demo": (64, 48), "caustic": (96, 72), "interior": (64, 48), "mirror": (64, 48),
+               "artist": (64, 48)}
 """Pixels per scene: small, so a full run fits ~30 min on 2 shared cores (the caustic is
 larger: its reference is SPPM, whose cost does not grow with the pixel count)."""
 QUICK_RESOLUTION = (48, 36)
@@ -195,8 +198,48 @@ def mirror_scene(resolution):
     return scene
 
 
+def artist_scene(resolution):
+    """A room the way an artist builds one (issue 13): walls and ceiling in Blender's default
+    Principled BSDF (base 0.8 grey, roughness 0.5, IOR 1.5), a glossy dark floor (roughness
+    0.1), a rough copper sphere (roughness 0.35), a gold sphere (roughness 0.15), a frosted
+    glass sphere (transmission 1, roughness 0.2), a 0.8 m area light under the ceiling."""
+    scene = scenes.reset()
+    scenes.set_resolution(*resolution)
+    sx, sy, sz = 4.0, 4.0, 2.6
+    walls = {  # name: (location, rotation, scale)
+        "Floor": ((0, 0, 0), (0, 0, 0), (sx, sy)),
+        "Ceiling": ((0, 0, sz), (math.pi, 0, 0), (sx, sy)),
+        "WallN": ((0, sy / 2, sz / 2), (math.pi / 2, 0, 0), (sx, sz)),
+        "WallS": ((0, -sy / 2, sz / 2), (-math.pi / 2, 0, 0), (sx, sz)),
+        "WallE": ((sx / 2, 0, sz / 2), (0, -math.pi / 2, 0), (sz, sy)),
+        "WallW": ((-sx / 2, 0, sz / 2), (0, math.pi / 2, 0), (sz, sy)),
+    }
+    wall = scenes.principled_material("Wall")
+    floor = scenes.principled_material("GlossyFloor", Base_Color=(0.25, 0.22, 0.2),
+                                       Roughness=0.1)
+    for name, (loc, rot, scale) in walls.items():
+        obj = scenes.add_plane(size=1.0, location=loc, rotation=rot, name=name,
+                               material=floor if name == "Floor" else wall)
+        obj.scale = scale + (1.0,)
+    spheres = (
+        ("Copper", (-0.9, 0.5, 0.45), dict(Base_Color=(0.955, 0.638, 0.538), Metallic=1.0,
+                                            Roughness=0.35)),
+        ("Gold", (0.0, 0.9, 0.45), dict(Base_Color=(1.0, 0.766, 0.336), Metallic=1.0,
+                                         Roughness=0.15)),
+        ("Frosted", (0.9, 0.3, 0.45), dict(Transmission_Weight=1.0, Roughness=0.2,
+                                            IOR=1.5, Base_Color=(1.0, 1.0, 1.0))),
+    )
+    for name, loc, inputs in spheres:
+        scenes.add_sphere(radius=0.45, location=loc, segments=48, name=name,
+                          material=scenes.principled_material(name, **inputs))
+    scenes.add_light('AREA', location=(0.0, 0.0, sz - 0.05), power=400.0, size=0.8,
+                     name="Ceiling Light")
+    scenes.add_camera(location=(0.0, -1.9, 1.3), look_at=(0.0, 0.6, 0.5), lens=24.0)
+    return scene
+
+
 SCENES = {"demo": demo_scene, "caustic": caustic_scene, "interior": interior_scene,
-          "mirror": mirror_scene}
+          "mirror": mirror_scene, "artist": artist_scene}
 
 
 # Renderers ----------------------------------------------------------------------------

@@ -92,6 +92,22 @@ def diffuse_material(name="Diffuse", color=(0.8, 0.8, 0.8)):
     return mat
 
 
+def principled_material(name="Principled", **inputs):
+    """A new material as Blender makes it (a default Principled BSDF -> Material Output),
+    with the named inputs set: keyword = socket name with spaces as underscores, e.g.
+    ``principled_material("Copper", Base_Color=(0.95, 0.64, 0.54), Metallic=1.0,
+    Roughness=0.35)``; colours are linear RGB (alpha 1 added)."""
+    mat = bpy.data.materials.new(name)
+    tree = ensure_node_tree(mat)
+    bsdf = next(n for n in tree.nodes if n.bl_idname == 'ShaderNodeBsdfPrincipled')
+    for key, value in inputs.items():
+        socket = bsdf.inputs[key.replace("_", " ")]
+        if socket.type == 'RGBA':
+            value = (*value, 1.0)
+        socket.default_value = value
+    return mat
+
+
 def add_plane(size=2.0, location=(0.0, 0.0, 0.0), material=None, name="Plane", rotation=(0.0, 0.0, 0.0)):
     """A square of side ``size`` metres (normal +Z before ``rotation``, radians)."""
     bpy.ops.mesh.primitive_plane_add(size=size, location=location, rotation=rotation)
