@@ -3,7 +3,7 @@
     .venv/bin/python benchmarks/sppm_convergence.py                  # the table (docs/sppm.md)
     .venv/bin/python benchmarks/sppm_convergence.py --make-reference # tests/data/sppm_caustic_ref.npz
 
-The scene (also built by tests/core/test_sppm.py, keep them equal): a 4 x 4 m diffuse floor
+The scene (tests/core/scenes.caustic_scene, also the tests'): a 4 x 4 m diffuse floor
 (albedo 0.8), a glass sphere (radius 0.5 m, ior 1.5) 0.1 m above it, a 200 W point light
 (radius 0) at (0.3, 0, 2.5) m, a 32 x 32 pinhole camera. The reference is SPPM itself with
 1024 passes of 32 000 photons and another seed, direct light by photons (about 25 s on
@@ -24,25 +24,13 @@ import numpy as np
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from core.scene import shapes  # noqa: E402
 from core.integrators import sppm  # noqa: E402
-from core.scene.contract import LIGHT_POINT, Lights, Materials, Scene  # noqa: E402
 from core.settings import RenderSettings  # noqa: E402
+from tests.core.scenes import caustic_scene  # noqa: E402
 
 REFERENCE = ROOT / "tests" / "data" / "sppm_caustic_ref.npz"
 REF_PASSES, REF_PHOTONS, REF_SEED = 1024, 32_000, 99
 PHOTONS_PER_PASS = 25_000
-
-
-def caustic_scene(scale: float = 1.0, width: int = 32, height: int = 32) -> Scene:
-    s = scale
-    mesh = shapes.assemble([(shapes.quad([0, 0, 0], [2 * s, 0, 0], [0, 2 * s, 0]), 0),
-                            (shapes.uv_sphere([0, 0, 0.6 * s], 0.5 * s, 16, 32), 1)])
-    mats = Materials.from_list([{"diffuse": [0.8] * 3}, {"transmission": [1, 1, 1], "ior": 1.5}])
-    lights = Lights.from_list([{"kind": LIGHT_POINT, "position": [0.3 * s, 0, 2.5 * s],
-                                "power": 200.0 * s * s}])
-    cam = shapes.pinhole([0, -3.0 * s, 2.5 * s], [0, 0, 0.3 * s], width, height, 0.9)
-    return Scene(mesh, mats, lights, cam).validate()
 
 
 def rel_mse(a: np.ndarray, b: np.ndarray) -> float:

@@ -16,7 +16,7 @@ sys.path.insert(0, str(ROOT))
 
 from core import render  # noqa: E402
 from core.settings import RenderSettings  # noqa: E402
-from tests.core.integrators.test_sppm import caustic_scene  # noqa: E402
+from tests.core.scenes import caustic_scene  # noqa: E402
 
 REFERENCE = ROOT / "tests" / "data" / "pm_caustic_ref.npz"
 SETTINGS = dict(seed=7, samples=256, global_photons=2_000_000, caustic_photons=4_000_000,

@@ -14,20 +14,7 @@ pytest.importorskip("dask.distributed")
 from core.integrators import distributed, sppm  # noqa: E402
 from core.settings import RenderSettings, SettingsError  # noqa: E402
 
-from core.scene import shapes  # noqa: E402
-from core.scene.contract import LIGHT_POINT, Lights, Materials, Scene  # noqa: E402
-
-
-def caustic_scene(scale=1.0, width=32, height=32):
-    """The caustic scene of test_sppm.py and benchmarks/sppm_convergence.py."""
-    s = scale
-    mesh = shapes.assemble([(shapes.quad([0, 0, 0], [2 * s, 0, 0], [0, 2 * s, 0]), 0),
-                            (shapes.uv_sphere([0, 0, 0.6 * s], 0.5 * s, 16, 32), 1)])
-    mats = Materials.from_list([{"diffuse": [0.8] * 3}, {"transmission": [1, 1, 1], "ior": 1.5}])
-    lights = Lights.from_list([{"kind": LIGHT_POINT, "position": [0.3 * s, 0, 2.5 * s],
-                                "power": 200.0 * s * s}])
-    cam = shapes.pinhole([0, -3.0 * s, 2.5 * s], [0, 0, 0.3 * s], width, height, 0.9)
-    return Scene(mesh, mats, lights, cam).validate()
+from tests.core.scenes import caustic_scene  # noqa: E402
 
 
 SETTINGS = RenderSettings().with_values(integrator="progressive", threads=1)

@@ -14,6 +14,7 @@ from core.scene import shapes
 from core.integrators import sppm
 from core.scene.contract import LIGHT_POINT, Lights, Materials, Scene
 from core.settings import RenderSettings, SettingsError
+from tests.core.scenes import caustic_scene
 
 DATA = pathlib.Path(__file__).resolve().parents[2] / "data"
 SETTINGS = RenderSettings().with_values(threads=1)
@@ -22,19 +23,6 @@ SETTINGS = RenderSettings().with_values(threads=1)
 def rel_mse(a, b):
     a, b = np.asarray(a, np.float64), np.asarray(b, np.float64)
     return float(np.mean((a - b) ** 2 / (b * b + 0.01)))
-
-
-def caustic_scene(scale=1.0, width=32, height=32):
-    """Glass sphere on a floor under a point light: the scene of benchmarks/sppm_convergence.py
-    and of the cached reference (make_caustic_reference.py renders it)."""
-    s = scale
-    mesh = shapes.assemble([(shapes.quad([0, 0, 0], [2 * s, 0, 0], [0, 2 * s, 0]), 0),
-                            (shapes.uv_sphere([0, 0, 0.6 * s], 0.5 * s, 16, 32), 1)])
-    mats = Materials.from_list([{"diffuse": [0.8] * 3}, {"transmission": [1, 1, 1], "ior": 1.5}])
-    lights = Lights.from_list([{"kind": LIGHT_POINT, "position": [0.3 * s, 0, 2.5 * s],
-                                "power": 200.0 * s * s}])
-    cam = shapes.pinhole([0, -3.0 * s, 2.5 * s], [0, 0, 0.3 * s], width, height, 0.9)
-    return Scene(mesh, mats, lights, cam).validate()
 
 
 def floor_scene(width=16, height=16):
