@@ -805,3 +805,50 @@ def albedo(tab, m, c0, c1, c2, wox, woy, woz, nsx, nsy, nsz):
             d1 += v1
             d2 += v2
     return d0, d1, d2, a0, a1, a2
+
+
+# --- vectorised wrappers (tests, tools) ----------------------------------------------------------
+
+@njit(cache=True, error_model="numpy")
+def _vec_sample(tab, m, wo, ns, ng, t, entering, u, out):
+    for i in range(u.shape[0]):
+        r = sample_bsdf(tab, m, 1.0, 1.0, 1.0, wo[0], wo[1], wo[2], ns[0], ns[1], ns[2],
+                        ng[0], ng[1], ng[2], t[0], t[1], t[2], entering, u[i, 0], u[i, 1],
+                        u[i, 2])
+        out[i, 0], out[i, 1], out[i, 2], out[i, 3] = r[0], r[1], r[2], r[3]
+        out[i, 4], out[i, 5], out[i, 6], out[i, 7] = r[4], r[5], r[6], r[7]
+
+
+def sample_many(tab: ClosureTable, m: int, wo, ns, ng, t, entering: bool, u) -> np.ndarray:
+    """``sample_bsdf`` for uniforms u (N, 3) (u_lobe, u1, u2) at one hit (texel colour 1):
+    (N, 8) float64 rows wi (3), w (3), pdf, flags."""
+    u = np.ascontiguousarray(u, np.float64).reshape(-1, 3)
+    out = np.empty((u.shape[0], 8))
+    _vec_sample(tab, int(m), *(np.asarray(v, np.float64) for v in (wo, ns, ng, t)),
+                bool(entering), u, out)
+    return out
+
+
+@njit(cache=True, error_model="numpy")
+def _vec_eval(tab, m, wo, wi, ns, ng, t, entering, out):
+    for i in range(wi.shape[0]):
+        r = eval_bsdf(tab, m, 1.0, 1.0, 1.0, wo[0], wo[1], wo[2], wi[i, 0], wi[i, 1],
+                      wi[i, 2], ns[0], ns[1], ns[2], ng[0], ng[1], ng[2], t[0], t[1], t[2],
+                      entering)
+        out[i, 0], out[i, 1], out[i, 2], out[i, 3] = r[0], r[1], r[2], r[3]
+
+
+def eval_many(tab: ClosureTable, m: int, wo, wi, ns, ng, t, entering: bool) -> np.ndarray:
+    """``eval_bsdf`` for directions wi (N, 3) at one hit (texel colour 1): (N, 4) float64
+    rows f |cos| (3), pdf."""
+    wi = np.ascontiguousarray(wi, np.float64).reshape(-1, 3)
+    out = np.empty((wi.shape[0], 4))
+    _vec_eval(tab, int(m), np.asarray(wo, np.float64), wi,
+              *(np.asarray(v, np.float64) for v in (ns, ng, t)), bool(entering), out)
+    return out
+
+
+def albedo_at(tab: ClosureTable, m: int, wo, ns, color=(1.0, 1.0, 1.0)) -> np.ndarray:
+    """``albedo`` at one hit: (6,) float64 (diffuse part RGB, total RGB)."""
+    return np.array(albedo(tab, int(m), float(color[0]), float(color[1]), float(color[2]),
+                           *map(float, wo), *map(float, ns)))
