@@ -74,3 +74,31 @@ def test_interpolation_is_exact_on_the_grid():
     t = TABLES["ggx_E"]
     for j, i in [(0, 0), (5, 7), (31, 31)]:
         assert abs(albedo_tables.read_2d(t, i / 31, j / 31) - t[j, i]) < 1e-12
+
+
+@pytest.mark.parametrize("side, k, j, i", [(0, 5, 8, 8), (0, 10, 12, 4), (1, 6, 10, 9),
+                                           (1, 3, 14, 12)])
+def test_glass_e_reestimated_by_uniform_sampling(side, k, j, i):
+    """The rough dielectric's albedo (reflection + transmission, exact Fresnel) re-estimated
+    by uniform sphere sampling of a single-scattering Glass closure's eval_bsdf."""
+    from core.materials import closure, fresnel
+    from core.scene import closures as cl
+    from core.scene import contract
+    rough, mu = _grid(i, 16), _grid(j, 16)
+    z = min(max(k / 15, 1e-4), 0.99)
+    ior = fresnel.ior_from_f0(z ** 4)
+    t = closure.table(contract.Materials.from_list([{"closures": [dict(
+        kind=cl.CLOSURE_GLASS, params=dict(color=1.0, roughness=rough, ior=ior,
+                                           distribution=cl.DISTRIBUTION_GGX))]}]))
+    rng = np.random.default_rng(7 + k + 16 * j + 256 * i + 4096 * side)
+    n = 600_000
+    c = rng.uniform(-1, 1, n)
+    ph = rng.uniform(0, 2 * np.pi, n)
+    r = np.sqrt(1 - c * c)
+    wi = np.stack([r * np.cos(ph), r * np.sin(ph), c], -1)
+    up = np.array([0.0, 0.0, 1.0])
+    f = closure.eval_many(t, 0, [np.sqrt(1 - mu * mu), 0.0, mu], wi, up, up,
+                          np.array([1.0, 0.0, 0.0]), side == 0)[:, 0] * 4 * np.pi
+    est, err = f.mean(), f.std() / np.sqrt(n)
+    got = TABLES["glass_E"][side, k, j, i]
+    assert abs(got - est) < 4 * err + 0.005, (got, est, err)
