@@ -566,6 +566,11 @@ def _check_array(name, a, shape, *, dtype=None, nonnegative=False, finite=True, 
         raise SceneError(f"{name}{where} must be <= {at_most:g}, got {a[tuple(bad)]} at index {tuple(bad)}")
 
 
+
+check_array = _check_array
+"""The same check, public for the contract's sibling modules (scene/media.py)."""
+
+
 def _label(labels, i):
     if labels is not None and 0 <= i < len(labels):
         return f" of '{labels[i]}'"

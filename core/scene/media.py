@@ -1,0 +1,136 @@
+"""The participating media of a scene, in the contract's style: plain arrays, one row per
+medium (docs/volumes.md).
+
+Units: metres; coefficients in 1/m; emission as radiance added per metre of path,
+W/(m^2 sr) per m = W/(m^3 sr), as Cycles' Emission of a volume shader.
+
+A medium fills the inside of one closed mesh object (``bounds``: its index into
+``Mesh.object_names``) or, with ``bounds == WORLD``, all space not inside another medium
+(the World's volume; at most one). Where media overlap, the one with the highest
+``priority`` holds the point (Cycles' volume stack priority); equal priorities are broken by
+the lower row index so the choice is deterministic.
+
+Heterogeneous density (later: a texture through the shader program) scales sigma_a,
+sigma_s and emission together; ``density_texture == -1`` means homogeneous.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .contract import SceneError, check_array
+
+WORLD = -1
+"""``Media.bounds`` of the World's volume: the medium of every point inside no mesh medium."""
+
+MAX_ANISOTROPY = 0.999
+"""|g| beyond this is a delta peak the phase function cannot sample stably (Cycles clamps
+the same way)."""
+
+
+@dataclass(frozen=True)
+class Media:
+    """M participating media.
+
+    sigma_a: (M, 3) float32, absorption coefficient per RGB channel, 1/m, >= 0.
+    sigma_s: (M, 3) float32, scattering coefficient per RGB channel, 1/m, >= 0.
+    anisotropy: (M,) float32, Henyey-Greenstein g in [-MAX_ANISOTROPY, MAX_ANISOTROPY]
+        (0 isotropic, > 0 forward scattering).
+    emission: (M, 3) float32, W/(m^3 sr), >= 0.
+    bounds: (M,) int32, object index of the closed mesh that bounds the medium, or WORLD.
+    priority: (M,) int32, nesting priority (higher wins where media overlap).
+    density_texture: (M,) int32, -1 (homogeneous) until heterogeneous density lands.
+    names: tuple of str, one per medium (the material or World name, for messages).
+    """
+
+    sigma_a: np.ndarray
+    sigma_s: np.ndarray
+    anisotropy: np.ndarray
+    emission: np.ndarray
+    bounds: np.ndarray
+    priority: np.ndarray
+    density_texture: np.ndarray
+    names: tuple = ()
+
+    @property
+    def count(self) -> int:
+        return int(self.sigma_a.shape[0])
+
+    @property
+    def sigma_t(self) -> np.ndarray:
+        """(M, 3) float32 extinction coefficient sigma_a + sigma_s, 1/m."""
+        return self.sigma_a + self.sigma_s
+
+    @property
+    def world(self) -> int:
+        """Row of the World's medium, or -1 when the World has no volume."""
+        rows = np.flatnonzero(self.bounds == WORLD)
+        return int(rows[0]) if rows.size else -1
+
+    @staticmethod
+    def empty() -> "Media":
+        return Media.from_list([])
+
+    @staticmethod
+    def from_list(rows: list[dict]) -> "Media":
+        """Media from dicts with keys sigma_a, sigma_s (RGB, 1/m), anisotropy, emission,
+        bounds (object index or WORLD), priority, density_texture, name; absent keys take
+        the defaults (no absorption, no scattering, isotropic, no emission, World,
+        priority 0, homogeneous)."""
+        def col(key, width, default, dtype=np.float32):
+            shape = (len(rows), width) if width else (len(rows),)
+            return np.array([r.get(key, default) for r in rows], dtype).reshape(shape)
+
+        return Media(sigma_a=col("sigma_a", 3, (0.0, 0.0, 0.0)),
+                     sigma_s=col("sigma_s", 3, (0.0, 0.0, 0.0)),
+                     anisotropy=col("anisotropy", 0, 0.0),
+                     emission=col("emission", 3, (0.0, 0.0, 0.0)),
+                     bounds=col("bounds", 0, WORLD, np.int32),
+                     priority=col("priority", 0, 0, np.int32),
+                     density_texture=col("density_texture", 0, -1, np.int32),
+                     names=tuple(r.get("name", f"medium {i}") for i, r in enumerate(rows)))
+
+    def validate(self, object_count: int, texture_count: int = 0) -> "Media":
+        """Check shapes, dtypes and ranges; raise SceneError naming the field and medium.
+
+        object_count: how many objects ``Mesh.object_names`` holds (``bounds`` indexes it).
+        """
+        m = self.count
+        labels = self.names or None
+        for name in ("sigma_a", "sigma_s", "emission"):
+            check_array(f"media.{name}", getattr(self, name), (m, 3), dtype=np.float32,
+                        nonnegative=True, labels=labels)
+        check_array("media.anisotropy", self.anisotropy, (m,), dtype=np.float32,
+                    labels=labels)
+        for name in ("bounds", "priority", "density_texture"):
+            check_array(f"media.{name}", getattr(self, name), (m,), dtype=np.int32,
+                        labels=labels)
+        if self.names and len(self.names) != m:
+            raise SceneError(f"media.names has {len(self.names)} names for {m} media")
+        bad = np.flatnonzero(np.abs(self.anisotropy) > MAX_ANISOTROPY)
+        if bad.size:
+            i = int(bad[0])
+            raise SceneError(f"media.anisotropy of '{self._name(i)}' must lie in "
+                             f"[-{MAX_ANISOTROPY}, {MAX_ANISOTROPY}], got {self.anisotropy[i]}")
+        bad = np.flatnonzero((self.bounds < WORLD) | (self.bounds >= object_count))
+        if bad.size:
+            i = int(bad[0])
+            raise SceneError(f"media.bounds of '{self._name(i)}' must be an object index in "
+                             f"[0, {object_count}) or WORLD (-1), got {self.bounds[i]}")
+        worlds = np.flatnonzero(self.bounds == WORLD)
+        if worlds.size > 1:
+            raise SceneError(f"media.bounds: only one World medium is allowed, got "
+                             f"{', '.join(repr(self._name(int(i))) for i in worlds)}")
+        bad = np.flatnonzero((self.density_texture < -1)
+                             | (self.density_texture >= texture_count))
+        if bad.size:
+            i = int(bad[0])
+            raise SceneError(f"media.density_texture of '{self._name(i)}' must be -1 or a "
+                             f"texture index in [0, {texture_count}), got "
+                             f"{self.density_texture[i]}")
+        return self
+
+    def _name(self, i: int) -> str:
+        return self.names[i] if i < len(self.names) else f"medium {i}"
