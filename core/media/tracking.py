@@ -18,8 +18,9 @@ sigma_bar = majorant * max_c sigma_t,c, and each is real or null:
 
 Random numbers come from sampling.hash_uniform(seed, index, step, dim): one stream per
 (seed, index), one step per tentative collision, so a walk is reproducible and
-independent of how many walks run in parallel. A density above the majorant raises
-ValueError (the estimate would be biased and could turn negative).
+independent of how many walks run in parallel. A density outside [0, majorant] (the
+estimate would be biased and could turn negative) ends the walk with ok = False; the array
+functions raise ValueError naming the ray.
 """
 
 from __future__ import annotations
@@ -34,39 +35,39 @@ from ..sampling import hash_uniform
 
 MAX_STEPS = 1 << 20
 """Tentative collisions per walk before giving up (an unreachable bound for a sane
-majorant; a walk that hits it raises instead of looping forever)."""
+majorant; a walk that hits it reports ok = False instead of looping forever)."""
 
 
 @njit(cache=True, error_model="numpy")
 def ratio_tracking(density, ox, oy, oz, dx, dy, dz, t_max, s0, s1, s2, majorant, seed,
                    index):
-    """Transmittance estimate (T0, T1, T2) along o + t d, t in [0, t_max] metres, for the
-    extinction (s0, s1, s2) * rho(x), 1/m; majorant >= rho on the segment."""
+    """Transmittance estimate (T0, T1, T2, ok) along o + t d, t in [0, t_max] metres, for
+    the extinction (s0, s1, s2) * rho(x), 1/m; majorant >= rho on the segment."""
     bar = majorant * max(s0, max(s1, s2))
     T0 = 1.0
     T1 = 1.0
     T2 = 1.0
     if bar <= 0.0:
-        return T0, T1, T2
+        return T0, T1, T2, True
     t = 0.0
     for step in range(MAX_STEPS):
         t -= math.log1p(-hash_uniform(seed, index, step, 0)) / bar
         if t >= t_max:
-            return T0, T1, T2
+            return T0, T1, T2, True
         rho = density(ox + t * dx, oy + t * dy, oz + t * dz)
-        if rho > majorant or rho < 0.0:
-            raise ValueError("media: density outside [0, majorant] in ratio tracking")
+        if not (0.0 <= rho <= majorant):
+            return 0.0, 0.0, 0.0, False
         T0 *= 1.0 - rho * s0 / bar
         T1 *= 1.0 - rho * s1 / bar
         T2 *= 1.0 - rho * s2 / bar
-    raise ValueError("media: ratio tracking exceeded MAX_STEPS tentative collisions")
+    return 0.0, 0.0, 0.0, False
 
 
 @njit(cache=True, error_model="numpy")
 def delta_tracking(density, ox, oy, oz, dx, dy, dz, t_max, a0, a1, a2, c0, c1, c2, majorant,
                    seed, index):
     """One spectral delta-tracking flight through absorption (a0, a1, a2) and scattering
-    (c0, c1, c2), 1/m, scaled by rho(x) <= majorant. Returns (t, scattered, w0, w1, w2)
+    (c0, c1, c2), 1/m, scaled by rho(x) <= majorant. Returns (t, scattered, w0, w1, w2, ok)
     (module docstring); t = t_max when the flight passes the segment."""
     s0 = a0 + c0
     s1 = a1 + c1
@@ -76,15 +77,15 @@ def delta_tracking(density, ox, oy, oz, dx, dy, dz, t_max, a0, a1, a2, c0, c1, c
     w1 = 1.0
     w2 = 1.0
     if bar <= 0.0:
-        return t_max, False, w0, w1, w2
+        return t_max, False, w0, w1, w2, True
     t = 0.0
     for step in range(MAX_STEPS):
         t -= math.log1p(-hash_uniform(seed, index, step, 0)) / bar
         if t >= t_max:
-            return t_max, False, w0, w1, w2
+            return t_max, False, w0, w1, w2, True
         rho = density(ox + t * dx, oy + t * dy, oz + t * dz)
-        if rho > majorant or rho < 0.0:
-            raise ValueError("media: density outside [0, majorant] in delta tracking")
+        if not (0.0 <= rho <= majorant):
+            return t, False, 0.0, 0.0, 0.0, False
         # Collision coefficients here, throughput-weighted as Kutz et al.'s "average" rule.
         sc0 = rho * c0 * w0
         sc1 = rho * c1 * w1
@@ -95,36 +96,77 @@ def delta_tracking(density, ox, oy, oz, dx, dy, dz, t_max, a0, a1, a2, c0, c1, c
         scat = sc0 + sc1 + sc2
         null = n0 + n1 + n2
         if scat + null <= 0.0:
-            return t, False, 0.0, 0.0, 0.0  # absorbed in every channel
+            return t, False, 0.0, 0.0, 0.0, True  # absorbed in every channel
         p_s = scat / (scat + null)
         if hash_uniform(seed, index, step, 1) < p_s:
             k = 1.0 / (bar * p_s)
-            return t, True, rho * c0 * w0 * k, rho * c1 * w1 * k, rho * c2 * w2 * k
+            return t, True, rho * c0 * w0 * k, rho * c1 * w1 * k, rho * c2 * w2 * k, True
         k = 1.0 / (bar * (1.0 - p_s))
         w0 *= (bar - rho * s0) * k
         w1 *= (bar - rho * s1) * k
         w2 *= (bar - rho * s2) * k
-    raise ValueError("media: delta tracking exceeded MAX_STEPS tentative collisions")
+    return t, False, 0.0, 0.0, 0.0, False
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
-def ratio_tracking_rays(density, origins, directions, t_max, sigma_t, majorant, seed, out):
-    """ratio_tracking for N rays: origins, directions (N, 3), t_max (N,) metres, sigma_t
-    (3,) 1/m -> out (N, 3) transmittance estimates; walk i uses stream index i."""
+def _ratio_rays(density, origins, directions, t_max, sigma_t, majorant, seed, out, ok):
     for i in prange(origins.shape[0]):
-        out[i, 0], out[i, 1], out[i, 2] = ratio_tracking(
+        out[i, 0], out[i, 1], out[i, 2], ok[i] = ratio_tracking(
             density, origins[i, 0], origins[i, 1], origins[i, 2], directions[i, 0],
             directions[i, 1], directions[i, 2], t_max[i], sigma_t[0], sigma_t[1], sigma_t[2],
             majorant, seed, i)
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
-def delta_tracking_rays(density, origins, directions, t_max, sigma_a, sigma_s, majorant, seed,
-                        t_out, scattered, w_out):
-    """delta_tracking for N rays (as ratio_tracking_rays) -> t_out (N,), scattered (N,)
-    bool, w_out (N, 3)."""
+def _delta_rays(density, origins, directions, t_max, sigma_a, sigma_s, majorant, seed, t_out,
+                scattered, w_out, ok):
     for i in prange(origins.shape[0]):
-        t_out[i], scattered[i], w_out[i, 0], w_out[i, 1], w_out[i, 2] = delta_tracking(
+        t_out[i], scattered[i], w_out[i, 0], w_out[i, 1], w_out[i, 2], ok[i] = delta_tracking(
             density, origins[i, 0], origins[i, 1], origins[i, 2], directions[i, 0],
             directions[i, 1], directions[i, 2], t_max[i], sigma_a[0], sigma_a[1], sigma_a[2],
             sigma_s[0], sigma_s[1], sigma_s[2], majorant, seed, i)
+
+
+def _ray_arrays(origins, directions, t_max, majorant):
+    o = np.ascontiguousarray(origins, np.float64).reshape(-1, 3)
+    d = np.ascontiguousarray(directions, np.float64).reshape(-1, 3)
+    tm = np.ascontiguousarray(np.broadcast_to(np.asarray(t_max, np.float64), (o.shape[0],)))
+    if not (np.isfinite(majorant) and majorant >= 0):
+        raise ValueError(f"media: majorant must be finite and >= 0, got {majorant}")
+    return o, d, tm
+
+
+def _check_walks(ok, what, majorant):
+    if not ok.all():
+        i = int(np.flatnonzero(~ok)[0])
+        raise ValueError(f"media: {what} of ray {i} met a density outside [0, majorant = "
+                         f"{majorant}] (or ran past {MAX_STEPS} tentative collisions)")
+
+
+def ratio_tracking_rays(density, origins, directions, t_max, sigma_t, majorant: float,
+                        seed: int) -> np.ndarray:
+    """ratio_tracking for N rays: origins, directions (N, 3), t_max (N,) or scalar metres,
+    sigma_t (3,) 1/m -> (N, 3) float64 transmittance estimates; walk i uses stream index i."""
+    o, d, tm = _ray_arrays(origins, directions, t_max, majorant)
+    out = np.empty((o.shape[0], 3))
+    ok = np.empty(o.shape[0], bool)
+    _ratio_rays(density, o, d, tm, np.asarray(sigma_t, np.float64), float(majorant), seed,
+                out, ok)
+    _check_walks(ok, "ratio tracking", majorant)
+    return out
+
+
+def delta_tracking_rays(density, origins, directions, t_max, sigma_a, sigma_s,
+                        majorant: float, seed: int):
+    """delta_tracking for N rays (arguments as ratio_tracking_rays) -> t (N,) metres,
+    scattered (N,) bool, weights (N, 3) float64."""
+    o, d, tm = _ray_arrays(origins, directions, t_max, majorant)
+    n = o.shape[0]
+    t = np.empty(n)
+    scattered = np.empty(n, bool)
+    w = np.empty((n, 3))
+    ok = np.empty(n, bool)
+    _delta_rays(density, o, d, tm, np.asarray(sigma_a, np.float64),
+                np.asarray(sigma_s, np.float64), float(majorant), seed, t, scattered, w, ok)
+    _check_walks(ok, "delta tracking", majorant)
+    return t, scattered, w
