@@ -1,0 +1,83 @@
+"""Dispersion (core/materials/dispersion.py): the Cauchy fit through n_d and V_d, and rays
+of 450, 550 and 650 nm through a 60-degree BK7 prism against Snell's law."""
+
+import math
+
+import numpy as np
+import pytest
+
+from core.materials import bsdf, dispersion
+
+BK7 = (1.5168, 64.17)
+
+
+def sellmeier_bk7(lam_nm):
+    """Schott's Sellmeier formula for N-BK7 (the glass the Cauchy fit approximates)."""
+    l2 = (np.asarray(lam_nm) * 1e-3) ** 2
+    b = (1.03961212, 0.231792344, 1.01046945)
+    c = (0.00600069867, 0.0200179144, 103.560653)
+    return np.sqrt(1 + sum(bi * l2 / (l2 - ci) for bi, ci in zip(b, c)))
+
+
+def test_cauchy_passes_through_n_d_and_the_abbe_number():
+    n = dispersion.ior(*BK7, [587.6, 486.1, 656.3])
+    assert n[0] == pytest.approx(BK7[0], abs=1e-12)
+    assert (n[0] - 1) / (n[1] - n[2]) == pytest.approx(BK7[1], rel=1e-9)
+
+
+def test_cauchy_follows_the_real_glass():
+    lam = np.linspace(420, 700, 15)
+    np.testing.assert_allclose(dispersion.ior(*BK7, lam), sellmeier_bk7(lam), atol=5e-4)
+
+
+def test_abbe_zero_is_exactly_the_ior():
+    lam = np.linspace(380, 780, 401)
+    for n_d in (1.5168, 1.0, 2.4175, 0.75):
+        got = dispersion.ior(n_d, 0.0, lam)
+        assert np.all(got == n_d)
+
+
+@pytest.mark.parametrize("abbe", [-1.0, math.nan])
+def test_bad_abbe_is_named(abbe):
+    with pytest.raises(ValueError, match="Dispersion \\(Abbe number V_d\\)"):
+        dispersion.ior(1.5, abbe, [500])
+
+
+def _rotate(v, angle):
+    c, s = math.cos(angle), math.sin(angle)
+    return np.array([c * v[0] - s * v[2], 0.0, s * v[0] + c * v[2]])
+
+
+def trace_prism(n, apex, incidence):
+    """Deviation (rad) of a ray through a prism of apex angle ``apex`` in the x-z plane,
+    hitting the first face at ``incidence`` from its normal, by bsdf.refract_directions."""
+    normal_in = np.array([0.0, 0.0, 1.0])          # first face's outward normal
+    normal_out = _rotate(-normal_in, apex)         # second face's: apex from the first's inward
+    d0 = _rotate(-normal_in, incidence)            # incoming direction
+    d1, tir1 = bsdf.refract_directions(d0, normal_in, n)
+    # Leaving: the normal on the incident (glass) side is -normal_out, eta = 1 / n.
+    d2, tir2 = bsdf.refract_directions(d1, -normal_out, 1.0 / n)
+    assert not tir1[0] and not tir2[0]
+    return math.acos(np.clip(np.dot(d0, d2[0]), -1, 1))
+
+
+def snell_deviation(n, apex, incidence):
+    inner = apex - math.asin(math.sin(incidence) / n)
+    return incidence + math.asin(n * math.sin(inner)) - apex
+
+
+@pytest.mark.parametrize("nm", [450.0, 550.0, 650.0])
+def test_prism_deviation_matches_snell_within_a_tenth_of_a_degree(nm):
+    apex, incidence = math.radians(60), math.radians(50)
+    n = dispersion.ior(*BK7, [nm])[0]
+    traced = math.degrees(trace_prism(n, apex, incidence))
+    assert traced == pytest.approx(math.degrees(snell_deviation(n, apex, incidence)), abs=0.1)
+    # And the real glass (Sellmeier) deviates the same within 0.1 degree.
+    real = math.degrees(snell_deviation(float(sellmeier_bk7(nm)), apex, incidence))
+    assert traced == pytest.approx(real, abs=0.1)
+
+
+def test_blue_bends_more_than_red():
+    apex, incidence = math.radians(60), math.radians(50)
+    dev = [trace_prism(dispersion.ior(*BK7, [nm])[0], apex, incidence) for nm in (450, 550, 650)]
+    assert dev[0] > dev[1] > dev[2]
