@@ -13,7 +13,8 @@ import pathlib
 CORE = pathlib.Path(__file__).resolve().parents[2] / "core"
 
 RANKS = {
-    "_numba_cache": 0, "sampling": 0, "color": 0, "spectral": 0, "settings": 0, "presets": 0, "passes": 0,
+    "_numba_cache": 0, "sampling": 0, "color": 0, "spectral": 0, "settings": 0, "presets": 0,
+    "passes": 0,
     "scene": 1, "io": 1,
     "materials": 2, "lights": 2, "media": 2,
     "prepared": 3,

@@ -1,0 +1,92 @@
+"""The beam radiance estimate (core/photons/beam.py) against brute force and against the
+single-scattered radiance of a uniformly lit slab."""
+
+import math
+
+import numpy as np
+import pytest
+
+from core.photons import beam
+
+
+def brute_force(pos, flux, dirs, radii, o, d, t_max, sigma_t, g):
+    """The same sum over every photon, in numpy (float64)."""
+    pos, flux, dirs, radii = (np.asarray(a, np.float64) for a in (pos, flux, dirs, radii))
+    out = np.zeros((o.shape[0], 3))
+    for i in range(o.shape[0]):  # rays (a test oracle; the photons are vectorised)
+        v = pos - o[i]
+        t = v @ d[i]
+        d2 = np.einsum("ij,ij->i", v, v) - t * t
+        hit = (t >= 0) & (t <= t_max[i]) & (d2 <= radii ** 2)
+        cos = -(dirs[hit] @ d[i])
+        phase = (1 - g * g) / (4 * math.pi * (1 + g * g - 2 * g * cos) ** 1.5)
+        k = phase / (math.pi * radii[hit] ** 2)
+        out[i] = np.sum(flux[hit] * k[:, None] * np.exp(-np.outer(t[hit], sigma_t)), axis=0)
+    return out
+
+
+def test_matches_brute_force():
+    rng = np.random.default_rng(4)
+    n, m = 20_000, 300
+    pos = rng.random((n, 3)).astype(np.float32)
+    flux = rng.random((n, 3)).astype(np.float32)
+    dirs = rng.normal(size=(n, 3))
+    dirs = (dirs / np.linalg.norm(dirs, axis=1, keepdims=True)).astype(np.float32)
+    radii = rng.uniform(0.005, 0.08, n).astype(np.float32)
+    vmap = beam.VolumePhotonMap(pos, flux, dirs, radii)
+    o = rng.uniform(-0.5, 1.5, (m, 3))
+    d = rng.random((m, 3)) - o  # towards a point of the photons' cube
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    o[:20, 2] = -0.2
+    o[:20, :2] = rng.random((20, 2))
+    d[:20] = [0.0, 0.0, 1.0]  # axis-aligned rays (a zero component in the slab test)
+    t_max = rng.uniform(0.2, 3.0, m)
+    sigma_t, g = np.array([0.5, 1.0, 2.0]), 0.4
+    got = vmap.radiance(o, d, t_max, sigma_t, g)
+    want = brute_force(pos, flux, dirs, radii, o, d, t_max, sigma_t, g)
+    assert np.count_nonzero(want[:, 0]) > m // 2  # most rays meet photons
+    np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-12)
+
+
+def test_radii_are_the_kth_neighbour_distance():
+    rng = np.random.default_rng(8)
+    pos = rng.random((2000, 3)).astype(np.float32)
+    r = beam.photon_radii(pos, 8)
+    d = np.linalg.norm(pos[:, None].astype(np.float64) - pos[None], axis=2)
+    np.testing.assert_allclose(r, np.sort(d, axis=1)[:, 7], rtol=1e-5)
+
+
+def test_uniform_slab_converges_to_single_scattering():
+    """Collimated irradiance E along +z into the slab 0 <= z <= depth: photons stored at
+    their first collision (free flight, flux x albedo); rays along +z from z = 0 see
+    L = sigma_s p(-1) E (1 - exp(-2 sigma_t depth)) / (2 sigma_t)."""
+    rng = np.random.default_rng(12)
+    sigma_a, sigma_s, g = 0.25, 0.75, 0.5
+    sigma_t, depth, width, irradiance = sigma_a + sigma_s, 1.0, 2.0, 3.0
+    n = 400_000
+    z = -np.log1p(-rng.random(n)) / sigma_t
+    keep = z < depth
+    pos = np.column_stack([rng.uniform(-width / 2, width / 2, (n, 2)), z])[keep]
+    pos = pos.astype(np.float32)
+    flux = np.full((pos.shape[0], 3), irradiance * width ** 2 / n * sigma_s / sigma_t,
+                   np.float32)
+    dirs = np.tile(np.float32([0, 0, 1]), (pos.shape[0], 1))
+    vmap = beam.VolumePhotonMap(pos, flux, dirs, beam.photon_radii(pos, 64))
+    grid = np.linspace(-0.45, 0.45, 10)
+    x, y = np.meshgrid(grid, grid)
+    o = np.column_stack([x.ravel(), y.ravel(), np.zeros(x.size)])
+    d = np.tile([0.0, 0.0, 1.0], (x.size, 1))
+    got = vmap.radiance(o, d, depth, np.full(3, sigma_t), g).mean(axis=0)
+    phase = (1 - g * g) / (4 * math.pi * (1 + g) ** 3)
+    want = sigma_s * phase * irradiance * (1 - math.exp(-2 * sigma_t * depth)) / (2 * sigma_t)
+    np.testing.assert_allclose(got, want, rtol=0.03)
+
+
+def test_empty_map_and_bad_input():
+    empty = beam.VolumePhotonMap(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros((0, 3)),
+                                 np.zeros(0))
+    assert np.all(empty.radiance(np.zeros((2, 3)), [[0, 0, 1.0]] * 2, 1.0, [1, 1, 1], 0) == 0)
+    with pytest.raises(ValueError, match="radii must be > 0"):
+        beam.VolumePhotonMap(np.zeros((1, 3)), np.ones((1, 3)), [[0, 0, 1.0]], [0.0])
+    with pytest.raises(ValueError, match="flux must be >= 0"):
+        beam.VolumePhotonMap(np.zeros((1, 3)), -np.ones((1, 3)), [[0, 0, 1.0]], [1.0])
