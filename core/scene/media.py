@@ -26,8 +26,8 @@ WORLD = -1
 """``Media.bounds`` of the World's volume: the medium of every point inside no mesh medium."""
 
 MAX_ANISOTROPY = 0.999
-"""|g| beyond this is a delta peak the phase function cannot sample stably (Cycles clamps
-the same way)."""
+"""The phase function clamps |g| to this (a delta peak beyond; Cycles' volume_henyey_greenstein
+setup clamps to 1 - 1e-3 too). The contract accepts Blender's whole range [-1, 1]."""
 
 
 @dataclass(frozen=True)
@@ -36,8 +36,8 @@ class Media:
 
     sigma_a: (M, 3) float32, absorption coefficient per RGB channel, 1/m, >= 0.
     sigma_s: (M, 3) float32, scattering coefficient per RGB channel, 1/m, >= 0.
-    anisotropy: (M,) float32, Henyey-Greenstein g in [-MAX_ANISOTROPY, MAX_ANISOTROPY]
-        (0 isotropic, > 0 forward scattering).
+    anisotropy: (M,) float32, Henyey-Greenstein g in [-1, 1] (0 isotropic, > 0 forward
+        scattering; the kernels clamp |g| to MAX_ANISOTROPY as Cycles).
     emission: (M, 3) float32, W/(m^3 sr), >= 0.
     bounds: (M,) int32, object index of the closed mesh that bounds the medium, or WORLD.
     priority: (M,) int32, nesting priority (higher wins where media overlap).
@@ -109,11 +109,11 @@ class Media:
                         labels=labels)
         if self.names and len(self.names) != m:
             raise SceneError(f"media.names has {len(self.names)} names for {m} media")
-        bad = np.flatnonzero(np.abs(self.anisotropy) > MAX_ANISOTROPY)
+        bad = np.flatnonzero(np.abs(self.anisotropy) > 1.0)
         if bad.size:
             i = int(bad[0])
-            raise SceneError(f"media.anisotropy of '{self._name(i)}' must lie in "
-                             f"[-{MAX_ANISOTROPY}, {MAX_ANISOTROPY}], got {self.anisotropy[i]}")
+            raise SceneError(f"media.anisotropy of '{self._name(i)}' must lie in [-1, 1], "
+                             f"got {self.anisotropy[i]}")
         bad = np.flatnonzero((self.bounds < WORLD) | (self.bounds >= object_count))
         if bad.size:
             i = int(bad[0])

@@ -22,13 +22,14 @@ def test_defaults_and_derived_fields():
     assert m.bounds.dtype == np.int32 and m.sigma_a.dtype == np.float32
     assert list(m.density_texture) == [-1, -1] and m.emission.sum() == 0
     m.validate(object_count=1)
+    _media(anisotropy=1.0).validate(object_count=1)  # Blender's range; the kernels clamp
     assert Media.empty().count == 0 and Media.empty().world == -1
     Media.empty().validate(object_count=0)
 
 
 @pytest.mark.parametrize("over, message", [
     (dict(sigma_s=(1, -1, 1)), "media.sigma_s of 'Smoke' must be >= 0"),
-    (dict(anisotropy=1.0), "media.anisotropy of 'Smoke' must lie in"),
+    (dict(anisotropy=-1.5), "media.anisotropy of 'Smoke' must lie in \\[-1, 1\\]"),
     (dict(bounds=3), "media.bounds of 'Smoke' must be an object index in \\[0, 1\\)"),
     (dict(bounds=WORLD), "only one World medium is allowed, got 'Fog', 'Smoke'"),
     (dict(density_texture=0), "media.density_texture of 'Smoke' must be -1"),

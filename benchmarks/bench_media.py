@@ -1,0 +1,112 @@
+"""The figures docs/volumes.md and docs/dispersion.md quote: accuracy of the media kernels
+against closed forms, and their speed (after a warm-up call, so numba's compile is not
+counted).
+
+    .venv/bin/python benchmarks/bench_media.py [--photons 400000] [--rays 20000]
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import pathlib
+import sys
+import time
+
+import numpy as np
+
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
+
+from core import spectral  # noqa: E402
+from core.materials import dispersion  # noqa: E402
+from core.media import free_flight, phase, single_scatter  # noqa: E402
+from core.photons import beam  # noqa: E402
+
+
+def timed(fn, *args):
+    fn(*args)  # warm-up (compile)
+    t = time.perf_counter()
+    out = fn(*args)
+    return out, time.perf_counter() - t
+
+
+def slab(photons: int, rays: int):
+    """The uniformly lit slab of tests/core/photons/test_beam.py, bigger."""
+    rng = np.random.default_rng(1)
+    sigma_a, sigma_s, g, depth, width, e = 0.25, 0.75, 0.5, 1.0, 2.0, 3.0
+    sigma_t = sigma_a + sigma_s
+    z = -np.log1p(-rng.random(photons)) / sigma_t
+    keep = z < depth
+    pos = np.column_stack([rng.uniform(-1, 1, (photons, 2)), z])[keep].astype(np.float32)
+    flux = np.full((pos.shape[0], 3), e * width ** 2 / photons * sigma_s / sigma_t, np.float32)
+    dirs = np.tile(np.float32([0, 0, 1]), (pos.shape[0], 1))
+    t = time.perf_counter()
+    radii = beam.photon_radii(pos, 64)
+    vmap = beam.VolumePhotonMap(pos, flux, dirs, radii)
+    build = time.perf_counter() - t
+    o = np.column_stack([rng.uniform(-0.45, 0.45, (rays, 2)), np.zeros(rays)])
+    d = np.tile([0.0, 0.0, 1.0], (rays, 1))
+    out, dt = timed(vmap.radiance, o, d, np.full(rays, depth), np.full(3, sigma_t), g)
+    want = sigma_s * phase.phase_values(g, [-1.0])[0] * e * (1 - math.exp(-2 * depth)) / 2
+    print(f"beam estimate, slab: {pos.shape[0]} volume photons (radii k=64 + tree: "
+          f"{build:.2f} s, {vmap.nbytes / len(vmap):.0f} B/photon), {rays} rays in {dt:.3f} s "
+          f"({rays / dt / 1e3:.0f} k rays/s); mean {out[:, 0].mean():.5f} vs analytic "
+          f"{want:.5f} ({100 * (out[:, 0].mean() / want - 1):+.2f} %), per-ray spread "
+          f"{100 * out[:, 0].std() / want:.1f} %")
+
+
+def inscatter():
+    sa, ss, intensity = np.array([0.05, 0.2, 0.4]), np.array([0.5, 0.3, 0.1]), np.ones(3) * 10
+    n, samples = 4096, 16
+    o = np.tile([0.0, -3.0, 0.2], (n, 1))
+    d = np.tile([0.0, 1.0, 0.0], (n, 1))
+    light = np.array([0.1, 0.0, 0.5])
+    out = np.empty((n, 3))
+    _, dt = timed(single_scatter.inscatter_rays, o, d, np.full(n, 6.0), light, intensity, sa,
+                  ss, 0.0, samples, 1, out)
+    t = np.linspace(0, 6, 2_000_001)
+    x = o[0] + t[:, None] * d[0]
+    r = np.linalg.norm(x - light, axis=1)
+    f = np.exp(-np.outer(t + r, sa + ss)) * ss * intensity / (4 * math.pi * r[:, None] ** 2)
+    want = np.trapezoid(f, t, axis=0)
+    print(f"single scattering, equiangular, {samples} samples per ray: {n} rays in {dt:.4f} s "
+          f"({n * samples / dt / 1e6:.1f} M samples/s); mean / trapezoid - 1 = "
+          f"{np.array2string(100 * (out.mean(axis=0) / want - 1), precision=3)} %, "
+          f"per-ray relative spread {100 * np.mean(out.std(axis=0) / want):.2f} %")
+
+
+def flights():
+    n = 1_000_000
+    rng = np.random.default_rng(2)
+    u1, u2 = rng.random(n), rng.random(n)
+    _, dt = timed(free_flight.sample_distances, [0.2, 0.5, 1.5], [1.0, 0.6, 0.1], 1.3, u1, u2)
+    print(f"free flight: {n / dt / 1e6:.1f} M samples/s (one thread, the array wrapper)")
+
+
+def spectra():
+    u = np.random.default_rng(3).random(1_000_000)
+    (lam, _, w), dt = timed(spectral.sample_wavelengths, u)
+    print(f"white through wavelength sampling, 1e6 samples: RGB {np.array2string(w.mean(0), precision=5)}"
+          f" (exact table integral {np.array2string(spectral.BASIS.sum(0) * spectral.BIN_WIDTH, precision=12)}),"
+          f" {1e6 / dt / 1e6:.0f} M samples/s")
+    apex, inc = math.radians(60), math.radians(50)
+    for nm in (450, 550, 650):
+        n = dispersion.ior(1.5168, 64.17, [nm])[0]
+        inner = apex - math.asin(math.sin(inc) / n)
+        dev = math.degrees(inc + math.asin(n * math.sin(inner)) - apex)
+        print(f"BK7 prism 60 deg, incidence 50 deg, {nm} nm: n = {n:.5f}, deviation {dev:.4f} deg")
+
+
+def main():
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--photons", type=int, default=400_000)
+    p.add_argument("--rays", type=int, default=20_000)
+    a = p.parse_args()
+    slab(a.photons, a.rays)
+    inscatter()
+    flights()
+    spectra()
+
+
+if __name__ == "__main__":
+    main()
