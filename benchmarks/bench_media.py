@@ -23,6 +23,13 @@ from core.media import free_flight, phase, single_scatter  # noqa: E402
 from core.photons import beam  # noqa: E402
 
 
+def trapezoid(y, x, axis=0):
+    """The trapezoid rule (np.trapezoid is numpy >= 2 only; CI also runs numpy 1.26)."""
+    y = np.moveaxis(np.asarray(y, float), axis, 0)
+    dx = np.diff(np.asarray(x, float)).reshape((-1,) + (1,) * (y.ndim - 1))
+    return np.sum(0.5 * (y[1:] + y[:-1]) * dx, axis=0)
+
+
 def timed(fn, *args):
     fn(*args)  # warm-up (compile)
     t = time.perf_counter()
@@ -68,7 +75,7 @@ def inscatter():
     x = o[0] + t[:, None] * d[0]
     r = np.linalg.norm(x - light, axis=1)
     f = np.exp(-np.outer(t + r, sa + ss)) * ss * intensity / (4 * math.pi * r[:, None] ** 2)
-    want = np.trapezoid(f, t, axis=0)
+    want = trapezoid(f, t, axis=0)
     print(f"single scattering, equiangular, {samples} samples per ray: {n} rays in {dt:.4f} s "
           f"({n * samples / dt / 1e6:.1f} M samples/s); mean / trapezoid - 1 = "
           f"{np.array2string(100 * (out.mean(axis=0) / want - 1), precision=3)} %, "

@@ -26,6 +26,7 @@ _G_ISOTROPIC = 1e-4
 
 @njit(cache=True, error_model="numpy")
 def clamp_g(g):
+    """g limited to [-MAX_ANISOTROPY, MAX_ANISOTROPY]."""
     return min(max(g, -MAX_ANISOTROPY), MAX_ANISOTROPY)
 
 

@@ -47,6 +47,8 @@ def point_light_inscatter(ox, oy, oz, dx, dy, dz, t_max, px, py, pz, i0, i1, i2,
         qy = oy + t * dy - py
         qz = oz + t * dz - pz
         r2 = qx * qx + qy * qy + qz * qz
+        if r2 <= 0.0:
+            continue  # the sample is the light itself (a light on the ray): no direction
         r = math.sqrt(r2)
         cos = -(qx * dx + qy * dy + qz * dz) / r
         f = hg_eval(g, cos) / (r2 * density)

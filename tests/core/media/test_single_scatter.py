@@ -8,6 +8,14 @@ import pytest
 
 from core.media import single_scatter
 
+
+def trapezoid(y, x, axis=0):
+    """The trapezoid rule (np.trapezoid is numpy >= 2 only; CI also runs numpy 1.26)."""
+    y = np.moveaxis(np.asarray(y, float), axis, 0)
+    dx = np.diff(np.asarray(x, float)).reshape((-1,) + (1,) * (y.ndim - 1))
+    return np.sum(0.5 * (y[1:] + y[:-1]) * dx, axis=0)
+
+
 SIGMA_A = np.array([0.05, 0.2, 0.4])
 SIGMA_S = np.array([0.5, 0.3, 0.1])
 INTENSITY = np.array([10.0, 8.0, 12.0])  # W/sr
@@ -27,7 +35,7 @@ def reference(origin, direction, t_max, light, g=0.0):
     sigma_t = SIGMA_A + SIGMA_S
     f = (np.exp(-np.outer(t + r, sigma_t)) * SIGMA_S * INTENSITY
          * (phase / r ** 2)[:, None])
-    return np.trapezoid(f, t, axis=0)
+    return trapezoid(f, t, axis=0)
 
 
 @pytest.mark.parametrize("origin, direction, t_max, light, g", [
