@@ -5,10 +5,12 @@ Units: metres; coefficients in 1/m; emission as radiance added per metre of path
 W/(m^2 sr) per m = W/(m^3 sr), as Cycles' Emission of a volume shader.
 
 A medium fills the inside of one closed mesh object (``bounds``: its index into
-``Mesh.object_names``) or, with ``bounds == WORLD``, all space not inside another medium
-(the World's volume; at most one). Where media overlap, the one with the highest
-``priority`` holds the point (Cycles' volume stack priority); equal priorities are broken by
-the lower row index so the choice is deterministic.
+``Mesh.object_names``) or, with ``bounds == WORLD``, all space (the World's volume; at most
+one). Nesting follows Cycles, which has no volume priority (src/kernel/integrator/
+volume_stack.h and volume_shader.h, read at blender/cycles 97dbe6f): a path keeps a stack
+of the volumes it is inside, the World's at the bottom even inside closed meshes, and a
+point's medium is the sum of every medium of the stack: coefficients and emission add, the
+phase function is the sigma_s-weighted mix of their Henyey-Greenstein lobes.
 
 Heterogeneous density (later: a texture through the shader program) scales sigma_a,
 sigma_s and emission together; ``density_texture == -1`` means homogeneous.
@@ -40,7 +42,6 @@ class Media:
         scattering; the kernels clamp |g| to MAX_ANISOTROPY as Cycles).
     emission: (M, 3) float32, W/(m^3 sr), >= 0.
     bounds: (M,) int32, object index of the closed mesh that bounds the medium, or WORLD.
-    priority: (M,) int32, nesting priority (higher wins where media overlap).
     density_texture: (M,) int32, -1 (homogeneous) until heterogeneous density lands.
     names: tuple of str, one per medium (the material or World name, for messages).
     """
@@ -50,7 +51,6 @@ class Media:
     anisotropy: np.ndarray
     emission: np.ndarray
     bounds: np.ndarray
-    priority: np.ndarray
     density_texture: np.ndarray
     names: tuple = ()
 
@@ -76,9 +76,9 @@ class Media:
     @staticmethod
     def from_list(rows: list[dict]) -> "Media":
         """Media from dicts with keys sigma_a, sigma_s (RGB, 1/m), anisotropy, emission,
-        bounds (object index or WORLD), priority, density_texture, name; absent keys take
-        the defaults (no absorption, no scattering, isotropic, no emission, World,
-        priority 0, homogeneous)."""
+        bounds (object index or WORLD), density_texture, name; absent keys take the
+        defaults (no absorption, no scattering, isotropic, no emission, World,
+        homogeneous)."""
         def col(key, width, default, dtype=np.float32):
             shape = (len(rows), width) if width else (len(rows),)
             return np.array([r.get(key, default) for r in rows], dtype).reshape(shape)
@@ -88,7 +88,6 @@ class Media:
                      anisotropy=col("anisotropy", 0, 0.0),
                      emission=col("emission", 3, (0.0, 0.0, 0.0)),
                      bounds=col("bounds", 0, WORLD, np.int32),
-                     priority=col("priority", 0, 0, np.int32),
                      density_texture=col("density_texture", 0, -1, np.int32),
                      names=tuple(r.get("name", f"medium {i}") for i, r in enumerate(rows)))
 
@@ -104,7 +103,7 @@ class Media:
                         nonnegative=True, labels=labels)
         check_array("media.anisotropy", self.anisotropy, (m,), dtype=np.float32,
                     labels=labels)
-        for name in ("bounds", "priority", "density_texture"):
+        for name in ("bounds", "density_texture"):
             check_array(f"media.{name}", getattr(self, name), (m,), dtype=np.int32,
                         labels=labels)
         if self.names and len(self.names) != m:

@@ -10,7 +10,7 @@ from core.scene.media import WORLD, Media
 
 def _media(**over):
     rows = [dict(name="Fog", sigma_a=(0.1, 0.1, 0.1), sigma_s=(0.5, 0.4, 0.3), anisotropy=0.3),
-            dict(name="Smoke", sigma_s=(2, 2, 2), bounds=0, priority=1)]
+            dict(name="Smoke", sigma_s=(2, 2, 2), bounds=0)]
     rows[1].update(over)
     return Media.from_list(rows)
 
@@ -43,6 +43,6 @@ def test_validation_names_the_field_and_the_medium(over, message):
 def test_wrong_dtype_is_reported():
     m = _media()
     bad = Media(m.sigma_a.astype(np.float64), m.sigma_s, m.anisotropy, m.emission, m.bounds,
-                m.priority, m.density_texture, m.names)
+                m.density_texture, m.names)
     with pytest.raises(SceneError, match="media.sigma_a must be float32, got float64"):
         bad.validate(object_count=1)
