@@ -81,6 +81,7 @@ def export_camera(depsgraph, warnings: list[str]) -> Camera:
     if width < 1 or height < 1:
         raise ExportError(f"render resolution {width}x{height} (after "
                           f"{render.resolution_percentage}%) is empty")
+    check_camera_values(cam_obj, cam)
     size, shift = film_extents(cam, width, height, (render.pixel_aspect_x, render.pixel_aspect_y))
     return Camera(
         to_world=without_scale(cam_obj.matrix_world, f"camera '{cam_obj.name}'"),
@@ -94,6 +95,29 @@ def export_camera(depsgraph, warnings: list[str]) -> Camera:
         name=cam_obj.name,
         **depth_of_field(cam_obj, cam, warnings),
     )
+
+
+def check_camera_values(cam_obj, cam) -> None:
+    """Raise ExportError naming the camera setting, in the UI's words, whose value cannot
+    make a camera (NaN from a driver or a script, zero, negative), before the core would
+    name its own field (``camera.film_size``, ``camera.clip_start``)."""
+    fit = cam.sensor_fit
+    values = [("Clip Start", cam.clip_start, True), ("Clip End", cam.clip_end, True),
+              ("Shift X", cam.shift_x, False), ("Shift Y", cam.shift_y, False)]
+    if cam.type == 'ORTHO':
+        values.insert(0, ("Orthographic Scale", cam.ortho_scale, True))
+    else:
+        sensor = ("Sensor Height", cam.sensor_height) if fit == 'VERTICAL' else \
+            ("Sensor Width" if fit == 'HORIZONTAL' else "Sensor Size", cam.sensor_width)
+        values[:0] = [("Focal Length", cam.lens, True), (*sensor, True)]
+    for name, value, positive in values:
+        value = float(value)
+        if not np.isfinite(value) or (positive and value <= 0.0):
+            need = "a finite number > 0" if positive else "a finite number"
+            raise ExportError(f"camera '{cam_obj.name}': {name} must be {need}, got {value:g}")
+    if not float(cam.clip_start) < float(cam.clip_end):
+        raise ExportError(f"camera '{cam_obj.name}': Clip Start ({float(cam.clip_start):g}) "
+                          f"must be less than Clip End ({float(cam.clip_end):g})")
 
 
 _FSTOP_INFINITY = float(np.finfo(np.float32).max)
