@@ -104,8 +104,8 @@ class MemoryEstimate:
         return int(sum(self.parts.values()))
 
     def largest(self) -> str:
-        """The part that needs the most."""
-        return max(self.parts, key=self.parts.get)
+        """The part a setting lowers that needs the most."""
+        return max((p for p in self.parts if self.settings.get(p)), key=self.parts.get)
 
 
 def mean_albedo(scene: Scene) -> float:
@@ -289,7 +289,7 @@ def check(scene: Scene, settings: RenderSettings, what: str = "this render") -> 
     available = limit - held
     if need.total > available:
         part = need.largest()
-        lower = need.settings.get(part) or "the scene's size"
+        lower = need.settings[part]
         held_text = f", {_size(held)} of it already in use" if held else ""
         raise MemoryLimitError(
             f"{what} needs about {_size(need.total)} of memory, more than the "
