@@ -12,6 +12,7 @@ Blender (BKE_camera_params_compute_viewplane) and Cycles frame the picture the s
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import numpy as np
 
@@ -23,6 +24,33 @@ def render_size(render) -> tuple[int, int]:
     """Output resolution in pixels, percentage applied as Blender does (integer division)."""
     pct = int(render.resolution_percentage)
     return int(render.resolution_x) * pct // 100, int(render.resolution_y) * pct // 100
+
+
+def render_region(render, width: int, height: int) -> tuple | None:
+    """The Render Region (``render.use_border``) as core pixels (x0, y0, x1, y1), row 0 at
+    the top, x1 and y1 exclusive; None without one. Blender's own rule: each border
+    fraction (a float32) times the resolution, rounded to the nearest pixel (its
+    RenderResult is then x1 - x0 by y1 - y0 pixels, cropped or pasted into the frame by
+    Blender, ``use_crop_to_border``). Truncating instead loses a row and a column when
+    the float32 fraction falls just below an exact product (0.65 x 40 = 25.99999).
+    Checked against the RenderResult size Blender hands the engine
+    (tests/blender/test_render_region.py)."""
+    if not render.use_border:
+        return None
+
+    def pixel(fraction, size):
+        return int(math.floor(float(fraction) * size + 0.5))  # round_fl_to_int
+
+    x0, x1 = pixel(render.border_min_x, width), pixel(render.border_max_x, width)
+    # Blender's rows count from the bottom.
+    y0, y1 = pixel(render.border_min_y, height), pixel(render.border_max_y, height)
+    x0, x1 = max(0, min(x0, width)), max(0, min(x1, width))
+    y0, y1 = max(0, min(y0, height)), max(0, min(y1, height))
+    if x1 <= x0 or y1 <= y0:
+        return None  # an empty border: Blender renders the whole frame
+    if (x0, y0, x1, y1) == (0, 0, width, height):
+        return None
+    return (x0, height - y1, x1, height - y0)
 
 
 def film_extents(cam, width: int, height: int, pixel_aspect=(1.0, 1.0)):
@@ -93,6 +121,7 @@ def export_camera(depsgraph, warnings: list[str]) -> Camera:
         clip_start=float(cam.clip_start),
         clip_end=float(cam.clip_end),
         name=cam_obj.name,
+        region=render_region(render, width, height),
         **depth_of_field(cam_obj, cam, warnings),
     )
 
