@@ -502,7 +502,7 @@ def render(scene: Scene, settings: RenderSettings | None = None,
         runner.close()
     stats = finish_stats(state.stats, state.passes, state.radius, stopped_by, time_budget,
                          t_start)
-    # A Render Region is cut from the whole frame: SPPM's visible points are traced for
-    # every pixel (its pixels equal those of a whole-frame render; not faster).
+    # A Render Region: visible points were traced for its pixels only
+    # (camera_paths.visible_points); the per-pixel sums stay frame-sized.
     image = camera.crop_to_region(state.radiance(), scene.camera)
     return RenderOutput(passes={"combined": image}, stats=stats, cancelled=cancelled)

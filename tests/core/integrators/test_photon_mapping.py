@@ -524,3 +524,5 @@ def test_a_region_is_exactly_those_pixels_of_the_whole_render(integrator_name):
     if integrator_name == "photon_map":
         assert cut.stats["pixels"] == 32 and full.stats["pixels"] == 280
         assert cut.stats["rays_camera"] < full.stats["rays_camera"] / 4
+    else:  # visible points of the region's pixels only
+        assert max(cut.stats["visible_points"]) <= 32 < min(full.stats["visible_points"])
