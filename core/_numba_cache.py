@@ -8,6 +8,13 @@ under another ("No module named 'photon_map'"). This locator puts each package's
 beside each source in ``__pycache__/numba_<package>_<digest>/``, where the digest covers every
 core source file, subpackages included (see _sources_digest).
 
+When that folder cannot be written (a read-only install, a read-only or unset HOME holding
+the extension), kernels would be compiled again in every process (~35 s a render): the
+locator then says so once on stderr, naming the folder, and keeps the cache in a writable
+fallback instead (``fallback_root``: ``NUMBA_CACHE_DIR`` if set, else the system temporary
+folder), keyed by package, digest and source file so that it is found again by the next
+process.
+
 Import this module before any ``@njit(cache=True)`` in the core is decorated
 (``core/__init__.py`` does; every kernel module also imports it, which is harmless).
 """
@@ -16,6 +23,8 @@ from __future__ import annotations
 
 import hashlib
 import os
+import sys
+import tempfile
 
 from numba.core import caching
 
@@ -50,21 +59,65 @@ def _sources_digest() -> str:
 _DIGEST = _sources_digest()
 
 
+def _cache_name(py_func) -> str:
+    """``numba_<package>_<digest>``: the package the core was imported under, and the
+    digest of its sources."""
+    package = (py_func.__module__ or "unknown").rpartition(".")[0] or "top"
+    return "numba_" + package.replace(".", "_") + "_" + _DIGEST
+
+
+def fallback_root() -> str:
+    """The folder the cache goes to when the in-tree one cannot be written:
+    ``NUMBA_CACHE_DIR`` when set, else the system temporary folder."""
+    return os.environ.get("NUMBA_CACHE_DIR") or tempfile.gettempdir()
+
+
+_reported: list[str] = []
+"""The unwritable in-tree folder already reported (the message is said once a process)."""
+
+
+def _report_unwritable(folder: str, fallback: str) -> None:
+    if _reported:
+        return
+    _reported.append(folder)
+    print(f"Photon Map: the numba cache folder {folder} is not writable; compiled kernels "
+          f"are kept in {fallback} instead", file=sys.stderr, flush=True)
+
+
 class PackageCacheLocator(caching.InTreeCacheLocator):
-    """In-tree cache under ``__pycache__/numba_<package>`` for functions defined in core/."""
+    """In-tree cache under ``__pycache__/numba_<package>`` for functions defined in core/;
+    ``FallbackCacheLocator`` when that folder cannot be written."""
 
     def __init__(self, py_func, py_file):
         super().__init__(py_func, py_file)
-        package = (py_func.__module__ or "unknown").rpartition(".")[0] or "top"
         self._cache_path = os.path.join(os.path.dirname(py_file), "__pycache__",
-                                        "numba_" + package.replace(".", "_") + "_" + _DIGEST)
+                                        _cache_name(py_func))
 
     @classmethod
     def from_function(cls, py_func, py_file):
         path = os.path.abspath(py_file)
         if os.path.commonpath([path, _CORE_DIR]) != _CORE_DIR:
             return None
-        return super().from_function(py_func, py_file)
+        found = super().from_function(py_func, py_file)
+        if found is not None or not os.path.exists(py_file):
+            return found
+        fallback = FallbackCacheLocator.from_function(py_func, py_file)
+        if fallback is not None:
+            _report_unwritable(os.path.join(os.path.dirname(path), "__pycache__"),
+                               fallback.root)
+        return fallback
+
+
+class FallbackCacheLocator(caching.InTreeCacheLocator):
+    """``<fallback_root()>/photon_map_numba/numba_<package>_<digest>``: the same folder for
+    every copy of the same sources (the digest), so a read-only install compiles once, not
+    once a process (numba's index files are named by source file, so the modules of one
+    package share the folder)."""
+
+    def __init__(self, py_func, py_file):
+        super().__init__(py_func, py_file)
+        self.root = os.path.join(fallback_root(), "photon_map_numba")
+        self._cache_path = os.path.join(self.root, _cache_name(py_func))
 
 
 def install() -> None:

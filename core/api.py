@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from typing import Iterator
 
+from . import memory
 from .integrators import photon_mapping, sppm
 from .io.exr import write_exr
 from .passes import ProgressFn, RenderOutput, StopFn, TileFn
@@ -29,9 +30,12 @@ def render(scene: Scene, settings: RenderSettings | None = None,
     on_progress(fraction in [0, 1], message) reports progress; on_tile(done, passes) shows
     the image filling in (pixels done for photon_map, passes done for progressive);
     should_stop() -> True ends the render between two batches, keeping what it has
-    (``RenderOutput.cancelled``). Raises SceneError / SettingsError on bad input.
+    (``RenderOutput.cancelled``). Raises SceneError / SettingsError on bad input, and
+    memory.MemoryLimitError (a SettingsError) before any work when the render would not
+    fit in memory (core/memory.py).
     """
     settings = (settings or RenderSettings()).validated()
+    memory.check(scene.validate(), settings)
     return INTEGRATORS[settings.integrator](scene, settings, on_progress=on_progress,
                                             on_tile=on_tile, should_stop=should_stop)
 
@@ -54,5 +58,7 @@ def progressive(scene: Scene, settings: RenderSettings | None = None,
     """The progressive integrator's passes (``sppm.progressive_passes``): yields the live
     per-pixel state after each pass (``SPPMState.radiance()`` is the image), up to
     ``max_passes`` (default ``settings.progressive_passes``); closing the iterator releases
-    the scene's accelerator."""
+    the scene's accelerator. Raises memory.MemoryLimitError here, before any work, when
+    the render would not fit in memory."""
+    memory.check(scene.validate(), (settings or RenderSettings()).validated())
     return sppm.progressive_passes(scene, settings, max_passes)

@@ -28,6 +28,7 @@ from .export_camera import export_camera, relative_camera, relative_matrix, rend
 from .export_errors import ExportError, NoCameraError  # noqa: F401  (re-exported)
 from .export_lights import light_row
 from .export_materials import ImageTable, default_row, read_material, read_world
+from .export_warnings import scene_warnings
 
 _VISIBILITY_FLAGS = ("visible_camera", "visible_diffuse", "visible_glossy",
                      "visible_transmission", "visible_shadow")
@@ -86,7 +87,9 @@ def export_scene(depsgraph, camera=None, origin=None) -> ExportResult:
         world=_export_world(depsgraph, warnings),
         textures=materials.images.textures(),
     )
-    return ExportResult(scene=scene.validate(), warnings=warnings, origin=origin)
+    scene.validate()
+    warnings.extend(scene_warnings(depsgraph, scene))
+    return ExportResult(scene=scene, warnings=warnings, origin=origin)
 
 
 def _instance_name(inst) -> str:

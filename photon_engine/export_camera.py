@@ -12,6 +12,7 @@ Blender (BKE_camera_params_compute_viewplane) and Cycles frame the picture the s
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import numpy as np
 
@@ -23,6 +24,33 @@ def render_size(render) -> tuple[int, int]:
     """Output resolution in pixels, percentage applied as Blender does (integer division)."""
     pct = int(render.resolution_percentage)
     return int(render.resolution_x) * pct // 100, int(render.resolution_y) * pct // 100
+
+
+def render_region(render, width: int, height: int) -> tuple | None:
+    """The Render Region (``render.use_border``) as core pixels (x0, y0, x1, y1), row 0 at
+    the top, x1 and y1 exclusive; None without one. Blender's own rule: each border
+    fraction (a float32) times the resolution, rounded to the nearest pixel (its
+    RenderResult is then x1 - x0 by y1 - y0 pixels, cropped or pasted into the frame by
+    Blender, ``use_crop_to_border``). Truncating instead loses a row and a column when
+    the float32 fraction falls just below an exact product (0.65 x 40 = 25.99999).
+    Checked against the RenderResult size Blender hands the engine
+    (tests/blender/test_render_region.py)."""
+    if not render.use_border:
+        return None
+
+    def pixel(fraction, size):
+        return int(math.floor(float(fraction) * size + 0.5))  # round_fl_to_int
+
+    x0, x1 = pixel(render.border_min_x, width), pixel(render.border_max_x, width)
+    # Blender's rows count from the bottom.
+    y0, y1 = pixel(render.border_min_y, height), pixel(render.border_max_y, height)
+    x0, x1 = max(0, min(x0, width)), max(0, min(x1, width))
+    y0, y1 = max(0, min(y0, height)), max(0, min(y1, height))
+    if x1 <= x0 or y1 <= y0:
+        return None  # an empty border: Blender renders the whole frame
+    if (x0, y0, x1, y1) == (0, 0, width, height):
+        return None
+    return (x0, height - y1, x1, height - y0)
 
 
 def film_extents(cam, width: int, height: int, pixel_aspect=(1.0, 1.0)):
@@ -81,6 +109,7 @@ def export_camera(depsgraph, warnings: list[str]) -> Camera:
     if width < 1 or height < 1:
         raise ExportError(f"render resolution {width}x{height} (after "
                           f"{render.resolution_percentage}%) is empty")
+    check_camera_values(cam_obj, cam)
     size, shift = film_extents(cam, width, height, (render.pixel_aspect_x, render.pixel_aspect_y))
     return Camera(
         to_world=without_scale(cam_obj.matrix_world, f"camera '{cam_obj.name}'"),
@@ -92,8 +121,32 @@ def export_camera(depsgraph, warnings: list[str]) -> Camera:
         clip_start=float(cam.clip_start),
         clip_end=float(cam.clip_end),
         name=cam_obj.name,
+        region=render_region(render, width, height),
         **depth_of_field(cam_obj, cam, warnings),
     )
+
+
+def check_camera_values(cam_obj, cam) -> None:
+    """Raise ExportError naming the camera setting, in the UI's words, whose value cannot
+    make a camera (NaN from a driver or a script, zero, negative), before the core would
+    name its own field (``camera.film_size``, ``camera.clip_start``)."""
+    fit = cam.sensor_fit
+    values = [("Clip Start", cam.clip_start, True), ("Clip End", cam.clip_end, True),
+              ("Shift X", cam.shift_x, False), ("Shift Y", cam.shift_y, False)]
+    if cam.type == 'ORTHO':
+        values.insert(0, ("Orthographic Scale", cam.ortho_scale, True))
+    else:
+        sensor = ("Sensor Height", cam.sensor_height) if fit == 'VERTICAL' else \
+            ("Sensor Width" if fit == 'HORIZONTAL' else "Sensor Size", cam.sensor_width)
+        values[:0] = [("Focal Length", cam.lens, True), (*sensor, True)]
+    for name, value, positive in values:
+        value = float(value)
+        if not np.isfinite(value) or (positive and value <= 0.0):
+            need = "a finite number > 0" if positive else "a finite number"
+            raise ExportError(f"camera '{cam_obj.name}': {name} must be {need}, got {value:g}")
+    if not float(cam.clip_start) < float(cam.clip_end):
+        raise ExportError(f"camera '{cam_obj.name}': Clip Start ({float(cam.clip_start):g}) "
+                          f"must be less than Clip End ({float(cam.clip_end):g})")
 
 
 _FSTOP_INFINITY = float(np.finfo(np.float32).max)

@@ -61,6 +61,26 @@ def view_camera(region_data, width: int, height: int, scene_camera=None):
     return camera
 
 
+def view_region(space, region_data, width: int, height: int) -> tuple | None:
+    """The viewport's Render Region (View3D ``use_render_border``, fractions of the view)
+    as core pixels (x0, y0, x1, y1) of the ``width`` x ``height`` image, row 0 at the top;
+    None without one. Looking through the camera, Blender's region is the scene's
+    (``render.use_border``, a fraction of the camera frame): not done yet, the whole view
+    is rendered."""
+    if space is None or getattr(region_data, "view_perspective", "") == 'CAMERA' \
+            or not getattr(space, "use_render_border", False):
+        return None
+
+    def pixel(fraction, size):
+        return int(math.floor(min(max(float(fraction), 0.0), 1.0) * size + 0.5))
+
+    x0, x1 = pixel(space.render_border_min_x, width), pixel(space.render_border_max_x, width)
+    y0, y1 = pixel(space.render_border_min_y, height), pixel(space.render_border_max_y, height)
+    if x1 <= x0 or y1 <= y0 or (x0, y0, x1, y1) == (0, 0, width, height):
+        return None
+    return (x0, height - y1, x1, height - y0)  # Blender's rows count from the bottom
+
+
 def render_size(width: int, height: int, pixel_size: int = 1) -> tuple[int, int]:
     """Pixels to render for a ``width`` x ``height`` view: Blender's Viewport Pixel Size
     (``pixel_size``, 1 for full resolution), coarser still where the view holds more than
@@ -74,7 +94,7 @@ def _view_key(camera) -> tuple:
             np.asarray(camera.film_shift).tobytes(), camera.kind, camera.width,
             camera.height, camera.clip_start, camera.clip_end, camera.aperture_radius,
             camera.focus_distance, camera.aperture_blades, camera.aperture_rotation,
-            camera.aperture_ratio)
+            camera.aperture_ratio, camera.region)
 
 
 class ViewportRender:
@@ -165,7 +185,14 @@ class ViewportRender:
             image = self.image()
             h, w = image.shape[:2]
             rgba = np.ones((h, w, 4), np.float32)
-            rgba[..., :3] = image[::-1]  # GPU textures start at the bottom row
+            rgba[..., :3] = image
+            region = self.scene.camera.region if self.scene is not None else None
+            if region is not None:  # outside the Render Region the view shows through
+                x0, y0, x1, y1 = region
+                inside = np.zeros((h, w), bool)
+                inside[y0:y1, x0:x1] = True
+                rgba[~inside] = 0.0
+            rgba = np.ascontiguousarray(rgba[::-1])  # GPU textures start at the bottom row
             data = gpu.types.Buffer('FLOAT', rgba.size, rgba.ravel())
             self._texture = (passes, gpu.types.GPUTexture((w, h), format='RGBA16F', data=data))
         return self._texture[1]
@@ -204,6 +231,8 @@ def view_draw(engine, context, depsgraph) -> None:
     load_embree_isolated()
     try:
         camera = view_camera(context.region_data, width, height, depsgraph.scene.camera)
+        camera = dataclasses.replace(camera, region=view_region(
+            context.space_data, context.region_data, width, height))
     except ValueError as error:  # a degenerate view matrix: nothing to render through
         engine.update_stats("", f"Photon Map: viewport: {error}")
         return

@@ -181,22 +181,27 @@ class VisiblePoints:
 
 def visible_points(prepared: PreparedScene, cam: Camera, seed: int, k: int, max_depth: int,
                    direct: np.ndarray) -> VisiblePoints:
-    """Pass k's visible points (one jittered camera ray per pixel of ``cam``, sample k),
+    """Pass k's visible points (one jittered camera ray per pixel of ``cam``'s region, sample k),
     adding the radiance seen on the way (emitters, lights, background) to direct (P, 3)
     float64 (see core/integrators/sppm.py, step 1)."""
     mats = prepared.materials
-    n = int(cam.width) * int(cam.height)
-    pixel = np.arange(n, dtype=np.int64)
+    frame = int(cam.width) * int(cam.height)
+    # The Render Region's pixels only (all of them without one), by frame index: each
+    # pixel's numbers are those of a whole-frame render (the frame's sequence, indexed).
+    pixel = camera.region_pixels(cam)
+    n = pixel.shape[0]
     sample = np.full(n, k, np.int64)
-    jitter = np.empty((n, 2))
+    jitter = np.empty((frame, 2))
     sampling.progressive2(np.int64(seed), np.int64(k), np.int64(DIM_JITTER), jitter)
+    jitter = jitter[pixel] if n < frame else jitter
     lens = None
     if camera.has_aperture(cam):  # depth of field: a point on the aperture, per pass
-        lens = np.empty((n, 2))
+        lens = np.empty((frame, 2))
         sampling.progressive2(np.int64(seed), np.int64(k), np.int64(DIM_LENS), lens)
+        lens = lens[pixel] if n < frame else lens
     rays = camera.generate_rays(cam, pixel, jitter, lens)
     origins, dirs, tmax = rays.origins, rays.directions, rays.tmax
-    rows = pixel
+    rows = np.arange(n, dtype=np.int64)  # into pixel / sample; pixel[rows] into direct
     thr = np.ones((n, 3))
     transmitted = np.zeros(n, bool)
     world = prepared.world
@@ -210,10 +215,10 @@ def visible_points(prepared: PreparedScene, cam: Camera, seed: int, k: int, max_
                                                                     layer, sampling.PROGRESSIVE))
         hit, miss, shown, light_l = lights_along(prepared, first, transmitted, origins, dirs, hits)
         if shown is not None:
-            direct[rows[shown]] += thr[shown] * light_l[shown]
+            direct[pixel[rows[shown]]] += thr[shown] * light_l[shown]
         # Rays that escape see the world
         if np.any(world > 0) and np.any(miss) and (not first or prepared.scene.world.visible_to_camera):
-            direct[rows[miss]] += thr[miss] * world
+            direct[pixel[rows[miss]]] += thr[miss] * world
         h = np.flatnonzero(hit)
         if h.size == 0:
             break
@@ -222,7 +227,7 @@ def visible_points(prepared: PreparedScene, cam: Camera, seed: int, k: int, max_
                                      prepared.tri_material, hits.prim[h], hits.u[h], hits.v[h],
                                      d, prepared.extent)
         # Emission seen (two-sided, like Cycles' emission closure)
-        direct[rows] += thr * mats["emission"][sp.material]
+        direct[pixel[rows]] += thr * mats["emission"][sp.material]
         albedo = prepared.surfaces.albedo(hits.prim[h], hits.u[h], hits.v[h], sp.material)
         m = len(rows)
         pix, smp = pixel[rows], sample[rows]
@@ -237,7 +242,7 @@ def visible_points(prepared: PreparedScene, cam: Camera, seed: int, k: int, max_
         # Visible points: the first diffuse lobe on the path
         s = np.flatnonzero(vp)
         if s.size:
-            out.append((rows[s], sp.position[s], ng[s], ns[s], -d[s], sp.material[s], new_thr[s],
+            out.append((pixel[rows[s]], sp.position[s], ng[s], ns[s], -d[s], sp.material[s], new_thr[s],
                         albedo[s], sp.eps[s]))
         if depth == max_depth:
             break
@@ -260,7 +265,7 @@ def importance_prepass(prepared: PreparedScene, seed: int, max_depth: int) -> Vi
     t0 = time.perf_counter()
     cam = prepared.scene.camera
     w, h = prepass_resolution(cam.width, cam.height)
-    vps = visible_points(prepared, replace(cam, width=w, height=h), int(seed), 0,
+    vps = visible_points(prepared, replace(cam, width=w, height=h, region=None), int(seed), 0,
                          int(max_depth), np.zeros((w * h, 3)))
     return VisibleView(np.ascontiguousarray(vps.position, np.float64),
                        np.ascontiguousarray(vps.ng, np.float64), w * h,

@@ -33,6 +33,7 @@ import uuid
 import numpy as np
 
 from ..passes import ProgressFn, RenderOutput, StopFn, TileFn
+from .. import memory
 from ..prepared import prepare
 from ..scene import contract
 from ..scene.contract import Scene
@@ -43,10 +44,6 @@ CONNECT_TIMEOUT = 6.0
 """Seconds to reach a scheduler before the address is reported unreachable."""
 STOP_POLL_SECONDS = 0.25
 """How often a cluster render asks should_stop() while it waits for blocks (s)."""
-BYTES_PER_PHOTON = 120
-"""Memory per traced photon of a pass (positions, flux, directions, wavefront state)."""
-PREPARED_FACTOR = 6
-"""The prepared scene (tables, Embree's BVH) as a multiple of the scene's array bytes."""
 
 
 TASK_EXPRESSION = "__import__('cloudpickle').loads(blob)(*args)"
@@ -170,12 +167,10 @@ def _core_root() -> str:
 
 
 def memory_estimate(scene: Scene, settings: RenderSettings) -> int:
-    """Bytes a worker needs for the frame: the prepared scene, one pass's photons and the
-    block's sums."""
-    arrays = len(pickle.dumps(scene_payload(scene), protocol=5))
-    pixels = int(scene.camera.width) * int(scene.camera.height)
-    return (PREPARED_FACTOR * arrays + BYTES_PER_PHOTON * int(settings.photons_per_pass)
-            + 4 * 24 * pixels)
+    """Bytes a worker needs for the frame: what the progressive render needs on one
+    machine (``memory.estimate``: the prepared scene, one pass's photons, the per-pixel
+    sums), which is what a worker runs."""
+    return memory.estimate(scene, settings).total
 
 
 def _check_memory(client, scene, settings, address) -> int:

@@ -297,6 +297,9 @@ def render(scene: Scene, settings: RenderSettings | None = None,
     returned at the end (the pixels after ``pixels_done``, in row-major order from the
     top-left, still 0; no "photons" pass yet).
 
+    With a Render Region (``scene.camera.region``) only its pixels are rendered and every
+    pass is (y1 - y0, x1 - x0): the same values as those pixels of a whole-frame render.
+
     Passes: "combined" always; of the light passes only ``settings.passes()`` (a
     switched-off term is still in combined but has no image of its own; the per-sample
     accumulators are the produced passes plus one shared by the others); "photons" only
@@ -323,7 +326,11 @@ def render(scene: Scene, settings: RenderSettings | None = None,
         raise
     t_photons = time.perf_counter()
     cam = scene.camera
-    w, h = int(cam.width), int(cam.height)
+    # The Render Region: its pixels only, each rendered from its frame index (rays and
+    # random numbers as in a whole-frame render); the passes are the region's size.
+    x0, y0, x1, y1 = camera.region_of(cam)
+    w, h = x1 - x0, y1 - y0
+    frame_pixels = camera.region_pixels(cam)
     n_pix = w * h
     features = denoise_features.FEATURES if settings.denoising_data else ()
     images = {name: np.zeros((n_pix, 3)) for name in (*ctx.outputs, *features)}
@@ -338,11 +345,11 @@ def render(scene: Scene, settings: RenderSettings | None = None,
     try:
         while done < n_pix and not cancelled:
             t0 = time.perf_counter()
-            pix = np.arange(done, min(n_pix, done + per_tile), dtype=np.int64)
-            result = _render_tile(ctx, pix)
+            rows = np.arange(done, min(n_pix, done + per_tile), dtype=np.int64)
+            result = _render_tile(ctx, frame_pixels[rows])
             for name in (*ctx.outputs, *features):
-                images[name][pix] = result[name]
-            done += pix.shape[0]
+                images[name][rows] = result[name]
+            done += rows.shape[0]
             tiles += 1
             took = time.perf_counter() - t0
             # Keep tiles short enough for a responsive progress bar and Esc.
@@ -378,7 +385,7 @@ def render(scene: Scene, settings: RenderSettings | None = None,
     for name in features:  # not light: not in combined
         passes[name] = images[name].reshape(h, w, 3).astype(np.float32)
     if debug_dots is not None:
-        passes["photons"] = debug_dots
+        passes["photons"] = debug_dots = np.ascontiguousarray(debug_dots[y0:y1, x0:x1])
         if settings.overlay_composite:
             passes["combined"] = debug_overlay.composite_over(passes["combined"], debug_dots)
     t_end = time.perf_counter()

@@ -81,6 +81,7 @@ from ..photons.hash_grid import HashGrid, within
 from ..photons.store import STORE_ALL, STORE_NOT_DIRECT
 from ..photons.tracing import photon_sources, trace_stored_photons
 from ..prepared import PreparedScene, prepare
+from ..scene import camera
 from ..scene.contract import Scene
 from ..settings import (MAX_PHOTONS_PER_PASS, MAX_PROGRESSIVE_PASSES as MAX_PASSES,  # noqa: F401
                         RenderSettings, SettingsError)
@@ -486,7 +487,7 @@ def render(scene: Scene, settings: RenderSettings | None = None,
         for state in runner:
             k = state.passes
             if on_tile is not None:
-                on_tile(k, {"combined": state.radiance()})
+                on_tile(k, {"combined": camera.crop_to_region(state.radiance(), scene.camera)})
             if on_progress is not None:
                 on_progress(k / passes, f"Pass {k}/{passes}")
             if should_stop is not None and should_stop():
@@ -501,4 +502,7 @@ def render(scene: Scene, settings: RenderSettings | None = None,
         runner.close()
     stats = finish_stats(state.stats, state.passes, state.radius, stopped_by, time_budget,
                          t_start)
-    return RenderOutput(passes={"combined": state.radiance()}, stats=stats, cancelled=cancelled)
+    # A Render Region: visible points were traced for its pixels only
+    # (camera_paths.visible_points); the per-pixel sums stay frame-sized.
+    image = camera.crop_to_region(state.radiance(), scene.camera)
+    return RenderOutput(passes={"combined": image}, stats=stats, cancelled=cancelled)

@@ -146,6 +146,29 @@ def _lens_rays_kernel(pixel, jitter, lens, w, h, size, shift, pos, right, up, ba
         t_out[i] = (far - near) * ln
 
 
+def region_of(camera: Camera) -> tuple[int, int, int, int]:
+    """(x0, y0, x1, y1) pixels rendered (row 0 at the top, x1 and y1 exclusive): the
+    camera's region, else the whole frame."""
+    if camera.region is None:
+        return 0, 0, int(camera.width), int(camera.height)
+    return tuple(int(v) for v in camera.region)
+
+
+def region_pixels(camera: Camera) -> np.ndarray:
+    """(N,) int64 frame pixel indices (y * width + x) of the region, row-major from its
+    top-left: the indices the rays and the random numbers of a whole-frame render use,
+    so a region's pixels are the same pixels of the whole render."""
+    x0, y0, x1, y1 = region_of(camera)
+    rows = np.arange(y0, y1, dtype=np.int64)[:, None] * int(camera.width)
+    return (rows + np.arange(x0, x1, dtype=np.int64)[None, :]).reshape(-1)
+
+
+def crop_to_region(image: np.ndarray, camera: Camera) -> np.ndarray:
+    """The region's pixels of a whole-frame (H, W, C) image (row 0 at the top)."""
+    x0, y0, x1, y1 = region_of(camera)
+    return np.ascontiguousarray(image[y0:y1, x0:x1])
+
+
 def generate_rays(camera: Camera, pixel: np.ndarray, jitter: np.ndarray,
                   lens: np.ndarray | None = None) -> CameraRays:
     """Rays for pixel indices (N,) int64 with jitter (N, 2) float64 in [0, 1).

@@ -453,6 +453,9 @@ class Camera:
     aperture_blades: int, 0 for a round aperture, else the polygon's corner count (>= 3).
     aperture_rotation: float, radians: the polygon's rotation.
     aperture_ratio: float: anamorphic distortion; the aperture's x extent is divided by it.
+    region: None for the whole frame, or (x0, y0, x1, y1) int pixels of the frame with row 0
+        at the TOP, x1 and y1 exclusive: only those pixels are rendered (Blender's Render
+        Region), each exactly as in a render of the whole frame (camera.region_pixels).
     """
 
     to_world: np.ndarray
@@ -469,6 +472,7 @@ class Camera:
     aperture_blades: int = 0
     aperture_rotation: float = 0.0
     aperture_ratio: float = 1.0
+    region: tuple | None = None
 
 
 @dataclass(frozen=True)
@@ -720,3 +724,10 @@ def _validate_camera(c: Camera) -> None:
     if not (0 <= c.clip_start < c.clip_end):
         raise SceneError(f"camera '{c.name}' needs 0 <= clip_start < clip_end, "
                          f"got {c.clip_start}, {c.clip_end}")
+    if c.region is not None:
+        r = tuple(c.region)
+        ok = len(r) == 4 and all(isinstance(v, (int, np.integer)) for v in r)
+        if not ok or not (0 <= r[0] < r[2] <= int(c.width) and 0 <= r[1] < r[3] <= int(c.height)):
+            raise SceneError(f"camera '{c.name}' render region must be (x0, y0, x1, y1) pixels "
+                             f"with 0 <= x0 < x1 <= {c.width} and 0 <= y0 < y1 <= {c.height}, "
+                             f"got {c.region}")

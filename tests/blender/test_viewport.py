@@ -135,3 +135,37 @@ def test_rendered_shading_in_a_real_viewport(tmp_path):
     edge = view[rh // 2 - 5:rh // 2 + 5, int(rw * 0.95) - 5:int(rw * 0.95) + 5]
     assert np.abs(centre - 188).max() <= 2, centre[0, 0]
     assert np.abs(edge - 118).max() <= 2, edge[0, 0]
+
+
+def test_the_viewport_render_region_renders_those_pixels_only(lit_plane):
+    """View3D's Render Region (outside the camera view): the region's pixels are those of
+    the whole view's passes, bit for bit, and nothing is traced outside it."""
+    import dataclasses
+
+    from photon_map.photon_engine.viewport import ViewportRender, view_camera, view_region
+
+    view = camera_view(lit_plane)
+    view.view_perspective = 'PERSP'
+    space = types.SimpleNamespace(use_render_border=True, render_border_min_x=0.25,
+                                  render_border_max_x=0.75, render_border_min_y=0.5,
+                                  render_border_max_y=1.0)
+    region = view_region(space, view, W, H)
+    assert region == (8, 0, 24, 12)
+    assert view_region(types.SimpleNamespace(use_render_border=False), view, W, H) is None
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    images = []
+    for cut in (None, region):
+        viewport = ViewportRender()
+        camera = dataclasses.replace(view_camera(view, W, H), region=cut)
+        while True:
+            viewport.sync(depsgraph, camera)
+            if not viewport.step(seconds=0.0):
+                break
+        images.append((viewport.image(), viewport.state))
+    (whole, _), (part, state) = images
+    assert whole[0:12, 8:24].max() > 0
+    np.testing.assert_array_equal(part[0:12, 8:24], whole[0:12, 8:24])
+    outside = np.ones((H, W), bool)
+    outside[0:12, 8:24] = False
+    assert np.all(part[outside] == 0.0)
+    assert max(state.stats["visible_points"]) <= 16 * 12

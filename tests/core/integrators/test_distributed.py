@@ -11,6 +11,7 @@ import pytest
 
 pytest.importorskip("dask.distributed")
 
+from core import memory  # noqa: E402
 from core.integrators import distributed, sppm  # noqa: E402
 from core.settings import RenderSettings, SettingsError  # noqa: E402
 
@@ -101,7 +102,7 @@ def test_cancel_does_not_wait_for_a_running_block(cluster):
 
 
 def test_a_scene_too_large_for_the_workers_is_refused_before_any_task(cluster, monkeypatch):
-    monkeypatch.setattr(distributed, "BYTES_PER_PHOTON", 1 << 40)
+    monkeypatch.setattr(memory, "BYTES_PER_PASS_PHOTON", 1 << 40)
     with pytest.raises(distributed.DistributedError, match="MiB per worker"):
         distributed.render(caustic_scene(1.0, 8, 8), SETTINGS, cluster.client)
 

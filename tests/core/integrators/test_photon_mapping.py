@@ -496,3 +496,33 @@ def test_progressive_settings_are_validated_by_name():
         with pytest.raises(SettingsError, match=f'"{name}"'):
             s.with_values(**{name: bad})
     assert s.with_strings({"integrator": "progressive", "time_budget": "2.5"}).time_budget == 2.5
+
+
+# --- the Render Region (issue 11 part 3) ------------------------------------------------------
+
+@pytest.mark.parametrize("integrator_name", ["photon_map", "progressive"])
+def test_a_region_is_exactly_those_pixels_of_the_whole_render(integrator_name):
+    """Every pass of a region render equals the same pixels of the whole frame, bit for
+    bit (each pixel is traced from its frame index with the same random numbers), and
+    only the region's pixels are rendered (photon_map)."""
+    import dataclasses
+    from core import render
+    from tests.core.test_extremes import box_scene
+    scene = box_scene()
+    cam = dataclasses.replace(scene.camera, width=20, height=14)
+    whole = dataclasses.replace(scene, camera=cam)
+    part = dataclasses.replace(scene, camera=dataclasses.replace(cam, region=(3, 5, 11, 9)))
+    st = RenderSettings(seed=3, samples=2, global_photons=3000, caustic_photons=2000,
+                        final_gather_rays=8, photon_debug_pass=True, integrator=integrator_name,
+                        progressive_passes=3, photons_per_pass=2000)
+    full = render(whole, st)
+    cut = render(part, st)
+    assert set(cut.passes) == set(full.passes)
+    for name, image in cut.passes.items():
+        assert image.shape[:2] == (4, 8), name
+        np.testing.assert_array_equal(image, full.passes[name][5:9, 3:11], err_msg=name)
+    if integrator_name == "photon_map":
+        assert cut.stats["pixels"] == 32 and full.stats["pixels"] == 280
+        assert cut.stats["rays_camera"] < full.stats["rays_camera"] / 4
+    else:  # visible points of the region's pixels only
+        assert max(cut.stats["visible_points"]) <= 32 < min(full.stats["visible_points"])

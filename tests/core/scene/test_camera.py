@@ -154,3 +154,28 @@ def test_camera_from_projection_refuses_other_matrices():
     cam = camera.camera_from_projection(np.eye(4), _ortho(-1, 1, -1, 1, -10.0, 10.0), 4, 4)
     assert (cam.clip_start, cam.clip_end) == (0.0, 20.0)
     np.testing.assert_allclose(cam.to_world[:3, 3], [0.0, 0.0, 10.0])
+
+
+# --- the Render Region (issue 11 part 3) ------------------------------------------------------
+
+def test_region_pixels_are_the_frame_indices_row_major():
+    import dataclasses
+    from core.scene import camera as cam_mod
+    cam = shapes.pinhole([0, -3, 0], [0, 0, 0], 7, 5, 0.8)
+    assert cam_mod.region_of(cam) == (0, 0, 7, 5)
+    np.testing.assert_array_equal(cam_mod.region_pixels(cam), np.arange(35))
+    cut = dataclasses.replace(cam, region=(2, 1, 5, 3))
+    np.testing.assert_array_equal(cam_mod.region_pixels(cut), [9, 10, 11, 16, 17, 18])
+    frame = np.arange(35).reshape(5, 7, 1)
+    np.testing.assert_array_equal(cam_mod.crop_to_region(frame, cut)[..., 0],
+                                  [[9, 10, 11], [16, 17, 18]])
+
+
+@pytest.mark.parametrize("region", [(0, 0, 8, 5), (3, 2, 3, 4), (-1, 0, 2, 2), (0, 0, 2.5, 2)])
+def test_a_region_outside_the_frame_is_refused(region):
+    import dataclasses
+    from core.scene.contract import SceneError
+    cam = dataclasses.replace(shapes.pinhole([0, -3, 0], [0, 0, 0], 7, 5, 0.8), region=region)
+    scene = Scene(shapes.assemble([]), Materials.from_list([{}]), Lights.empty(), cam)
+    with pytest.raises(SceneError, match="render region"):
+        scene.validate()
