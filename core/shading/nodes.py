@@ -84,7 +84,7 @@ def _smoothmin(a, b, k):
 
 @njit(inline="always", **_JIT)
 def _fmod(a, b):
-    return math.fmod(a, b) if b != 0.0 else 0.0
+    return np.fmod(a, b) if b != 0.0 else 0.0
 
 
 @njit(inline="always", **_JIT)

@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from numba import njit
 
 from .. import _numba_cache  # noqa: F401
@@ -157,7 +159,7 @@ def perlin_4d(x, y, z, w):
 @njit(inline="always", **_JIT)
 def _wrap(p):
     """Cycles' precision guard: fmod(p, 1e5) + 0.5 where |p| >= 1e6."""
-    return math.fmod(p, 100000.0) + (0.5 if abs(p) >= 1000000.0 else 0.0)
+    return np.fmod(p, 100000.0) + (0.5 if abs(p) >= 1000000.0 else 0.0)
 
 
 @njit(**_JIT)
