@@ -123,9 +123,6 @@ class _Builder:
     def socket_value(self, sock, path):
         links = [lk for lk in sock.links if not getattr(lk, "is_muted", False)]
         if not links:
-            if not sock.is_output and getattr(sock, "hide_value", False) and \
-                    _socket_kind(sock) == "v":
-                return None  # an implicit texture coordinate: the caller's default
             return self.default(sock)
         link = links[0]
         return self.output_value(link.from_node, link.from_socket, path)
@@ -615,7 +612,7 @@ def compile_sockets(material, targets, uv_maps=(), attributes=(),
     values = []
     for sock, target, closure, slot in targets:
         kind = _socket_kind(sock) or "f"
-        value = b.as_kind(b.socket_value(sock, ()) or b.default(sock), kind)
+        value = b.as_kind(b.socket_value(sock, ()), kind)
         width = 1 if kind == "f" else 3
         values.append((value, [(target, closure, slot + c) for c in range(width)]))
     program, constant = b.finish(values)
