@@ -115,8 +115,9 @@ class _Builder:
     def input(self, node, key, path, kind=None):
         """The value of input ``key`` (name, identifier or index) of ``node``."""
         sock = _find_input(node, key)
-        if sock is None:
-            return None
+        if sock is None:  # not declared for this mode (5.x drops unavailable sockets)
+            k = kind or "f"
+            return self.const(0.0 if k == "f" else (0.0, 0.0, 0.0), k)
         value = self.socket_value(sock, path)
         return self.as_kind(value, kind or _socket_kind(sock) or "f")
 
@@ -378,7 +379,7 @@ def _math(b, node, path):
 
 
 def _vector_math(b, node, path):
-    ins = [b.input(node, i, path, "v") for i in range(3)]
+    ins = [b.input(node, i, path, "v") for i in ("Vector", "Vector_001", "Vector_002")]
     scale = b.input(node, "Scale", path, "f")
     vec, val = b.new("v"), b.new("f")
     b.emit(pg.OP_VECTOR_MATH, [cn.VECTOR_MATH_OPS[node.operation]], ins + [scale], [vec, val])
