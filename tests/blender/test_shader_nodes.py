@@ -33,6 +33,19 @@ def node(tree, idname, **props):
     return n
 
 
+def inp(n, identifier):
+    """The input socket of node n with this identifier (bpy's [key] looks up names)."""
+    return next(s for s in n.inputs if s.identifier == identifier)
+
+
+def setdef(n, identifier, value):
+    """Set an input's default when the node declares it in its current mode (5.x drops
+    unavailable sockets)."""
+    sock = next((s for s in n.inputs if s.identifier == identifier), None)
+    if sock is not None:
+        sock.default_value = value
+
+
 def link(tree, out, into):
     tree.links.new(out, into)
 
@@ -146,18 +159,18 @@ def vector_plane(op):
         tc = node(tree, "ShaderNodeTexCoord")
         m1 = node(tree, "ShaderNodeMapping", vector_type='POINT')
         link(tree, tc.outputs["Object"], m1.inputs["Vector"])
-        m1.inputs["Scale"].default_value = (1.7, 1.3, 1.0)
-        m1.inputs["Location"].default_value = (0.2, -0.1, 0.4)
+        setdef(m1, "Scale", (1.7, 1.3, 1.0))
+        setdef(m1, "Location", (0.2, -0.1, 0.4))
         vm = node(tree, "ShaderNodeVectorMath", operation=op)
         link(tree, m1.outputs[0], vm.inputs[0])
         m2 = node(tree, "ShaderNodeMapping", vector_type='POINT')  # b in [0.5, 1.5]: no
         link(tree, tc.outputs["Generated"], m2.inputs["Vector"])  # chaotic a mod ~0
-        m2.inputs["Location"].default_value = (0.5, 0.5, 0.0)
+        setdef(m2, "Location", (0.5, 0.5, 0.0))
         link(tree, m2.outputs[0], vm.inputs[1])
         if vm.inputs.get("Vector_002") is not None or len(vm.inputs) > 2:
             vm.inputs[2].default_value = (0.3, -0.5, 0.8)
         if vm.inputs.get("Scale") is not None:
-            vm.inputs["Scale"].default_value = 0.6
+            setdef(vm, "Scale", 0.6)
         out = vm.outputs["Value"] if op in ("DOT_PRODUCT", "DISTANCE", "LENGTH") \
             else vm.outputs["Vector"]
         link(tree, out, color)
@@ -166,6 +179,181 @@ def vector_plane(op):
 
 def test_every_vector_math_operation_matches_cycles():
     specs = [(f"VMath {op}", vector_plane(op)) for op in VECTOR_OPS]
+    result = ss.compare(specs)
+    assert not result["warnings"], result["warnings"]
+    check(result, [n for n, _ in specs])
+
+
+# --- converters and colour ---------------------------------------------------------------
+
+BLENDS = ["MIX", "DARKEN", "MULTIPLY", "BURN", "LIGHTEN", "SCREEN", "DODGE", "ADD",
+          "OVERLAY", "SOFT_LIGHT", "LINEAR_LIGHT", "DIFFERENCE", "EXCLUSION", "SUBTRACT",
+          "DIVIDE", "HUE", "SATURATION", "COLOR", "VALUE"]
+
+
+def two_colors(tree):
+    """Colour A = (u, v, 0.3) and colour B = a rotated, scaled copy: smooth, in [0, 1.2]."""
+    tc = node(tree, "ShaderNodeTexCoord")
+    a = node(tree, "ShaderNodeMapping", vector_type='POINT')
+    link(tree, tc.outputs["UV"], a.inputs["Vector"])
+    setdef(a, "Location", (0.0, 0.0, 0.3))
+    bm = node(tree, "ShaderNodeMapping", vector_type='POINT')
+    link(tree, tc.outputs["Generated"], bm.inputs["Vector"])
+    setdef(bm, "Rotation", (0.3, 0.2, 0.9))
+    setdef(bm, "Scale", (0.8, 1.1, 0.7))
+    setdef(bm, "Location", (0.2, 0.1, 0.0))
+    return a.outputs[0], bm.outputs[0], tc
+
+
+def mix_color_plane(blend, clamp_result=False, factor=0.65):
+    def build(tree, color):
+        a, b, _ = two_colors(tree)
+        m = node(tree, "ShaderNodeMix", data_type='RGBA', blend_type=blend,
+                 clamp_result=clamp_result)
+        setdef(m, "Factor_Float", factor)
+        link(tree, a, inp(m, "A_Color"))
+        link(tree, b, inp(m, "B_Color"))
+        link(tree, next(o for o in m.outputs if o.identifier == "Result_Color"), color)
+    return build
+
+
+def mix_plane(data_type, nonuniform=False):
+    def build(tree, color):
+        a, b, tc = two_colors(tree)
+        m = node(tree, "ShaderNodeMix", data_type=data_type, clamp_factor=False)
+        if data_type == 'FLOAT':
+            sa, sb = uv_scalars(tree)
+            link(tree, sa, inp(m, "Factor_Float"))
+            setdef(m, "A_Float", 0.2)
+            link(tree, sb, inp(m, "B_Float"))
+            link(tree, next(o for o in m.outputs if o.identifier == "Result_Float"), color)
+            return
+        m.factor_mode = 'NON_UNIFORM' if nonuniform else 'UNIFORM'
+        if nonuniform:
+            link(tree, tc.outputs["Generated"], inp(m, "Factor_Vector"))
+        else:
+            link(tree, uv_scalars(tree)[0], inp(m, "Factor_Float"))
+        link(tree, a, inp(m, "A_Vector"))
+        link(tree, b, inp(m, "B_Vector"))
+        link(tree, next(o for o in m.outputs if o.identifier == "Result_Vector"), color)
+    return build
+
+
+def map_range_plane(kind, vector=False, clamp=True):
+    def build(tree, color):
+        m = node(tree, "ShaderNodeMapRange", interpolation_type=kind, clamp=clamp,
+                 data_type='FLOAT_VECTOR' if vector else 'FLOAT')
+        if vector:
+            a, _, _ = two_colors(tree)
+            link(tree, a, m.inputs["Vector"])
+            setdef(m, "From_Min_FLOAT3", (0.2, 0.9, 0.1))
+            setdef(m, "From_Max_FLOAT3", (0.8, 0.1, 0.5))
+            setdef(m, "To_Min_FLOAT3", (-0.5, 0.0, 1.0))
+            setdef(m, "To_Max_FLOAT3", (1.5, 2.0, 0.0))
+            setdef(m, "Steps_FLOAT3", (4.0, 3.0, 5.0))
+            link(tree, m.outputs["Vector"], color)
+            return
+        sa, sb = uv_scalars(tree)
+        link(tree, sa, m.inputs["Value"])
+        setdef(m, "From Min", -1.0)
+        setdef(m, "From Max", 1.5)
+        setdef(m, "To Min", 2.0)
+        setdef(m, "To Max", -0.5)
+        setdef(m, "Steps", 5.0)
+        to_color(tree, color, m.outputs["Result"], sb)
+    return build
+
+
+def clamp_plane(kind):
+    def build(tree, color):
+        sa, sb = uv_scalars(tree)
+        c = node(tree, "ShaderNodeClamp", clamp_type=kind)
+        link(tree, sa, c.inputs["Value"])
+        setdef(c, "Min", 0.8)
+        link(tree, sb, c.inputs["Max"])
+        to_color(tree, color, c.outputs[0])
+    return build
+
+
+def separate_combine_plane(mode):
+    def build(tree, color):
+        a, b, _ = two_colors(tree)
+        sep = node(tree, "ShaderNodeSeparateColor", mode=mode)
+        link(tree, b, sep.inputs[0])
+        comb = node(tree, "ShaderNodeCombineColor", mode=mode)
+        link(tree, sep.outputs[1], comb.inputs[0])
+        link(tree, sep.outputs[2], comb.inputs[1])
+        link(tree, sep.outputs[0], comb.inputs[2])
+        link(tree, comb.outputs[0], color)
+    return build
+
+
+def ramp_plane(interpolation, alpha=False):
+    def build(tree, color):
+        sa, _ = uv_scalars(tree, sx=1.2, ox=-0.1)
+        r = node(tree, "ShaderNodeValToRGB")
+        ramp = r.color_ramp
+        ramp.interpolation = interpolation
+        ramp.elements[0].position = 0.1
+        ramp.elements[0].color = (0.9, 0.1, 0.2, 0.3)
+        ramp.elements[1].position = 0.85
+        ramp.elements[1].color = (0.1, 0.7, 1.0, 1.0)
+        e = ramp.elements.new(0.4)
+        e.color = (0.2, 0.9, 0.05, 0.6)
+        link(tree, sa, r.inputs[0])
+        link(tree, r.outputs["Alpha" if alpha else "Color"], color)
+    return build
+
+
+def mapping_plane(kind):
+    def build(tree, color):
+        tc = node(tree, "ShaderNodeTexCoord")
+        m = node(tree, "ShaderNodeMapping", vector_type=kind)
+        link(tree, tc.outputs["Object"], m.inputs["Vector"])
+        if m.inputs.get("Location") is not None and m.inputs["Location"].enabled:
+            setdef(m, "Location", (0.3, -0.2, 0.1))
+        setdef(m, "Rotation", (0.4, -0.7, 1.1))
+        setdef(m, "Scale", (1.5, 0.6, 2.0))
+        link(tree, m.outputs[0], color)
+    return build
+
+
+def color_node_plane(idname, values):
+    def build(tree, color):
+        _, b, _ = two_colors(tree)
+        n = node(tree, idname)
+        link(tree, b, n.inputs["Color"])
+        for k, v in values.items():
+            n.inputs[k].default_value = v
+        link(tree, n.outputs[0], color)
+    return build
+
+
+def test_mix_map_range_ramp_mapping_and_colour_nodes_match_cycles():
+    specs = [(f"Mix {b}", mix_color_plane(b)) for b in BLENDS]
+    specs += [("Mix clamped", mix_color_plane("LINEAR_LIGHT", clamp_result=True, factor=1.3)),
+              ("Mix float", mix_plane('FLOAT')), ("Mix vector", mix_plane('VECTOR')),
+              ("Mix vector non-uniform", mix_plane('VECTOR', nonuniform=True))]
+    for kind in ("LINEAR", "STEPPED", "SMOOTHSTEP", "SMOOTHERSTEP"):
+        specs += [(f"Map Range {kind}", map_range_plane(kind)),
+                  (f"Map Range vector {kind}", map_range_plane(kind, vector=True))]
+    specs += [("Map Range unclamped", map_range_plane("LINEAR", clamp=False)),
+              ("Clamp MINMAX", clamp_plane("MINMAX")), ("Clamp RANGE", clamp_plane("RANGE")),
+              ("Separate/Combine RGB", separate_combine_plane("RGB")),
+              ("Separate/Combine HSV", separate_combine_plane("HSV"))]
+    specs += [(f"Ramp {i}", ramp_plane(i)) for i in ("LINEAR", "CONSTANT", "EASE",
+                                                     "CARDINAL", "B_SPLINE")]
+    specs += [("Ramp alpha", ramp_plane("LINEAR", alpha=True))]
+    specs += [(f"Mapping {k}", mapping_plane(k)) for k in ("POINT", "TEXTURE", "VECTOR",
+                                                         "NORMAL")]
+    specs += [("Invert", color_node_plane("ShaderNodeInvert", {"Fac": 0.7})),
+              ("Gamma", color_node_plane("ShaderNodeGamma", {"Gamma": 2.2})),
+              ("Hue/Saturation/Value", color_node_plane(
+                  "ShaderNodeHueSaturation", {"Hue": 0.3, "Saturation": 1.4, "Value": 0.8,
+                                              "Fac": 0.9})),
+              ("Brightness/Contrast", color_node_plane(
+                  "ShaderNodeBrightContrast", {"Bright": 0.1, "Contrast": 0.4})),
+              ("RGB to BW", color_node_plane("ShaderNodeRGBToBW", {}))]
     result = ss.compare(specs)
     assert not result["warnings"], result["warnings"]
     check(result, [n for n, _ in specs])
