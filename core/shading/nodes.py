@@ -605,7 +605,7 @@ def white_noise(dims, x, y, z, w):
         v = hash_float3_to_float(x, y, z)
         return v, v, hash_float4_to_float(x, y, z, 1.0), hash_float4_to_float(x, y, z, 2.0)
     v = hash_float4_to_float(x, y, z, w)
-    return (v, v, hash_float4_to_float(w, x, y, z), hash_float4_to_float(z, w, x, y))
+    return (v, v, hash_float4_to_float(z, x, w, y), hash_float4_to_float(w, z, y, x))
 
 
 LUMINANCE_REC709 = np.array([0.2126729, 0.7151522, 0.0721750], np.float32)

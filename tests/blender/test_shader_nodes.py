@@ -357,3 +357,128 @@ def test_mix_map_range_ramp_mapping_and_colour_nodes_match_cycles():
     result = ss.compare(specs)
     assert not result["warnings"], result["warnings"]
     check(result, [n for n, _ in specs])
+
+
+# --- textures ------------------------------------------------------------------------------
+
+def object_coords(tree, scale=1.0):
+    tc = node(tree, "ShaderNodeTexCoord")
+    m = node(tree, "ShaderNodeMapping", vector_type='POINT')
+    link(tree, tc.outputs["Object"], m.inputs["Vector"])
+    setdef(m, "Scale", (scale, scale, scale))
+    setdef(m, "Location", (0.37, -0.21, 0.13))
+    return m.outputs[0], tc
+
+
+def noise_plane(dims="3D", kind="FBM", output="Color", normalize=True, **values):
+    def build(tree, color):
+        vec, tc = object_coords(tree)
+        n = node(tree, "ShaderNodeTexNoise", noise_dimensions=dims, noise_type=kind,
+                 normalize=normalize)
+        if n.inputs.get("Vector") is not None:
+            link(tree, vec, n.inputs["Vector"])
+        if dims in ("1D", "4D"):
+            link(tree, uv_scalars(tree, sx=1.3, ox=0.2)[0], n.inputs["W"])
+        for k, v in {"Scale": 2.5, "Detail": 2.5, "Roughness": 0.6, "Lacunarity": 2.1,
+                     **values}.items():
+            setdef(n, k, v)
+        link(tree, n.outputs[output], color)
+    return build
+
+
+def voronoi_plane(dims="3D", feature="F1", metric="EUCLIDEAN", output="Color", **values):
+    def build(tree, color):
+        vec, _ = object_coords(tree)
+        v = node(tree, "ShaderNodeTexVoronoi", voronoi_dimensions=dims, feature=feature,
+                 distance=metric)
+        link(tree, vec, v.inputs["Vector"])
+        for k, val in {"Scale": 3.0, **values}.items():
+            setdef(v, k, val)
+        link(tree, v.outputs[output], color)
+    return build
+
+
+def test_noise_matches_cycles():
+    specs = [(f"Noise {d}", noise_plane(d)) for d in ("1D", "2D", "3D", "4D")]
+    specs += [(f"Noise {d} distorted", noise_plane(d, Distortion=0.7)) for d in ("2D", "3D")]
+    specs += [("Noise fac", noise_plane(output="Factor")),
+              ("Noise unnormalized", noise_plane(normalize=False, output="Factor")),
+              ("Noise detail 0", noise_plane(Detail=0.0, output="Factor"))]
+    for kind in ("MULTIFRACTAL", "HYBRID_MULTIFRACTAL", "RIDGED_MULTIFRACTAL",
+                 "HETERO_TERRAIN"):
+        specs += [(f"Noise {kind}", noise_plane("3D", kind, output="Factor", Offset=0.8,
+                                                Gain=1.3, Roughness=0.5)),
+                  (f"Noise {kind} 2D", noise_plane("2D", kind, output="Factor", Offset=0.6,
+                                                   Gain=0.9, Roughness=0.4))]
+    result = ss.compare(specs)
+    assert not result["warnings"], result["warnings"]
+    check(result, [n for n, _ in specs])
+
+
+def test_voronoi_matches_cycles():
+    specs = []
+    for dims in ("2D", "3D"):
+        for feature in ("F1", "F2", "SMOOTH_F1"):
+            specs += [(f"Voronoi {dims} {feature} colour", voronoi_plane(dims, feature)),
+                      (f"Voronoi {dims} {feature} distance",
+                       voronoi_plane(dims, feature, output="Distance"))]
+        specs += [(f"Voronoi {dims} edge", voronoi_plane(dims, "DISTANCE_TO_EDGE",
+                                                        output="Distance"))]
+    for metric in ("MANHATTAN", "CHEBYCHEV", "MINKOWSKI"):
+        specs += [(f"Voronoi {metric}", voronoi_plane("3D", "F1", metric, output="Distance",
+                                                      Exponent=1.5))]
+    specs += [("Voronoi position", voronoi_plane("3D", "F1", output="Position")),
+              ("Voronoi fractal", voronoi_plane("3D", "F1", output="Distance", Detail=1.5,
+                                                Roughness=0.6, Lacunarity=2.2)),
+              ("Voronoi fractal edge", voronoi_plane("2D", "DISTANCE_TO_EDGE",
+                                                     output="Distance", Detail=2.0)),
+              ("Voronoi random 0.4", voronoi_plane("2D", "F2", Randomness=0.4))]
+    result = ss.compare(specs)
+    assert not result["warnings"], result["warnings"]
+    check(result, [n for n, _ in specs])
+
+
+def checker_plane(tree, color):
+    vec, _ = object_coords(tree)
+    c = node(tree, "ShaderNodeTexChecker")
+    link(tree, vec, c.inputs["Vector"])
+    setdef(c, "Scale", 3.0)
+    setdef(c, "Color1", (0.9, 0.3, 0.1, 1.0))
+    setdef(c, "Color2", (0.1, 0.2, 0.8, 1.0))
+    link(tree, c.outputs[0], color)
+
+
+def gradient_plane(kind):
+    def build(tree, color):
+        vec, _ = object_coords(tree, scale=0.9)
+        g = node(tree, "ShaderNodeTexGradient", gradient_type=kind)
+        link(tree, vec, g.inputs["Vector"])
+        link(tree, g.outputs[0], color)
+    return build
+
+
+def white_noise_plane(dims):
+    def build(tree, color):
+        vec, _ = object_coords(tree, scale=4.0)
+        fl = node(tree, "ShaderNodeVectorMath", operation='FLOOR')  # exact float inputs
+        link(tree, vec, fl.inputs[0])
+        w = node(tree, "ShaderNodeTexWhiteNoise", noise_dimensions=dims)
+        if w.inputs.get("Vector") is not None:
+            link(tree, fl.outputs[0], w.inputs["Vector"])
+        sep = node(tree, "ShaderNodeSeparateXYZ")
+        link(tree, fl.outputs[0], sep.inputs[0])
+        if w.inputs.get("W") is not None:
+            link(tree, sep.outputs[0], w.inputs["W"])
+        link(tree, w.outputs["Color"], color)
+    return build
+
+
+def test_checker_gradient_white_noise_match_cycles():
+    specs = [("Checker", checker_plane)]
+    specs += [(f"Gradient {k}", gradient_plane(k)) for k in (
+        "LINEAR", "QUADRATIC", "EASING", "DIAGONAL", "RADIAL", "QUADRATIC_SPHERE",
+        "SPHERICAL")]
+    specs += [(f"White noise {d}", white_noise_plane(d)) for d in ("1D", "2D", "3D", "4D")]
+    result = ss.compare(specs)
+    assert not result["warnings"], result["warnings"]
+    check(result, [n for n, _ in specs])
