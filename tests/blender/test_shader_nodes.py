@@ -482,3 +482,132 @@ def test_checker_gradient_white_noise_match_cycles():
     result = ss.compare(specs)
     assert not result["warnings"], result["warnings"]
     check(result, [n for n, _ in specs])
+
+
+# --- node groups, unsupported nodes, cycles ---------------------------------------------------
+
+def ring_group():
+    """A node group: (Vector, Scale = 4.0 by default, Shift) -> Noise colour + Shift."""
+    group = bpy.data.node_groups.get("Ring")
+    if group is not None:
+        return group
+    group = bpy.data.node_groups.new("Ring", "ShaderNodeTree")
+    group.interface.new_socket("Vector", in_out='INPUT', socket_type='NodeSocketVector')
+    scale = group.interface.new_socket("Scale", in_out='INPUT', socket_type='NodeSocketFloat')
+    scale.default_value = 4.0
+    group.interface.new_socket("Shift", in_out='INPUT', socket_type='NodeSocketFloat')
+    group.interface.new_socket("Color", in_out='OUTPUT', socket_type='NodeSocketColor')
+    gi = group.nodes.new("NodeGroupInput")
+    go = group.nodes.new("NodeGroupOutput")
+    n = group.nodes.new("ShaderNodeTexNoise")
+    group.links.new(gi.outputs["Vector"], n.inputs["Vector"])
+    group.links.new(gi.outputs["Scale"], n.inputs["Scale"])
+    reroute = group.nodes.new("NodeReroute")
+    group.links.new(n.outputs["Color"], reroute.inputs[0])
+    add = group.nodes.new("ShaderNodeMix")
+    add.data_type = 'RGBA'
+    add.blend_type = 'ADD'
+    setdef(add, "Factor_Float", 1.0)
+    group.links.new(reroute.outputs[0], inp(add, "A_Color"))
+    group.links.new(gi.outputs["Shift"], inp(add, "B_Color"))
+    group.links.new(next(o for o in add.outputs if o.identifier == "Result_Color"),
+                    go.inputs["Color"])
+    return group
+
+
+def outer_group():
+    """A group holding a Ring instance (Scale left at its default) times 0.5."""
+    group = bpy.data.node_groups.get("Outer")
+    if group is not None:
+        return group
+    group = bpy.data.node_groups.new("Outer", "ShaderNodeTree")
+    group.interface.new_socket("Vector", in_out='INPUT', socket_type='NodeSocketVector')
+    group.interface.new_socket("Color", in_out='OUTPUT', socket_type='NodeSocketColor')
+    gi = group.nodes.new("NodeGroupInput")
+    go = group.nodes.new("NodeGroupOutput")
+    ring = group.nodes.new("ShaderNodeGroup")
+    ring.node_tree = ring_group()
+    group.links.new(gi.outputs["Vector"], ring.inputs["Vector"])
+    ring.inputs["Shift"].default_value = 0.25
+    half = group.nodes.new("ShaderNodeVectorMath")
+    half.operation = 'SCALE'
+    group.links.new(ring.outputs["Color"], half.inputs[0])
+    setdef(half, "Scale", 0.5)
+    group.links.new(half.outputs["Vector"], go.inputs["Color"])
+    return group
+
+
+def group_twice(tree, color):
+    vec, _ = object_coords(tree)
+    outs = []
+    for scale, shift in ((2.0, 0.0), (7.0, -0.3)):
+        g = node(tree, "ShaderNodeGroup")
+        g.node_tree = ring_group()
+        link(tree, vec, g.inputs["Vector"])
+        g.inputs["Scale"].default_value = scale
+        g.inputs["Shift"].default_value = shift
+        outs.append(g.outputs["Color"])
+    m = node(tree, "ShaderNodeMix", data_type='RGBA', blend_type='MIX')
+    setdef(m, "Factor_Float", 0.4)
+    link(tree, outs[0], inp(m, "A_Color"))
+    link(tree, outs[1], inp(m, "B_Color"))
+    link(tree, next(o for o in m.outputs if o.identifier == "Result_Color"), color)
+
+
+def group_in_group(tree, color):
+    vec, _ = object_coords(tree)
+    g = node(tree, "ShaderNodeGroup")
+    g.node_tree = outer_group()
+    link(tree, vec, g.inputs["Vector"])
+    link(tree, g.outputs["Color"], color)
+
+
+def test_node_groups_twice_and_nested_match_cycles():
+    specs = [("Group twice", group_twice), ("Group in group", group_in_group)]
+    result = ss.compare(specs)
+    assert not result["warnings"], result["warnings"]
+    check(result, [n for n, _ in specs])
+
+
+def test_unsupported_node_and_cycle_are_reported_once_with_default_values():
+    """A Magic Texture (not supported yet) feeding two sockets: one warning naming the
+    material and the node, its output's default value everywhere (folded: no program); a Math loop:
+    reported, no exception, finite values."""
+    from photon_map.core.shading import program as pg
+    from photon_map.photon_engine.export_shader import compile_sockets
+
+    def magic(tree, color):
+        vec, _ = object_coords(tree)
+        m = node(tree, "ShaderNodeTexMagic", name="My Magic")
+        link(tree, vec, m.inputs["Vector"])
+        add = node(tree, "ShaderNodeVectorMath", operation='ADD')
+        link(tree, m.outputs["Color"], add.inputs[0])
+        link(tree, m.outputs["Color"], add.inputs[1])
+        link(tree, add.outputs[0], color)
+
+    def loop(tree, color):
+        a = node(tree, "ShaderNodeMath", operation='ADD', name="Loop A")
+        b = node(tree, "ShaderNodeMath", operation='MULTIPLY', name="Loop B")
+        vec, _ = object_coords(tree)
+        sep = node(tree, "ShaderNodeSeparateXYZ")
+        link(tree, vec, sep.inputs[0])
+        link(tree, sep.outputs[0], a.inputs[0])
+        link(tree, a.outputs[0], b.inputs[0])
+        link(tree, b.outputs[0], a.inputs[1])
+        link(tree, b.outputs[0], color)
+
+    scene, planes, g = ss.layout([("Magic mat", magic), ("Loop mat", loop)])
+    ours, warnings = ss.photon_map_image(planes, g)
+    magic_warnings = [w for w in warnings if "My Magic" in w]
+    assert len(magic_warnings) == 1, warnings
+    assert "Magic mat" in magic_warnings[0] and "ShaderNodeTexMagic" in magic_warnings[0]
+    mat = planes[0].data.materials[0]
+    default = np.array(mat.node_tree.nodes["My Magic"].outputs["Color"].default_value[:3])
+    block = ours[:ss.PIXELS, :ss.PIXELS]
+    np.testing.assert_allclose(block, np.broadcast_to(2 * default, block.shape))  # added twice
+    assert any("Loop mat" in w and "cycle" in w for w in warnings), warnings
+    assert np.isfinite(ours).all()
+    em = next(n for n in mat.node_tree.nodes if n.bl_idname == "ShaderNodeEmission")
+    folded = compile_sockets(mat, [(em.inputs["Color"], pg.TARGET_EMISSION, 0, 0)])
+    assert folded.program is None
+    np.testing.assert_allclose(folded.constant[0], 2 * default, rtol=1e-6)
