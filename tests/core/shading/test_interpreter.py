@@ -91,6 +91,8 @@ def test_math_operation_matches_numpy(op, rng):
               "WRAP", "SNAP", "PINGPONG", "LESS_THAN", "GREATER_THAN", "COMPARE"):
         for shift in (-1e-5, 1e-5):
             safe &= np.isclose(NUMPY_MATH[op](a + shift, b, 0.7), want, atol=1e-3)
+    if op == "WRAP":  # a range b - c near 0 amplifies float32 rounding of the inputs
+        safe &= np.abs(b - 0.7) > 0.1
     np.testing.assert_allclose(got[safe], want[safe], rtol=2e-5, atol=2e-5)
     assert safe.mean() > 0.9
 
