@@ -250,6 +250,9 @@ class _Builder:
                 kept.append((op, ints, regs))
                 needed.update(regs[:n_in])
         kept.reverse()
+        for op, ints, regs in kept:  # Noise: the two colour fractals only when read
+            if op == pg.OP_NOISE:
+                ints[3] = int(regs[-1] in needed)
         constant = [self.vregs[v.vreg][1] for v, _ in targets]
         if not kept:
             return None, constant
@@ -550,7 +553,7 @@ def _noise(b, node, path):
         b.input(node, n, path, "f") if _find_input(node, n) is not None else
         b.const({"Lacunarity": 2.0, "Gain": 1.0}.get(n, 0.0), "f") for n in names]
     value, color = b.new("f"), b.new("c")
-    b.emit(pg.OP_NOISE, [dims, kind, int(getattr(node, "normalize", True))], ins,
+    b.emit(pg.OP_NOISE, [dims, kind, int(getattr(node, "normalize", True)), 1], ins,
            [value, color])
     return [value, color]
 

@@ -184,7 +184,7 @@ def _run(r, ins, tables):
     elif op == pg.OP_NOISE:
         v, x, y, z = noise_texture(r[a[0]], r[a[0] + 1], r[a[0] + 2], r[a[1]], ins[1],
                                    r[a[2]], r[a[3]], r[a[4]], r[a[5]], r[a[6]], r[a[7]],
-                                   r[a[8]], ins[2], ins[3] != 0)
+                                   r[a[8]], ins[2], ins[3] != 0, ins[4] != 0)
         r[a[9]] = v
         r[a[10]], r[a[10] + 1], r[a[10] + 2] = x, y, z
     elif op == pg.OP_VORONOI:

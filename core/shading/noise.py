@@ -263,8 +263,9 @@ def _offset(seed, axis):
 
 @njit(**_JIT)
 def noise_texture(x, y, z, w, dims, scale, detail, roughness, lacunarity, offset, gain,
-                  distortion, kind, normalize):
-    """Cycles' Noise Texture node: (factor, r, g, b) at vector (x, y, z) and W."""
+                  distortion, kind, normalize, color_needed=True):
+    """Cycles' Noise Texture node: (factor, r, g, b) at vector (x, y, z) and W; g and b
+    are 0 unless ``color_needed`` (two more fractals, as Cycles skips them too)."""
     detail = min(max(detail, 0.0), 15.0)
     roughness = max(roughness, 0.0)
     x, y, z, w = x * scale, y * scale, z * scale, w * scale
@@ -294,6 +295,8 @@ def noise_texture(x, y, z, w, dims, scale, detail, roughness, lacunarity, offset
             x, y, z, w = x + dx, y + dy, z + dz, w + dw
     value = fractal(x, y, z, w, dims, detail, roughness, lacunarity, offset, gain, kind,
                     normalize)
+    if not color_needed:
+        return value, value, 0.0, 0.0
     # the colour's seeds follow the distortion's: dims (1-D: 1, 2), dims + 1
     s1 = float(dims) if dims > 1 else 1.0
     s2 = s1 + 1.0

@@ -61,7 +61,8 @@ SIGNATURES = {
     OP_GRADIENT: "v>vf",             # ints: GRADIENT_TYPES code
     OP_WHITE_NOISE: "vf>fv",         # vector, W; ints: dimensions
     OP_NOISE: "vffffffff>fv",        # vector, W, scale, detail, roughness, lacunarity,
-                                     # offset, gain, distortion; ints: dims, type, normalize
+                                     # offset, gain, distortion; ints: dims, type, normalize,
+                                     # colour needed (0: the colour's G and B are 0)
     OP_VORONOI: "vffffffff>fvvf",    # vector, W, scale, detail, roughness, lacunarity,
                                      # smoothness, exponent, randomness -> distance, colour,
                                      # position, W; ints: dims, feature, metric, normalize
