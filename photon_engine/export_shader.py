@@ -574,6 +574,90 @@ def _voronoi(b, node, path):
     return {"Distance": dist, "Color": color, "Position": pos, "W": w}
 
 
+def _wave(b, node, path):
+    names = ("Scale", "Distortion", "Detail", "Detail Scale", "Detail Roughness",
+             "Phase Offset")
+    ins = [b.texture_vector(node, path)] + [b.input(node, n, path, "f") for n in names]
+    color, fac = b.new("c"), b.new("f")
+    b.emit(pg.OP_WAVE, [cn.WAVE_TYPES[node.wave_type],
+                        cn.WAVE_BANDS_DIRECTIONS[node.bands_direction],
+                        cn.WAVE_RINGS_DIRECTIONS[node.rings_direction],
+                        cn.WAVE_PROFILES[node.wave_profile]], ins, [color, fac])
+    return [color, fac]
+
+
+def _magic(b, node, path):
+    ins = [b.texture_vector(node, path), b.input(node, "Scale", path, "f"),
+           b.input(node, "Distortion", path, "f")]
+    color, fac = b.new("c"), b.new("f")
+    b.emit(pg.OP_MAGIC, [int(node.turbulence_depth)], ins, [color, fac])
+    return [color, fac]
+
+
+def _brick(b, node, path):
+    ins = [b.texture_vector(node, path)] + \
+        [b.input(node, n, path, "c") for n in ("Color1", "Color2", "Mortar")] + \
+        [b.input(node, n, path, "f") for n in ("Scale", "Mortar Size", "Mortar Smooth",
+                                               "Bias", "Brick Width", "Row Height")] + \
+        [b.const(float(node.offset), "f"), b.const(float(node.squash), "f")]
+    color, fac = b.new("c"), b.new("f")
+    b.emit(pg.OP_BRICK, [int(node.offset_frequency), int(node.squash_frequency)], ins,
+           [color, fac])
+    return [color, fac]
+
+
+REC709_TO_SCENE_LINEAR = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
+"""Blackbody's Rec.709 -> scene linear matrix: identity for Blender's default OCIO
+configuration (scene linear = Linear Rec.709)."""
+
+
+def _blackbody(b, node, path):
+    rows = [b.const(row, "v") for row in REC709_TO_SCENE_LINEAR]
+    out = b.new("c")
+    b.emit(pg.OP_BLACKBODY, [], [b.input(node, "Temperature", path, "f")] + rows, [out])
+    return [out]
+
+
+def _curve_table(b, mapping, curves, rgb):
+    """Bake a CurveMapping like Cycles' curvemapping_*_to_array: 256 rows over the x range
+    spanned by the curves' end points. Returns (first row, min x, max x)."""
+    mapping.update()
+    lo = min(c.points[0].location[0] for c in curves)
+    hi = max(c.points[len(c.points) - 1].location[0] for c in curves)
+    first = len(b.tables)
+    for i in range(RAMP_TABLE_SIZE):
+        t = lo + i / (RAMP_TABLE_SIZE - 1) * (hi - lo)
+        if rgb:
+            combined = mapping.evaluate(mapping.curves[3], t)
+            b.tables.append(tuple(mapping.evaluate(mapping.curves[c], combined)
+                                  for c in range(3)) + (0.0,))
+        else:
+            b.tables.append((mapping.evaluate(mapping.curves[0], t), 0.0, 0.0, 0.0))
+    return first, lo, hi
+
+
+def _rgb_curves(b, node, path):
+    m = node.mapping
+    first, lo, hi = _curve_table(b, m, list(m.curves), True)
+    ins = [b.input(node, "Fac", path, "f"), b.input(node, "Color", path, "c"),
+           b.const(lo, "f"), b.const(hi, "f")]
+    out = b.new("c")
+    b.emit(pg.OP_CURVES, [first, RAMP_TABLE_SIZE, int(m.extend == "EXTRAPOLATED")], ins,
+           [out])
+    return [out]
+
+
+def _float_curve(b, node, path):
+    m = node.mapping
+    first, lo, hi = _curve_table(b, m, [m.curves[0]], False)
+    ins = [b.input(node, "Factor", path, "f"), b.input(node, "Value", path, "f"),
+           b.const(lo, "f"), b.const(hi, "f")]
+    out = b.new("f")
+    b.emit(pg.OP_FLOAT_CURVE, [first, RAMP_TABLE_SIZE, int(m.extend == "EXTRAPOLATED")],
+           ins, [out])
+    return [out]
+
+
 SUPPORTED = {
     "ShaderNodeTexCoord": _tex_coord, "ShaderNodeUVMap": _uv_map,
     "ShaderNodeNewGeometry": _geometry, "ShaderNodeObjectInfo": _object_info,
@@ -594,6 +678,9 @@ SUPPORTED = {
     "ShaderNodeRGBToBW": _rgb_to_bw, "ShaderNodeTexChecker": _checker,
     "ShaderNodeTexGradient": _gradient, "ShaderNodeTexWhiteNoise": _white_noise,
     "ShaderNodeTexNoise": _noise, "ShaderNodeTexVoronoi": _voronoi,
+    "ShaderNodeTexWave": _wave, "ShaderNodeTexMagic": _magic, "ShaderNodeTexBrick": _brick,
+    "ShaderNodeBlackbody": _blackbody, "ShaderNodeRGBCurve": _rgb_curves,
+    "ShaderNodeFloatCurve": _float_curve,
 }
 """bl_idname -> handler of every node the compiler translates (plus Reroute, Group,
 Group Input / Output and muted nodes, handled by the walk itself)."""

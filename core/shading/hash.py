@@ -136,7 +136,7 @@ def hash_float4_to_float(x, y, z, w):
 # --- PCG (signed, masked to 31 bits at the end) -----------------------------------------
 
 @njit(**_JIT)
-def _mul32(a, b):
+def mul32(a, b):
     """(a * b) mod 2^32 for a, b in [0, 2^32) without int64 overflow."""
     lo = a * (b & 0xFFFF)
     hi = ((a * (b >> 16)) & 0xFFFF) << 16
@@ -152,31 +152,31 @@ def _xorshift16(v):
 
 @njit(**_JIT)
 def hash_pcg2d(x, y):
-    x = (_mul32(x & M32, 1664525) + 1013904223) & M32
-    y = (_mul32(y & M32, 1664525) + 1013904223) & M32
-    x = (x + _mul32(y, 1664525)) & M32
-    y = (y + _mul32(x, 1664525)) & M32
+    x = (mul32(x & M32, 1664525) + 1013904223) & M32
+    y = (mul32(y & M32, 1664525) + 1013904223) & M32
+    x = (x + mul32(y, 1664525)) & M32
+    y = (y + mul32(x, 1664525)) & M32
     x = _xorshift16(x)
     y = _xorshift16(y)
-    x = (x + _mul32(y, 1664525)) & M32
-    y = (y + _mul32(x, 1664525)) & M32
+    x = (x + mul32(y, 1664525)) & M32
+    y = (y + mul32(x, 1664525)) & M32
     return x & 0x7FFFFFFF, y & 0x7FFFFFFF
 
 
 @njit(**_JIT)
 def hash_pcg3d(x, y, z):
-    x = (_mul32(x & M32, 1664525) + 1013904223) & M32
-    y = (_mul32(y & M32, 1664525) + 1013904223) & M32
-    z = (_mul32(z & M32, 1664525) + 1013904223) & M32
-    x = (x + _mul32(y, z)) & M32
-    y = (y + _mul32(z, x)) & M32
-    z = (z + _mul32(x, y)) & M32
+    x = (mul32(x & M32, 1664525) + 1013904223) & M32
+    y = (mul32(y & M32, 1664525) + 1013904223) & M32
+    z = (mul32(z & M32, 1664525) + 1013904223) & M32
+    x = (x + mul32(y, z)) & M32
+    y = (y + mul32(z, x)) & M32
+    z = (z + mul32(x, y)) & M32
     x = _xorshift16(x)
     y = _xorshift16(y)
     z = _xorshift16(z)
-    x = (x + _mul32(y, z)) & M32
-    y = (y + _mul32(z, x)) & M32
-    z = (z + _mul32(x, y)) & M32
+    x = (x + mul32(y, z)) & M32
+    y = (y + mul32(z, x)) & M32
+    z = (z + mul32(x, y)) & M32
     return x & 0x7FFFFFFF, y & 0x7FFFFFFF, z & 0x7FFFFFFF
 
 

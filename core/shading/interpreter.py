@@ -18,7 +18,8 @@ from .. import _numba_cache  # noqa: F401
 from . import program as pg
 from .inputs import ShadingInputs
 from .nodes import math_op, vector_math, blend, map_range, vector_map_range_1, mapping, \
-    ramp_lookup, rgb_to_hsv, hsv_to_rgb, checker, gradient, white_noise, clamp
+    ramp_lookup, curve_lookup, rgb_to_hsv, hsv_to_rgb, checker, gradient, white_noise, clamp, \
+    wave, magic, brick, blackbody_rec709
 from .noise import noise_texture
 from .voronoi import voronoi_texture
 
@@ -196,6 +197,47 @@ def _run(r, ins, tables):
         r[a[10]], r[a[10] + 1], r[a[10] + 2] = cr, cg, cb
         r[a[11]], r[a[11] + 1], r[a[11] + 2] = px, py, pz
         r[a[12]] = 0.0
+    elif op == pg.OP_WAVE:
+        s = r[a[1]]
+        f = wave(ins[1], ins[2], ins[3], ins[4], r[a[0]] * s, r[a[0] + 1] * s, r[a[0] + 2] * s,
+                 r[a[2]], r[a[3]], r[a[4]], r[a[5]], r[a[6]])
+        r[a[7]] = r[a[7] + 1] = r[a[7] + 2] = f
+        r[a[8]] = f
+    elif op == pg.OP_MAGIC:
+        x, y, z = magic(r[a[0]], r[a[0] + 1], r[a[0] + 2], r[a[1]], ins[1], r[a[2]])
+        r[a[3]], r[a[3] + 1], r[a[3] + 2] = x, y, z
+        r[a[4]] = (x + y + z) / 3.0
+    elif op == pg.OP_BRICK:
+        s = r[a[4]]
+        tint, f = brick(r[a[0]] * s, r[a[0] + 1] * s, r[a[5]], r[a[6]], r[a[7]], r[a[8]],
+                        r[a[9]], r[a[10]], ins[1], r[a[11]], ins[2])
+        for c in range(3):
+            c1 = r[a[1] + c]
+            if f != 1.0:
+                c1 = (1.0 - tint) * c1 + tint * r[a[2] + c]
+            r[a[12] + c] = c1 * (1.0 - f) + r[a[3] + c] * f
+        r[a[13]] = f
+    elif op == pg.OP_BLACKBODY:
+        x, y, z = blackbody_rec709(r[a[0]])
+        for c in range(3):  # row c of the Rec.709 -> scene linear matrix is operand 1 + c
+            m = a[1 + c]
+            r[a[4] + c] = max(r[m] * x + r[m + 1] * y + r[m + 2] * z, 0.0)
+    elif op == pg.OP_CURVES:
+        fac = r[a[0]]
+        lo, hi = r[a[2]], r[a[3]]
+        for c in range(3):
+            v = r[a[1] + c]
+            t = (v - lo) / (hi - lo)
+            mapped = curve_lookup(tables, ins[1], ins[2], t, c) if ins[3] else \
+                ramp_lookup(tables, ins[1], ins[2], t, True, c)
+            r[a[4] + c] = (1.0 - fac) * v + fac * mapped
+    elif op == pg.OP_FLOAT_CURVE:
+        fac = r[a[0]]
+        v = r[a[1]]
+        t = (v - r[a[2]]) / (r[a[3]] - r[a[2]])
+        mapped = curve_lookup(tables, ins[1], ins[2], t, 0) if ins[3] else \
+            ramp_lookup(tables, ins[1], ins[2], t, True, 0)
+        r[a[4]] = (1.0 - fac) * v + fac * mapped
 
 
 @njit(parallel=True, **dict(cache=True, error_model="numpy"))

@@ -15,7 +15,8 @@ from numba import njit
 
 from .. import _numba_cache  # noqa: F401
 from .hash import hash_float_to_float, hash_float2_to_float, hash_float3_to_float, \
-    hash_float4_to_float
+    hash_float4_to_float, mul32
+from .noise import fractal, NOISE_FBM
 
 _JIT = dict(cache=True, error_model="numpy")
 
@@ -611,3 +612,179 @@ def white_noise(dims, x, y, z, w):
 LUMINANCE_REC709 = np.array([0.2126729, 0.7151522, 0.0721750], np.float32)
 """Rec.709 luminance weights (Blender's default scene-linear space); the exporter passes
 the configuration's own as constants to RGB to BW."""
+
+
+# --- Wave, Magic, Brick, Blackbody (svm/wave.h, magic.h, brick.h, math_util.h) ----------
+
+WAVE_TYPES = {"BANDS": 0, "RINGS": 1}
+WAVE_BANDS_DIRECTIONS = {"X": 0, "Y": 1, "Z": 2, "DIAGONAL": 3}
+WAVE_RINGS_DIRECTIONS = {"X": 0, "Y": 1, "Z": 2, "SPHERICAL": 3}
+WAVE_PROFILES = {"SIN": 0, "SAW": 1, "TRI": 2}
+
+
+@njit(**_JIT)
+def wave(kind, bands_dir, rings_dir, profile, x, y, z, distortion, detail, dscale,
+         droughness, phase):
+    """Cycles' svm_wave at the scaled point (x, y, z)."""
+    x = (x + 0.000001) * 0.999999
+    y = (y + 0.000001) * 0.999999
+    z = (z + 0.000001) * 0.999999
+    if kind == 0:
+        if bands_dir == 0:
+            n = x * 20.0
+        elif bands_dir == 1:
+            n = y * 20.0
+        elif bands_dir == 2:
+            n = z * 20.0
+        else:
+            n = (x + y + z) * 10.0
+    else:
+        rx, ry, rz = x, y, z
+        if rings_dir == 0:
+            rx = 0.0
+        elif rings_dir == 1:
+            ry = 0.0
+        elif rings_dir == 2:
+            rz = 0.0
+        n = math.sqrt(rx * rx + ry * ry + rz * rz) * 20.0
+    n += phase
+    if distortion != 0.0:
+        f = fractal(x * dscale, y * dscale, z * dscale, 0.0, 3, detail, droughness, 2.0, 0.0,
+                    0.0, NOISE_FBM, True)
+        n += distortion * (f * 2.0 - 1.0)
+    if profile == 0:
+        return 0.5 + 0.5 * math.sin(n - math.pi / 2.0)
+    n /= 2.0 * math.pi
+    if profile == 1:
+        return n - math.floor(n)
+    return abs(n - math.floor(n + 0.5)) * 2.0
+
+
+@njit(**_JIT)
+def magic(x, y, z, scale, depth, distortion):
+    """Cycles' svm_magic: (r, g, b)."""
+    px = np.fmod(x * scale, 2.0 * math.pi)
+    py = np.fmod(y * scale, 2.0 * math.pi)
+    pz = np.fmod(z * scale, 2.0 * math.pi)
+    a = math.sin((px + py + pz) * 5.0)
+    b = math.cos((-px + py - pz) * 5.0)
+    c = -math.cos((-px - py + pz) * 5.0)
+    d = distortion
+    if depth > 0:
+        a *= d
+        b *= d
+        c *= d
+        b = -math.cos(a - b + c) * d
+        if depth > 1:
+            a = math.cos(a - b - c) * d
+            if depth > 2:
+                c = math.sin(-a - b - c) * d
+                if depth > 3:
+                    a = -math.cos(-a + b - c) * d
+                    if depth > 4:
+                        b = -math.sin(-a + b + c) * d
+                        if depth > 5:
+                            b = -math.cos(-a + b + c) * d
+                            if depth > 6:
+                                a = math.cos(a + b + c) * d
+                                if depth > 7:
+                                    c = math.sin(a + b - c) * d
+                                    if depth > 8:
+                                        a = -math.cos(-a - b + c) * d
+                                        if depth > 9:
+                                            b = -math.sin(a - b + c) * d
+    if d != 0.0:
+        a /= 2.0 * d
+        b /= 2.0 * d
+        c /= 2.0 * d
+    return 0.5 - a, 0.5 - b, 0.5 - c
+
+
+@njit(inline="always", **_JIT)
+def _brick_noise(n):
+    n = (n + 1013) & 0x7FFFFFFF
+    n = (n >> 13) ^ n
+    inner = (mul32(mul32(n, n), 60493) + 19990303) & 0xFFFFFFFF
+    nn = (mul32(n, inner) + 1376312589) & 0x7FFFFFFF
+    return 0.5 * (float(nn) / 1073741824.0)
+
+
+@njit(**_JIT)
+def brick(x, y, mortar_size, mortar_smooth, bias, brick_width, row_height, offset_amount,
+          offset_frequency, squash_amount, squash_frequency):
+    """Cycles' svm_brick at the scaled point: (tint, mortar)."""
+    rownum = int(math.floor(y / row_height))
+    offset = 0.0
+    if offset_frequency and squash_frequency:
+        if rownum % squash_frequency == 0:
+            brick_width *= squash_amount
+        if rownum % offset_frequency == 0:
+            offset = brick_width * offset_amount
+    bricknum = int(math.floor((x + offset) / brick_width))
+    bx = (x + offset) - brick_width * bricknum
+    by = y - row_height * rownum
+    key = ((rownum << 16) + (bricknum & 0xFFFF)) & 0xFFFFFFFF
+    tint = clamp(_brick_noise(key) + bias, 0.0, 1.0)
+    min_dist = min(min(bx, by), min(brick_width - bx, row_height - by))
+    if min_dist >= mortar_size:
+        mortar = 0.0
+    elif mortar_smooth == 0.0:
+        mortar = 1.0
+    else:
+        f = (1.0 - min_dist / mortar_size) / mortar_smooth
+        mortar = 0.0 if f <= 0.0 else (1.0 if f >= 1.0 else (3.0 - 2.0 * f) * f * f)
+    return tint, mortar
+
+
+_BB_R = np.array([
+    [1.61919106e+03, -2.05010916e-03, 5.02995757e+00],
+    [2.48845471e+03, -1.11330907e-03, 3.22621544e+00],
+    [3.34143193e+03, -4.86551192e-04, 1.76486769e+00],
+    [4.09461742e+03, -1.27446582e-04, 7.25731635e-01],
+    [4.67028036e+03, 2.91258199e-05, 1.26703442e-01],
+    [4.59509185e+03, 2.87495649e-05, 1.50345020e-01],
+    [3.78717450e+03, 9.35907826e-06, 3.99075871e-01]])
+_BB_G = np.array([
+    [-4.88999748e+02, 6.04330754e-04, -7.55807526e-02],
+    [-7.55994277e+02, 3.16730098e-04, 4.78306139e-01],
+    [-1.02363977e+03, 1.20223470e-04, 9.36662319e-01],
+    [-1.26571316e+03, 4.87340896e-06, 1.27054498e+00],
+    [-1.42529332e+03, -4.01150431e-05, 1.43972784e+00],
+    [-1.17554822e+03, -2.16378048e-05, 1.30408023e+00],
+    [-5.00799571e+02, -4.59832026e-06, 1.09098763e+00]])
+_BB_B = np.array([
+    [5.96945309e-11, -4.85742887e-08, -9.70622247e-05, -4.07936148e-03],
+    [2.40430366e-11, 5.55021075e-08, -1.98503712e-04, 2.89312858e-02],
+    [-1.40949732e-11, 1.89878968e-07, -3.56632824e-04, 9.10767778e-02],
+    [-3.61460868e-11, 2.84822009e-07, -4.93211319e-04, 1.56723440e-01],
+    [-1.97075738e-11, 1.75359352e-07, -2.50542825e-04, -2.22783266e-02],
+    [-1.61997957e-13, -1.64216008e-08, 3.86216271e-04, -7.38077418e-01],
+    [6.72650283e-13, -2.73078809e-08, 4.24098264e-04, -7.52335691e-01]])
+"""Cycles' blackbody fit (kernel/tables.h): Rec.709 colour of temperature t in 800-12000 K."""
+
+
+@njit(**_JIT)
+def blackbody_rec709(t):
+    """Cycles' svm_math_blackbody_color_rec709 (not clamped; the node clamps at 0)."""
+    if t >= 12000.0:
+        return 0.8262954810464208, 0.9945080501520986, 1.566307710274283
+    if t < 800.0:
+        return 5.413294490189271, -0.20319390035873933, -0.0822535242887164
+    if t >= 6365.0:
+        i = 6
+    elif t >= 3315.0:
+        i = 5
+    elif t >= 1902.0:
+        i = 4
+    elif t >= 1449.0:
+        i = 3
+    elif t >= 1167.0:
+        i = 2
+    elif t >= 965.0:
+        i = 1
+    else:
+        i = 0
+    inv = 1.0 / t
+    return (_BB_R[i, 0] * inv + _BB_R[i, 1] * t + _BB_R[i, 2],
+            _BB_G[i, 0] * inv + _BB_G[i, 1] * t + _BB_G[i, 2],
+            ((_BB_B[i, 0] * t + _BB_B[i, 1]) * t + _BB_B[i, 2]) * t + _BB_B[i, 3])

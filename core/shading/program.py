@@ -12,7 +12,8 @@ instructions: (I, INSTRUCTION_WIDTH) int32. Column 0 is the opcode (OP_*), colum
   a ``v`` operand is the first of 3 registers; unused columns = -1).
 constants: (K,) float32, the values of registers [0, K).
 tables: (T, 4) float32, rows baked by the exporter (ColorRamp: RGBA at 256 evenly spaced
-  factors, Cycles' RAMP_TABLE_SIZE), indexed by integer parameters.
+  factors, Cycles' RAMP_TABLE_SIZE; RGB / Float Curves: the curve at 256 evenly spaced x
+  over [min x, max x]), indexed by integer parameters.
 n_registers: int >= K.
 outputs: (O, 4) int32, one row per output value: register, target (TARGET_*), closure
   index (the material's closure it feeds, for TARGET_CLOSURE; else 0), slot (a
@@ -35,7 +36,8 @@ FIRST_OPERAND = 5
 (OP_INPUT, OP_MATH, OP_VECTOR_MATH, OP_MIX_FLOAT, OP_MIX_VECTOR, OP_MIX_VECTOR_NONUNIFORM,
  OP_MIX_COLOR, OP_MAP_RANGE, OP_VECTOR_MAP_RANGE, OP_CLAMP, OP_SEPARATE, OP_COMBINE, OP_RAMP,
  OP_MAPPING, OP_INVERT, OP_GAMMA, OP_HSV, OP_BRIGHT_CONTRAST, OP_RGB_TO_BW, OP_CHECKER,
- OP_GRADIENT, OP_WHITE_NOISE, OP_NOISE, OP_VORONOI) = range(24)
+ OP_GRADIENT, OP_WHITE_NOISE, OP_NOISE, OP_VORONOI, OP_WAVE, OP_MAGIC, OP_BRICK, OP_BLACKBODY,
+ OP_CURVES, OP_FLOAT_CURVE) = range(30)
 
 SIGNATURES = {
     OP_INPUT: ">v",                  # ints: source (SOURCE_*), index (UV map / attribute)
@@ -66,6 +68,17 @@ SIGNATURES = {
     OP_VORONOI: "vffffffff>fvvf",    # vector, W, scale, detail, roughness, lacunarity,
                                      # smoothness, exponent, randomness -> distance, colour,
                                      # position, W; ints: dims, feature, metric, normalize
+    OP_WAVE: "vffffff>vf",           # vector, scale, distortion, detail, detail scale,
+                                     # detail roughness, phase; ints: WAVE_TYPES,
+                                     # bands direction, rings direction, profile
+    OP_MAGIC: "vff>vf",              # vector, scale, distortion; ints: depth
+    OP_BRICK: "vvvvffffffff>vf",     # vector, colour 1, 2, mortar, scale, mortar size,
+                                     # mortar smooth, bias, brick width, row height, offset,
+                                     # squash; ints: offset frequency, squash frequency
+    OP_BLACKBODY: "fvvv>v",          # temperature (K), the 3 rows of Rec.709 -> scene linear
+    OP_CURVES: "fvff>v",             # factor, colour, min x, max x; ints: first row, rows,
+                                     # extrapolate (RGB Curves, the table holds R, G, B)
+    OP_FLOAT_CURVE: "ffff>f",        # factor, value, min x, max x; ints as OP_CURVES
 }
 """Register operands of each opcode: ``f`` one register, ``v`` three; ``>`` separates the
 inputs from the outputs."""
@@ -78,7 +91,9 @@ OP_NAMES = {OP_INPUT: "INPUT", OP_MATH: "MATH", OP_VECTOR_MATH: "VECTOR_MATH",
             OP_RAMP: "RAMP", OP_MAPPING: "MAPPING", OP_INVERT: "INVERT", OP_GAMMA: "GAMMA",
             OP_HSV: "HSV", OP_BRIGHT_CONTRAST: "BRIGHT_CONTRAST", OP_RGB_TO_BW: "RGB_TO_BW",
             OP_CHECKER: "CHECKER", OP_GRADIENT: "GRADIENT", OP_WHITE_NOISE: "WHITE_NOISE",
-            OP_NOISE: "NOISE", OP_VORONOI: "VORONOI"}
+            OP_NOISE: "NOISE", OP_VORONOI: "VORONOI", OP_WAVE: "WAVE", OP_MAGIC: "MAGIC",
+            OP_BRICK: "BRICK", OP_BLACKBODY: "BLACKBODY", OP_CURVES: "CURVES",
+            OP_FLOAT_CURVE: "FLOAT_CURVE"}
 
 # --- OP_INPUT sources (ints column 1); all write 3 registers, scalars in the first -------
 (SOURCE_POSITION, SOURCE_NORMAL, SOURCE_TRUE_NORMAL, SOURCE_INCOMING, SOURCE_BACKFACING,
@@ -160,9 +175,9 @@ class ShaderProgram:
                                  f"beyond its signature {sig!r}")
             if op == OP_INPUT and not 0 <= row[1] < SOURCE_COUNT:
                 raise ValueError(f"{who}: instruction {i} reads unknown input source {row[1]}")
-            if op == OP_RAMP and not (row[2] >= 2 and 0 <= row[1]
+            if op in (OP_RAMP, OP_CURVES, OP_FLOAT_CURVE) and not (row[2] >= 2 and 0 <= row[1]
                                       and row[1] + row[2] <= self.tables.shape[0]):
-                raise ValueError(f"{who}: instruction {i} (RAMP) rows [{row[1]}, "
+                raise ValueError(f"{who}: instruction {i} ({OP_NAMES[op]}) rows [{row[1]}, "
                                  f"{row[1] + row[2]}) outside the {self.tables.shape[0]}-row "
                                  f"table")
         if self.outputs.ndim != 2 or self.outputs.shape[1] != 4:
