@@ -692,3 +692,43 @@ def test_unsupported_node_and_cycle_are_reported_once_with_default_values():
     folded = compile_sockets(mat, [(em.inputs["Color"], pg.TARGET_EMISSION, 0, 0)])
     assert folded.program is None
     np.testing.assert_allclose(folded.constant[0], 2 * default, rtol=1e-6)
+
+
+def test_unlinked_material_has_no_program_and_constant_subgraphs_fold():
+    """Emission with a plain colour: no program, the colour as the constant. A Math chain
+    on constants (0.3 * 2 + 0.1) mixed with UV: the chain folds into one constant, only the
+    UV input, the Separate and the Mix remain, and the value is exact."""
+    from photon_map.core.shading import program as pg
+    from photon_map.photon_engine.export_shader import compile_sockets
+
+    def plain(tree, color):
+        color.default_value = (0.2, 0.4, 0.6, 1.0)
+
+    def partly(tree, color):
+        m1 = node(tree, "ShaderNodeMath", operation='MULTIPLY')
+        m1.inputs[0].default_value = 0.3
+        m1.inputs[1].default_value = 2.0
+        m2 = node(tree, "ShaderNodeMath", operation='ADD')
+        link(tree, m1.outputs[0], m2.inputs[0])
+        m2.inputs[1].default_value = 0.1
+        a, _ = uv_scalars(tree, sx=1.0, ox=0.0)
+        mix = node(tree, "ShaderNodeMix", data_type='FLOAT', clamp_factor=False)
+        link(tree, m2.outputs[0], inp(mix, "Factor_Float"))
+        link(tree, a, inp(mix, "A_Float"))
+        setdef(mix, "B_Float", 1.0)
+        link(tree, next(o for o in mix.outputs if o.identifier == "Result_Float"), color)
+
+    scene, planes, g = ss.layout([("Plain", plain), ("Partly", partly)])
+    compiled, warnings = ss.compile_planes(planes)
+    assert not warnings
+    plain_result = compiled[0][1]
+    assert plain_result.program is None
+    np.testing.assert_allclose(plain_result.constant[0], (0.2, 0.4, 0.6), rtol=1e-6)
+    prog = compiled[1][1].program
+    ops = [pg.OP_NAMES[int(op)] for op in prog.instructions[:, 0]]
+    assert ops.count("MATH") == 1, ops  # the UV's multiply-add; 0.3 * 2 + 0.1 folded
+    assert "MIX_FLOAT" in ops
+    img, _ = ss.photon_map_image(planes, g, compiled=compiled)
+    u = ss.plane_inputs(planes[1], g).uv[0, :, 0].reshape(ss.PIXELS, ss.PIXELS)
+    block = img[:ss.PIXELS, ss.PIXELS:2 * ss.PIXELS, 0]
+    np.testing.assert_allclose(block, u * 0.3 + 0.7, rtol=1e-5)
