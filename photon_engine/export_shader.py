@@ -28,6 +28,7 @@ from ..core.shading.interpreter import evaluate
 from ..core.shading.inputs import ShadingInputs
 from ..core.shading.noise import NOISE_TYPES
 from ..core.shading.voronoi import FEATURES, METRICS
+from . import compat
 
 RAMP_TABLE_SIZE = 256
 """Rows per baked ColorRamp (Cycles' RAMP_TABLE_SIZE)."""
@@ -570,7 +571,8 @@ def _voronoi(b, node, path):
     ins = [b.texture_vector(node, path)] + [b.input(node, n, path, "f") for n in names]
     dist, color, pos, w = b.new("f"), b.new("c"), b.new("v"), b.new("f")
     b.emit(pg.OP_VORONOI, [dims, FEATURES[node.feature], METRICS[node.distance],
-                           int(node.normalize)], ins, [dist, color, pos, w])
+                           int(node.normalize) | (0 if compat.VORONOI_PCG_HASH else 2)],
+           ins, [dist, color, pos, w])
     return {"Distance": dist, "Color": color, "Position": pos, "W": w}
 
 

@@ -24,7 +24,8 @@ from tests.blender import test_shader_nodes as t  # noqa: E402
 def scenes():
     yield "Inputs", [(f"{k}", t.input_plane(k)) for k in t.INPUTS]
     yield "Math", [("Math " + op, t.math_plane([op])) for op in t.MATH_OPS]
-    yield "Vector Math", [(f"Vector Math {op}", t.vector_plane(op)) for op in t.VECTOR_OPS]
+    yield "Vector Math", [(f"Vector Math {op}", t.vector_plane(op)) for op in
+                         t.available("ShaderNodeVectorMath", "operation", t.VECTOR_OPS)]
     specs = [(f"Mix colour {b}", t.mix_color_plane(b)) for b in t.BLENDS]
     specs += [("Mix float", t.mix_plane('FLOAT')), ("Mix vector", t.mix_plane('VECTOR')),
               ("Mix vector non-uniform", t.mix_plane('VECTOR', nonuniform=True))]

@@ -67,7 +67,8 @@ SIGNATURES = {
                                      # colour needed (0: the colour's G and B are 0)
     OP_VORONOI: "vffffffff>fvvf",    # vector, W, scale, detail, roughness, lacunarity,
                                      # smoothness, exponent, randomness -> distance, colour,
-                                     # position, W; ints: dims, feature, metric, normalize
+                                     # position, W; ints: dims, feature, metric, flags
+                                     # (1: normalize, 2: Blender 4.x feature points)
     OP_WAVE: "vffffff>vf",           # vector, scale, distortion, detail, detail scale,
                                      # detail roughness, phase; ints: WAVE_TYPES,
                                      # bands direction, rings direction, profile

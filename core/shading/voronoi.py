@@ -1,8 +1,8 @@
 """Cycles' Voronoi Texture (kernel/svm/voronoi.h) in 2 and 3 D: F1, F2, smooth F1 and
 distance to edge, with the Euclidean, Manhattan, Chebychev and Minkowski metrics and the
 fractal octaves (detail, roughness, lacunarity, normalize) of Blender 4.0+. Feature
-points come from the PCG integer hashes (Blender 5.0+; 4.x hashed the cell's float
-coordinates with lookup3, so 4.x cells differ: docs/shading.md).
+points come from the PCG integer hashes (Blender 5.0+), or with ``legacy`` from lookup3
+on the cell's float coordinates (Blender 4.x, before Cycles commit c24e0712c of June 2025).
 
 A 2-D point is (x, y, 0) with a one-cell-thick search in z; the metrics then see a zero
 third component, which leaves every metric unchanged.
@@ -15,7 +15,8 @@ import math
 from numba import njit
 
 from .. import _numba_cache  # noqa: F401
-from .hash import hash_int2_to_float2, hash_int3_to_float3
+from .hash import hash_int2_to_float2, hash_int3_to_float3, hash_float2_to_float, \
+    hash_float3_to_float, hash_float4_to_float
 
 _JIT = dict(cache=True, error_model="numpy")
 
@@ -56,8 +57,14 @@ def _bound(dx, dy, dz, metric, exponent):
 
 
 @njit(inline="always", **_JIT)
-def _cell_point(cx, cy, cz, dims):
+def _cell_point(cx, cy, cz, dims, legacy):
     """The feature point's offset in [0, 1)^dims of integer cell (cx, cy, cz)."""
+    if legacy:
+        x, y, z = float(cx), float(cy), float(cz)
+        if dims == 2:
+            return hash_float2_to_float(x, y), hash_float3_to_float(x, y, 1.0), 0.0
+        return (hash_float3_to_float(x, y, z), hash_float4_to_float(x, y, z, 1.0),
+                hash_float4_to_float(x, y, z, 2.0))
     if dims == 2:
         a, b = hash_int2_to_float2(cx, cy)
         return a, b, 0.0
@@ -65,7 +72,14 @@ def _cell_point(cx, cy, cz, dims):
 
 
 @njit(inline="always", **_JIT)
-def _cell_color(cx, cy, cz, dims):
+def _cell_color(cx, cy, cz, dims, legacy):
+    if legacy:
+        x, y, z = float(cx), float(cy), float(cz)
+        if dims == 2:
+            return (hash_float2_to_float(x, y), hash_float3_to_float(x, y, 1.0),
+                    hash_float3_to_float(x, y, 2.0))
+        return (hash_float3_to_float(x, y, z), hash_float4_to_float(x, y, z, 1.0),
+                hash_float4_to_float(x, y, z, 2.0))
     return hash_int3_to_float3(cx, cy, 0 if dims == 2 else cz)
 
 
@@ -79,7 +93,7 @@ def _smoothstep01(x):
 
 
 @njit(**_JIT)
-def octave(x, y, z, dims, feature, metric, exponent, randomness, smoothness):
+def octave(x, y, z, dims, feature, metric, exponent, randomness, smoothness, legacy):
     """One octave of F1 / F2 / smooth F1 at (x, y, z): (distance, r, g, b, px, py, pz)."""
     fx, fy, fz = math.floor(x), math.floor(y), math.floor(z) if dims == 3 else 0.0
     lx, ly, lz = x - fx, y - fy, (z - fz) if dims == 3 else 0.0
@@ -93,7 +107,7 @@ def octave(x, y, z, dims, feature, metric, exponent, randomness, smoothness):
         for k in range(-2 * kr, 2 * kr + 1):
             for j in range(-2, 3):
                 for i in range(-2, 3):
-                    ox, oy, oz = _cell_point(cx + i, cy + j, cz + k, dims)
+                    ox, oy, oz = _cell_point(cx + i, cy + j, cz + k, dims, legacy)
                     px = i + ox * randomness
                     py = j + oy * randomness
                     pz = k + oz * randomness
@@ -102,7 +116,7 @@ def octave(x, y, z, dims, feature, metric, exponent, randomness, smoothness):
                     corr = smoothness * h * (1.0 - h)
                     sd = (1.0 - h) * sd + h * d - corr
                     corr /= 1.0 + 3.0 * smoothness
-                    r, g, b = _cell_color(cx + i, cy + j, cz + k, dims)
+                    r, g, b = _cell_color(cx + i, cy + j, cz + k, dims, legacy)
                     sr = (1.0 - h) * sr + h * r - corr
                     sg = (1.0 - h) * sg + h * g - corr
                     sb = (1.0 - h) * sb + h * b - corr
@@ -116,7 +130,7 @@ def octave(x, y, z, dims, feature, metric, exponent, randomness, smoothness):
     for k in range(-kr, kr + 1):
         for j in range(-1, 2):
             for i in range(-1, 2):
-                ox, oy, oz = _cell_point(cx + i, cy + j, cz + k, dims)
+                ox, oy, oz = _cell_point(cx + i, cy + j, cz + k, dims, legacy)
                 px = i + ox * randomness
                 py = j + oy * randomness
                 pz = k + oz * randomness
@@ -132,15 +146,15 @@ def octave(x, y, z, dims, feature, metric, exponent, randomness, smoothness):
                     if d < d1:
                         d1, o1x, o1y, o1z, p1x, p1y, p1z = d, i, j, k, px, py, pz
     if feature == F2:
-        r, g, b = _cell_color(cx + o2x, cy + o2y, cz + o2z, dims)
+        r, g, b = _cell_color(cx + o2x, cy + o2y, cz + o2z, dims, legacy)
         return d2, r, g, b, p2x + fx, p2y + fy, (p2z + fz) if dims == 3 else 0.0
     d = _distance(p1x - lx, p1y - ly, p1z - lz, metric, exponent)
-    r, g, b = _cell_color(cx + o1x, cy + o1y, cz + o1z, dims)
+    r, g, b = _cell_color(cx + o1x, cy + o1y, cz + o1z, dims, legacy)
     return d, r, g, b, p1x + fx, p1y + fy, (p1z + fz) if dims == 3 else 0.0
 
 
 @njit(**_JIT)
-def distance_to_edge(x, y, z, dims, randomness):
+def distance_to_edge(x, y, z, dims, randomness, legacy):
     """Cycles' voronoi_distance_to_edge (Euclidean, whatever the metric)."""
     fx, fy, fz = math.floor(x), math.floor(y), math.floor(z) if dims == 3 else 0.0
     lx, ly, lz = x - fx, y - fy, (z - fz) if dims == 3 else 0.0
@@ -151,7 +165,7 @@ def distance_to_edge(x, y, z, dims, randomness):
     for k in range(-kr, kr + 1):
         for j in range(-1, 2):
             for i in range(-1, 2):
-                ox, oy, oz = _cell_point(cx + i, cy + j, cz + k, dims)
+                ox, oy, oz = _cell_point(cx + i, cy + j, cz + k, dims, legacy)
                 tx = i + ox * randomness - lx
                 ty = j + oy * randomness - ly
                 tz = (k + oz * randomness - lz) if dims == 3 else 0.0
@@ -162,7 +176,7 @@ def distance_to_edge(x, y, z, dims, randomness):
     for k in range(-kr, kr + 1):
         for j in range(-1, 2):
             for i in range(-1, 2):
-                ox, oy, oz = _cell_point(cx + i, cy + j, cz + k, dims)
+                ox, oy, oz = _cell_point(cx + i, cy + j, cz + k, dims, legacy)
                 tx = i + ox * randomness - lx
                 ty = j + oy * randomness - ly
                 tz = (k + oz * randomness - lz) if dims == 3 else 0.0
@@ -177,9 +191,10 @@ def distance_to_edge(x, y, z, dims, randomness):
 
 @njit(**_JIT)
 def voronoi_texture(x, y, z, dims, feature, metric, normalize, scale, detail, roughness,
-                    lacunarity, smoothness, exponent, randomness):
+                    lacunarity, smoothness, exponent, randomness, legacy=False):
     """Cycles' Voronoi Texture node at vector (x, y, z):
-    (distance, r, g, b, px, py, pz); position is in the input's space (divided by scale)."""
+    (distance, r, g, b, px, py, pz); position is in the input's space (divided by scale);
+    ``legacy``: Blender 4.x's feature points (module doc)."""
     detail = min(max(detail, 0.0), 15.0)
     roughness = min(max(roughness, 0.0), 1.0)
     randomness = min(max(randomness, 0.0), 1.0)
@@ -193,7 +208,7 @@ def voronoi_texture(x, y, z, dims, feature, metric, normalize, scale, detail, ro
         sc = 1.0
         dist = 8.0
         for i in range(int(math.ceil(detail)) + 1):
-            od = distance_to_edge(x * sc, y * sc, z * sc, dims, randomness)
+            od = distance_to_edge(x * sc, y * sc, z * sc, dims, randomness, legacy)
             if zero_input:
                 dist = od
                 break
@@ -222,7 +237,7 @@ def voronoi_texture(x, y, z, dims, feature, metric, normalize, scale, detail, ro
     opx = opy = opz = 0.0
     for i in range(int(math.ceil(detail)) + 1):
         d, r, g, b, px, py, pz = octave(x * sc, y * sc, z * sc, dims, feature, metric,
-                                        exponent, randomness, smoothness)
+                                        exponent, randomness, smoothness, legacy)
         if zero_input:
             max_amp = 1.0
             od, orr, og, ob, opx, opy, opz = d, r, g, b, px, py, pz
