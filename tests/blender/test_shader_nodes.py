@@ -19,7 +19,7 @@ bpy = pytest.importorskip("bpy")
 
 from tests.blender import shader_scenes as ss  # noqa: E402
 
-pytestmark = [pytest.mark.blender]
+pytestmark = [pytest.mark.blender, pytest.mark.api]  # passes on 4.2 and 5.2
 
 TOL = 1e-3
 
