@@ -27,7 +27,7 @@ _F = pg.FIRST_OPERAND
 _CHUNK = 256
 
 
-@njit(**dict(cache=True, error_model="numpy"))
+@njit(inline="always", **dict(cache=True, error_model="numpy"))
 def _load_input(r, ins, i, P, N, Ng, I, back, gen, obj, objn, oloc, orand, uv, attr):
     src = ins[1]
     idx = ins[2]
@@ -72,7 +72,7 @@ def _load_input(r, ins, i, P, N, Ng, I, back, gen, obj, objn, oloc, orand, uv, a
         r[o], r[o + 1], r[o + 2] = a[i, 0], a[i, 1], a[i, 2]
 
 
-@njit(**dict(cache=True, error_model="numpy"))
+@njit(inline="always", **dict(cache=True, error_model="numpy"))
 def _run(r, ins, tables):
     """Execute one instruction (not OP_INPUT) on register file r (float64)."""
     op = ins[0]
