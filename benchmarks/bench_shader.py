@@ -24,7 +24,8 @@ from core.scene import closures  # noqa: E402
 from core.shading import program as pg  # noqa: E402
 from core.shading.inputs import ShadingInputs  # noqa: E402
 from core.shading.interpreter import closure_params  # noqa: E402
-from core.shading.nodes import MATH_OPS, VECTOR_MATH_OPS, BLEND_TYPES  # noqa: E402
+from core.shading.converters import MATH_OPS, VECTOR_MATH_OPS  # noqa: E402
+from core.shading.color import BLEND_TYPES  # noqa: E402
 
 
 class Program:

@@ -23,7 +23,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..core.shading import program as pg
-from ..core.shading import nodes as cn
+from ..core.shading import converters as cn
+from ..core.shading import color as cc
+from ..core.shading import textures as ct
 from ..core.shading.interpreter import evaluate
 from ..core.shading.inputs import ShadingInputs
 from ..core.shading.noise import NOISE_TYPES
@@ -433,7 +435,7 @@ def _mix(b, node, path):
         ins = [b.input(node, "Factor_Float", path, "f")] + \
               [b.input(node, n, path, "c") for n in ("A_Color", "B_Color")]
         out = b.new("c")
-        b.emit(pg.OP_MIX_COLOR, [cn.BLEND_TYPES[node.blend_type], int(node.clamp_factor),
+        b.emit(pg.OP_MIX_COLOR, [cc.BLEND_TYPES[node.blend_type], int(node.clamp_factor),
                                  int(node.clamp_result)], ins, [out])
         return {"Result_Color": out}
     return {}
@@ -443,7 +445,7 @@ def _mix_rgb(b, node, path):
     ins = [b.input(node, "Fac", path, "f")] + [b.input(node, n, path, "c")
                                                 for n in ("Color1", "Color2")]
     out = b.new("c")
-    b.emit(pg.OP_MIX_COLOR, [cn.BLEND_TYPES[node.blend_type], 1, int(node.use_clamp)], ins,
+    b.emit(pg.OP_MIX_COLOR, [cc.BLEND_TYPES[node.blend_type], 1, int(node.use_clamp)], ins,
            [out])
     return [out]
 
@@ -529,7 +531,7 @@ def _checker(b, node, path):
 
 def _gradient(b, node, path):
     color, fac = b.new("c"), b.new("f")
-    b.emit(pg.OP_GRADIENT, [cn.GRADIENT_TYPES[node.gradient_type]],
+    b.emit(pg.OP_GRADIENT, [ct.GRADIENT_TYPES[node.gradient_type]],
            [b.texture_vector(node, path)], [color, fac])
     return [color, fac]
 
@@ -581,10 +583,10 @@ def _wave(b, node, path):
              "Phase Offset")
     ins = [b.texture_vector(node, path)] + [b.input(node, n, path, "f") for n in names]
     color, fac = b.new("c"), b.new("f")
-    b.emit(pg.OP_WAVE, [cn.WAVE_TYPES[node.wave_type],
-                        cn.WAVE_BANDS_DIRECTIONS[node.bands_direction],
-                        cn.WAVE_RINGS_DIRECTIONS[node.rings_direction],
-                        cn.WAVE_PROFILES[node.wave_profile]], ins, [color, fac])
+    b.emit(pg.OP_WAVE, [ct.WAVE_TYPES[node.wave_type],
+                        ct.WAVE_BANDS_DIRECTIONS[node.bands_direction],
+                        ct.WAVE_RINGS_DIRECTIONS[node.rings_direction],
+                        ct.WAVE_PROFILES[node.wave_profile]], ins, [color, fac])
     return [color, fac]
 
 

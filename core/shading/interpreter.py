@@ -17,9 +17,10 @@ from numba import njit, prange
 from .. import _numba_cache  # noqa: F401
 from . import program as pg
 from .inputs import ShadingInputs
-from .nodes import math_op, vector_math, blend, map_range, vector_map_range_1, mapping, \
-    ramp_lookup, curve_lookup, rgb_to_hsv, hsv_to_rgb, checker, gradient, white_noise, clamp, \
-    wave, magic, brick, blackbody_rec709
+from .converters import math_op, vector_math, map_range, vector_map_range_1, mapping, \
+    ramp_lookup, curve_lookup, clamp
+from .color import blend, rgb_to_hsv, hsv_to_rgb, blackbody_rec709
+from .textures import checker, gradient, white_noise, wave, magic, brick
 from .noise import noise_texture
 from .voronoi import voronoi_texture
 

@@ -9,7 +9,7 @@ from core.scene import closures
 from core.shading import program as pg
 from core.shading.inputs import ShadingInputs
 from core.shading.interpreter import evaluate, closure_params
-from core.shading.nodes import MATH_OPS, VECTOR_MATH_OPS
+from core.shading.converters import MATH_OPS, VECTOR_MATH_OPS
 
 W = pg.INSTRUCTION_WIDTH
 
