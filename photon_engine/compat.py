@@ -40,6 +40,12 @@ CRASHES_AT_EXIT = VERSION < (4, 3, 0)
 were registered (measured with bpy 4.2.23; 5.0.1 and 5.2.3 exit cleanly)."""
 
 
+VORONOI_PCG_HASH = VERSION >= (5, 0, 0)
+"""Cycles' Voronoi places its feature points with the PCG integer hashes from Blender 5.0
+(Cycles commit c24e0712c, June 2025); 4.x hashed the cells' float coordinates with lookup3
+(the shader program's Voronoi flag 2)."""
+
+
 def exit_process(code: int):
     """End the process with ``code``: ``sys.exit``, or where bpy crashes at shutdown
     (CRASHES_AT_EXIT) flush the standard streams and ``os._exit`` past the teardown."""

@@ -16,7 +16,7 @@ RANKS = {
     "_numba_cache": 0, "sampling": 0, "color": 0, "spectral": 0, "settings": 0, "presets": 0,
     "passes": 0,
     "scene": 1, "io": 1,
-    "materials": 2, "lights": 2, "media": 2, "memory": 2,
+    "materials": 2, "lights": 2, "media": 2, "memory": 2, "shading": 2,
     "prepared": 3,
     "photons": 4,
     "integrators": 5,

@@ -1,0 +1,126 @@
+"""The shader program interpreter's cost per hit point: a 25-node procedural material
+(wood-like: Mapping, Noise (detail 2, colour used), Voronoi, ColorRamp, Mix, Math, Vector Math, Map Range, HSV,
+Separate/Combine, Brightness/Contrast; base colour, roughness and metallic outputs)
+against constant inputs (no program: the closure rows broadcast per point), in one run.
+
+    .venv/bin/python benchmarks/bench_shader.py [--points 200000] [--repeat 5]
+
+Prints nanoseconds per hit point and the ratio; threads as numba's default (both cores).
+"""
+
+from __future__ import annotations
+
+import argparse
+import pathlib
+import sys
+import time
+
+import numpy as np
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from core.scene import closures  # noqa: E402
+from core.shading import program as pg  # noqa: E402
+from core.shading.inputs import ShadingInputs  # noqa: E402
+from core.shading.interpreter import closure_params  # noqa: E402
+from core.shading.converters import MATH_OPS, VECTOR_MATH_OPS  # noqa: E402
+from core.shading.color import BLEND_TYPES  # noqa: E402
+
+
+class Program:
+    """A tiny register allocator for hand-written programs (constants first)."""
+
+    def __init__(self):
+        self.consts, self.code, self.next = [], [], None
+
+    def c(self, *values):
+        self.consts.extend(values)
+        return len(self.consts) - len(values)
+
+    def reg(self, width=1):
+        r = self.next
+        self.next += width
+        return r
+
+    def op(self, op, ints, ins, widths):
+        outs = [self.reg(w) for w in widths]
+        row = [op] + list(ints) + [0] * (4 - len(ints)) + list(ins) + outs
+        self.code.append(row + [-1] * (pg.INSTRUCTION_WIDTH - len(row)))
+        return outs
+
+
+def wood_program() -> tuple[pg.ShaderProgram, int]:
+    p = Program()
+    zero3, one3 = p.c(0, 0, 0), p.c(1, 1, 1)
+    rot, scale3 = p.c(0.1, 0.4, 0.2), p.c(1, 1, 6)
+    z, o, half, two, five, eight = (p.c(v) for v in (0.0, 1.0, 0.5, 2.0, 5.0, 8.0))
+    lum = p.c(0.2126, 0.7152, 0.0722)
+    tint = p.c(0.6, 0.35, 0.15)
+    dark = p.c(0.25, 0.12, 0.05)
+    table = np.array([[t * 0.8, t * 0.5, t * 0.3, 1.0] for t in np.linspace(0, 1, 256)])
+    p.next = len(p.consts)
+    n = 0
+    (obj,) = p.op(pg.OP_INPUT, [pg.SOURCE_OBJECT], [], [3]); n += 1
+    (m,) = p.op(pg.OP_MAPPING, [0], [obj, zero3, rot, scale3], [3]); n += 1
+    nf, nc = p.op(pg.OP_NOISE, [3, 1, 1, 1], [m, z, five, two, half, two, z, o, half],
+                  [1, 3]); n += 1
+    vd, vc, vp, vw = p.op(pg.OP_VORONOI, [3, 0, 0, 1], [m, z, eight, z, half, two, o, o, o],
+                          [1, 3, 3, 1]); n += 1
+    rc, ra = p.op(pg.OP_RAMP, [0, 256, 1], [nf], [3, 1]); n += 1
+    (mix1,) = p.op(pg.OP_MIX_COLOR, [BLEND_TYPES["MULTIPLY"], 1, 0], [vd, rc, tint], [3]); n += 1
+    (mix2,) = p.op(pg.OP_MIX_COLOR, [BLEND_TYPES["MIX"], 1, 0], [nf, mix1, dark], [3]); n += 1
+    (mix3,) = p.op(pg.OP_MIX_COLOR, [BLEND_TYPES["OVERLAY"], 1, 1], [half, mix2, nc], [3]); n += 1
+    x = nf
+    for name in ("MULTIPLY", "ADD", "SINE", "ABSOLUTE", "POWER", "SMOOTH_MIN", "FRACT",
+                 "MAXIMUM"):
+        (x,) = p.op(pg.OP_MATH, [MATH_OPS[name], 0], [x, vd, half], [1]); n += 1
+    v1, _ = p.op(pg.OP_VECTOR_MATH, [VECTOR_MATH_OPS["SCALE"]], [vp, one3, zero3, x], [3, 1]); n += 1
+    _, dist = p.op(pg.OP_VECTOR_MATH, [VECTOR_MATH_OPS["DISTANCE"]], [v1, m, zero3, o], [3, 1]); n += 1
+    v3, _ = p.op(pg.OP_VECTOR_MATH, [VECTOR_MATH_OPS["ADD"]], [v1, nc, zero3, o], [3, 1]); n += 1
+    (rough,) = p.op(pg.OP_MAP_RANGE, [2, 1], [dist, z, two, half, o, five], [1]); n += 1
+    (metal,) = p.op(pg.OP_MAP_RANGE, [0, 1], [x, z, o, z, half, five], [1]); n += 1
+    (hsv,) = p.op(pg.OP_HSV, [], [half, o, o, half, mix3], [3]); n += 1
+    r, g, b = p.op(pg.OP_SEPARATE, [0], [hsv], [1, 1, 1]); n += 1
+    (comb,) = p.op(pg.OP_COMBINE, [0], [r, g, rough], [3]); n += 1
+    (bc,) = p.op(pg.OP_BRIGHT_CONTRAST, [], [comb, z, half], [3]); n += 1
+    outs = [[bc + i, pg.TARGET_CLOSURE, 0, closures.COLOR + i] for i in range(3)] + \
+        [[rough, pg.TARGET_CLOSURE, 0, closures.ROUGHNESS],
+         [metal, pg.TARGET_CLOSURE, 0, closures.METALLIC]]
+    del lum, v3
+    return pg.ShaderProgram.build(p.code, p.consts, outs, p.next, tables=table,
+                                  name="wood"), n
+
+
+def best(fn, repeat):
+    times = []
+    for _ in range(repeat):
+        t = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t)
+    return min(times)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--points", type=int, default=200_000)
+    ap.add_argument("--repeat", type=int, default=5)
+    args = ap.parse_args()
+    rng = np.random.default_rng(0)
+    n = args.points
+    inputs = ShadingInputs.build(rng.uniform(-1, 1, (n, 3)), np.tile([0, 0, 1.0], (n, 1)))
+    rows = closures.params(color=(0.8, 0.5, 0.3), roughness=0.4)[None]
+    prog, nodes = wood_program()
+    closure_params(prog, inputs, rows)  # compile / load the kernels
+    t_prog = best(lambda: closure_params(prog, inputs, rows), args.repeat)
+    t_const = best(lambda: np.broadcast_to(rows, (n,) + rows.shape).copy(), args.repeat)
+    print(f"points {n}, {nodes} nodes, {len(prog.instructions)} instructions, "
+          f"{prog.n_registers} registers")
+    print(f"procedural material : {t_prog / n * 1e9:8.1f} ns per hit point")
+    print(f"constant inputs     : {t_const / n * 1e9:8.1f} ns per hit point (no program)")
+    print(f"ratio               : {t_prog / t_const:8.1f} x")
+    print(f"per node            : {t_prog / n / nodes * 1e9:8.1f} ns")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,714 @@
+"""The shader compiler: a material's node graph, from the sockets its closures read, into a
+``core.shading.program.ShaderProgram`` (docs/shading.md).
+
+``compile_sockets(material, targets, ...)`` follows each target socket's links
+backwards: Reroutes, muted nodes (their internal links), node groups recursively (a
+group node's inputs bind the inner Group Input's outputs; the inner active Group Output
+gives its outputs; unlinked inner sockets keep the inner defaults), in topological order
+(a value is compiled once per group instance, before its users). Nodes outside
+``SUPPORTED`` are reported once by material and node name and their outputs take the
+sockets' default values; a node cycle is reported and broken the same way. Never raises on
+a node graph.
+
+Then the constant subgraphs are folded: instructions reading only constants run once (in
+the core interpreter, at one dummy point) and their results become constants. A target
+whose value folds to a constant costs one register read; when every target is constant,
+no program is made (``ShaderCompile.program`` is None and ``constant`` holds the values).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..core.shading import program as pg
+from ..core.shading import converters as cn
+from ..core.shading import color as cc
+from ..core.shading import textures as ct
+from ..core.shading.interpreter import evaluate
+from ..core.shading.inputs import ShadingInputs
+from ..core.shading.noise import NOISE_TYPES
+from ..core.shading.voronoi import FEATURES, METRICS
+from . import compat
+
+RAMP_TABLE_SIZE = 256
+"""Rows per baked ColorRamp (Cycles' RAMP_TABLE_SIZE)."""
+
+
+@dataclass
+class ShaderCompile:
+    """program: the ShaderProgram, or None when every target is constant. constant: one
+    tuple of floats per target (its value when constant, else None). warnings: messages
+    naming the material and node."""
+    program: pg.ShaderProgram | None
+    constant: list
+    warnings: list = field(default_factory=list)
+
+
+class _Value:
+    """An operand: a virtual register of width 1 ('f') or 3 ('v' vector, 'c' colour)."""
+    __slots__ = ("vreg", "kind")
+
+    def __init__(self, vreg, kind):
+        self.vreg = vreg
+        self.kind = kind
+
+
+class _Builder:
+    def __init__(self, name, uv_maps, attributes, luminance, warnings):
+        self.name = name
+        self.uv_maps = list(uv_maps)
+        self.attributes = list(attributes)
+        self.luminance = tuple(float(x) for x in luminance)
+        self.warnings = warnings
+        self.reported = set()
+        self.vregs = []       # [width, constant tuple or None]
+        self.code = []        # [op, ints, [vreg operands]]
+        self.tables = []
+        self.memo = {}
+        self.visiting = set()
+
+    # --- registers -------------------------------------------------------------------
+    def const(self, values, kind):
+        values = tuple(float(v) for v in np.atleast_1d(values))
+        self.vregs.append([len(values), values])
+        return _Value(len(self.vregs) - 1, kind)
+
+    def new(self, kind):
+        self.vregs.append([1 if kind == "f" else 3, None])
+        return _Value(len(self.vregs) - 1, kind)
+
+    def emit(self, op, ints, operands, outs):
+        self.code.append([op, list(ints), [v.vreg for v in operands + outs]])
+        return outs
+
+    def warn(self, key, message):
+        if key not in self.reported:
+            self.reported.add(key)
+            self.warnings.append(f"Material '{self.name}': {message}")
+
+    # --- conversions -----------------------------------------------------------------
+    def as_kind(self, value, kind):
+        if value.kind == kind or (value.kind != "f" and kind != "f"):
+            return value if value.kind == kind else _Value(value.vreg, kind)
+        if kind == "f":  # colour -> luminance, vector -> average (Cycles' conversions)
+            w = self.luminance if value.kind == "c" else (1 / 3, 1 / 3, 1 / 3)
+            out = self.new("f")
+            if value.kind == "c":
+                return self.emit(pg.OP_RGB_TO_BW, [], [value, self.const(w, "v")], [out])[0]
+            junk = self.new("v")
+            zero = self.const((0, 0, 0), "v")
+            self.emit(pg.OP_VECTOR_MATH, [cn.VECTOR_MATH_OPS["DOT_PRODUCT"]],
+                      [value, self.const(w, "v"), zero, self.const(0, "f")], [junk, out])
+            return out
+        out = self.new(kind)
+        return self.emit(pg.OP_COMBINE, [0], [value, value, value], [out])[0]
+
+    def default(self, socket):
+        kind = _socket_kind(socket)
+        if kind is None or not hasattr(socket, "default_value"):
+            return self.const((0, 0, 0), "c") if kind != "f" else self.const(0, "f")
+        v = socket.default_value
+        if kind == "f":
+            return self.const(float(v), "f")
+        return self.const(tuple(v)[:3], kind)
+
+    # --- graph walk ------------------------------------------------------------------
+    def input(self, node, key, path, kind=None):
+        """The value of input ``key`` (name, identifier or index) of ``node``."""
+        sock = _find_input(node, key)
+        if sock is None:  # not declared for this mode (5.x drops unavailable sockets)
+            k = kind or "f"
+            return self.const(0.0 if k == "f" else (0.0, 0.0, 0.0), k)
+        value = self.socket_value(sock, path)
+        return self.as_kind(value, kind or _socket_kind(sock) or "f")
+
+    def socket_value(self, sock, path):
+        links = [lk for lk in sock.links if not getattr(lk, "is_muted", False)]
+        if not links:
+            return self.default(sock)
+        link = links[0]
+        return self.output_value(link.from_node, link.from_socket, path)
+
+    def output_value(self, node, out_sock, path):
+        key = (path, node.name, out_sock.identifier)
+        if key in self.memo:
+            return self.memo[key]
+        if (path, node.name) in self.visiting:
+            self.warn(("cycle", path, node.name),
+                      f"node cycle through '{node.name}': its output takes the default value")
+            return self.default(out_sock)
+        self.visiting.add((path, node.name))
+        try:
+            value = self.node_output(node, out_sock, path)
+        finally:
+            self.visiting.discard((path, node.name))
+        if value is None:
+            value = self.default(out_sock)
+        self.memo[key] = value
+        return value
+
+    def node_output(self, node, out_sock, path):
+        idname = node.bl_idname
+        if idname == "NodeReroute":
+            return self.socket_value(node.inputs[0], path)
+        if getattr(node, "mute", False):
+            for lk in getattr(node, "internal_links", ()):
+                if lk.to_socket.identifier == out_sock.identifier:
+                    return self.as_kind(self.socket_value(lk.from_socket, path),
+                                        _socket_kind(out_sock) or "f")
+            return self.default(out_sock)
+        if idname == "ShaderNodeGroup":
+            return self.group_output(node, out_sock, path)
+        if idname == "NodeGroupInput":
+            return self.group_input(out_sock, path)
+        handler = SUPPORTED.get(idname)
+        if handler is None:
+            self.warn(("node", path, node.name),
+                      f"node '{node.name}' ({idname}) is not supported: its output takes "
+                      f"the socket's default value")
+            return self.default(out_sock)
+        outs = handler(self, node, path)
+        index = list(node.outputs).index(out_sock) if out_sock in list(node.outputs) else -1
+        if isinstance(outs, dict):
+            value = outs.get(out_sock.identifier, outs.get(out_sock.name))
+        else:
+            value = outs[index] if 0 <= index < len(outs) else None
+        if value is None:
+            self.warn(("output", path, node.name, out_sock.name),
+                      f"output '{out_sock.name}' of node '{node.name}' is not supported: it "
+                      f"takes its default value")
+            return self.default(out_sock)
+        # later outputs of the same node reuse this evaluation
+        if not isinstance(outs, dict):
+            for i, v in enumerate(outs):
+                if v is not None and i < len(node.outputs):
+                    self.memo[(path, node.name, node.outputs[i].identifier)] = v
+        return value
+
+    def group_output(self, node, out_sock, path):
+        tree = node.node_tree
+        if tree is None:
+            return self.default(out_sock)
+        inner = (path + (node.name,))
+        self.group_bindings[inner] = (node, path)
+        outputs = [n for n in tree.nodes if n.bl_idname == "NodeGroupOutput"]
+        active = next((n for n in outputs if getattr(n, "is_active_output", False)),
+                      outputs[0] if outputs else None)
+        if active is None:
+            return self.default(out_sock)
+        sock = next((s for s in active.inputs if s.identifier == out_sock.identifier), None)
+        if sock is None:
+            return self.default(out_sock)
+        return self.as_kind(self.socket_value(sock, inner), _socket_kind(out_sock) or "f")
+
+    def group_input(self, out_sock, path):
+        node, outer = self.group_bindings.get(path, (None, None))
+        if node is None:
+            return self.default(out_sock)
+        sock = next((s for s in node.inputs if s.identifier == out_sock.identifier), None)
+        if sock is None:
+            return self.default(out_sock)
+        return self.as_kind(self.socket_value(sock, outer), _socket_kind(out_sock) or "f")
+
+    # --- inputs ----------------------------------------------------------------------
+    def source(self, src, index=0, kind="v"):
+        key = ("source", src, index)
+        if key not in self.memo:
+            out = self.new("v")
+            self.emit(pg.OP_INPUT, [src, index], [], [out])
+            self.memo[key] = out
+        v = self.memo[key]
+        return _Value(v.vreg, kind)
+
+    def texture_vector(self, node, path):
+        """A texture's Vector input; unlinked: the Generated coordinates (as Cycles)."""
+        sock = _find_input(node, "Vector")
+        if sock is None or not sock.links:
+            return self.source(pg.SOURCE_GENERATED)
+        return self.as_kind(self.socket_value(sock, path), "v")
+
+    # --- folding and layout ----------------------------------------------------------
+    def finish(self, targets):
+        """(program or None, constants per target) for target values [(value, rows)]."""
+        # Fold: run the instructions whose operands are all constant.
+        const_code, live = [], []
+        for op, ints, regs in self.code:
+            sig = pg.SIGNATURES[op]
+            n_in = len(sig.split(">")[0])
+            if op != pg.OP_INPUT and all(self.vregs[r][1] is not None for r in regs[:n_in]):
+                const_code.append((op, ints, regs))
+            else:
+                live.append((op, ints, regs))
+            if const_code and const_code[-1][2] is regs:
+                self._fold(const_code[-1])
+        self.code = live
+        # Keep only what the targets need (folded nodes leave dead code behind).
+        needed = {v.vreg for v, _ in targets}
+        kept = []
+        for op, ints, regs in reversed(self.code):
+            n_in = len(pg.SIGNATURES[op].split(">")[0])
+            if any(r in needed for r in regs[n_in:]):
+                kept.append((op, ints, regs))
+                needed.update(regs[:n_in])
+        kept.reverse()
+        for op, ints, regs in kept:  # Noise: the two colour fractals only when read
+            if op == pg.OP_NOISE:
+                ints[3] = int(regs[-1] in needed)
+        constant = [self.vregs[v.vreg][1] for v, _ in targets]
+        if not kept:
+            return None, constant
+        # Layout: the constants the program reads first, then the computed registers.
+        used = set(needed) | {r for _, _, regs in kept for r in regs}
+        address, consts, n = {}, [], 0
+        for r in sorted(used):
+            if self.vregs[r][1] is not None:
+                address[r] = n
+                consts.extend(self.vregs[r][1])
+                n += self.vregs[r][0]
+        for r in sorted(used):
+            if r not in address:
+                address[r] = n
+                n += self.vregs[r][0]
+        rows = []
+        for op, ints, regs in kept:
+            row = [op] + list(ints) + [0] * (4 - len(ints)) + [address[r] for r in regs]
+            rows.append(row + [-1] * (pg.INSTRUCTION_WIDTH - len(row)))
+        outputs = []
+        for value, trows in targets:
+            for c, (target, closure, slot) in enumerate(trows):
+                outputs.append([address[value.vreg] + c, target, closure, slot])
+        prog = pg.ShaderProgram.build(rows, consts, outputs, n,
+                                      tables=np.array(self.tables, np.float32).reshape(-1, 4),
+                                      name=self.name)
+        return prog, [None if self.vregs[v.vreg][1] is None else self.vregs[v.vreg][1]
+                      for v, _ in targets]
+
+    def _fold(self, instruction):
+        """Evaluate one constant instruction and turn its outputs into constants."""
+        op, ints, regs = instruction
+        n_in = len(pg.SIGNATURES[op].split(">")[0])
+        address, consts, n = {}, [], 0
+        for r in regs[:n_in]:
+            if r not in address:
+                address[r] = n
+                consts.extend(self.vregs[r][1])
+                n += self.vregs[r][0]
+        for r in regs[n_in:]:
+            address[r] = n
+            n += self.vregs[r][0]
+        row = [op] + list(ints) + [0] * (4 - len(ints)) + [address[r] for r in regs]
+        row += [-1] * (pg.INSTRUCTION_WIDTH - len(row))
+        outs = [[address[r] + c, pg.TARGET_EMISSION, 0, 0] for r in regs[n_in:]
+                for c in range(self.vregs[r][0])]
+        prog = pg.ShaderProgram.build([row], consts, outs, n,
+                                      tables=np.array(self.tables, np.float32).reshape(-1, 4),
+                                      name=self.name)
+        one = ShadingInputs.build(np.zeros((1, 3)), np.array([[0.0, 0.0, 1.0]]))
+        values = evaluate(prog, one)[0]
+        i = 0
+        for r in regs[n_in:]:
+            w = self.vregs[r][0]
+            self.vregs[r][1] = tuple(float(x) for x in values[i:i + w])
+            i += w
+
+
+def _socket_kind(sock):
+    t = getattr(sock, "type", "VALUE")
+    if t in ("VALUE", "INT", "BOOLEAN"):
+        return "f"
+    if t == "VECTOR":
+        return "v"
+    if t == "RGBA":
+        return "c"
+    return None
+
+
+def _find_input(node, key):
+    if isinstance(key, int):
+        enabled = list(node.inputs)
+        return enabled[key] if key < len(enabled) else None
+    for s in node.inputs:
+        if s.identifier == key and getattr(s, "enabled", True):
+            return s
+    for s in node.inputs:
+        if s.name == key and getattr(s, "enabled", True):
+            return s
+    return node.inputs.get(key)
+
+
+# --- node handlers: (builder, node, path) -> [output values by index] or {identifier: value}
+
+def _tex_coord(b, node, path):
+    if getattr(node, "object", None) is not None:
+        b.warn(("texco-object", path, node.name), f"node '{node.name}': Texture Coordinate "
+               f"from another object is not supported (the object's own coordinates are used)")
+    return {"Generated": b.source(pg.SOURCE_GENERATED), "Normal": b.source(pg.SOURCE_OBJECT_NORMAL),
+            "UV": b.source(pg.SOURCE_UV, 0), "Object": b.source(pg.SOURCE_OBJECT)}
+
+
+def _uv_map(b, node, path):
+    name = getattr(node, "uv_map", "")
+    index = b.uv_maps.index(name) if name in b.uv_maps else 0
+    if name and name not in b.uv_maps:
+        b.warn(("uv", path, node.name), f"node '{node.name}': UV map '{name}' not found, "
+               f"the first one is used")
+    return {"UV": b.source(pg.SOURCE_UV, index)}
+
+
+def _geometry(b, node, path):
+    return {"Position": b.source(pg.SOURCE_POSITION), "Normal": b.source(pg.SOURCE_NORMAL),
+            "True Normal": b.source(pg.SOURCE_TRUE_NORMAL),
+            "Incoming": b.source(pg.SOURCE_INCOMING),
+            "Backfacing": b.source(pg.SOURCE_BACKFACING, 0, "f")}
+
+
+def _object_info(b, node, path):
+    return {"Location": b.source(pg.SOURCE_OBJECT_LOCATION),
+            "Random": b.source(pg.SOURCE_OBJECT_RANDOM, 0, "f")}
+
+
+def _value(b, node, path):
+    return [b.const(float(node.outputs[0].default_value), "f")]
+
+
+def _rgb(b, node, path):
+    return [b.const(tuple(node.outputs[0].default_value)[:3], "c")]
+
+
+def _math(b, node, path):
+    ins = [b.input(node, i, path, "f") for i in range(3)]
+    out = b.new("f")
+    b.emit(pg.OP_MATH, [cn.MATH_OPS[node.operation], int(node.use_clamp)], ins, [out])
+    return [out]
+
+
+def _vector_math(b, node, path):
+    ins = [b.input(node, i, path, "v") for i in ("Vector", "Vector_001", "Vector_002")]
+    scale = b.input(node, "Scale", path, "f")
+    vec, val = b.new("v"), b.new("f")
+    b.emit(pg.OP_VECTOR_MATH, [cn.VECTOR_MATH_OPS[node.operation]], ins + [scale], [vec, val])
+    return {"Vector": vec, "Value": val}
+
+
+def _map_range(b, node, path):
+    kind = cn.MAP_RANGE_TYPES[node.interpolation_type]
+    if node.data_type == "FLOAT_VECTOR":
+        names = ("Vector", "From_Min_FLOAT3", "From_Max_FLOAT3", "To_Min_FLOAT3",
+                 "To_Max_FLOAT3", "Steps_FLOAT3")
+        ins = [b.input(node, n, path, "v") for n in names]
+        out = b.new("v")
+        b.emit(pg.OP_VECTOR_MAP_RANGE, [kind, int(node.clamp)], ins, [out])
+        return {"Vector": out}
+    names = ("Value", "From Min", "From Max", "To Min", "To Max", "Steps")
+    ins = [b.input(node, n, path, "f") for n in names]
+    out = b.new("f")
+    b.emit(pg.OP_MAP_RANGE, [kind, int(node.clamp)], ins, [out])
+    return {"Result": out}
+
+
+def _clamp(b, node, path):
+    ins = [b.input(node, n, path, "f") for n in ("Value", "Min", "Max")]
+    out = b.new("f")
+    b.emit(pg.OP_CLAMP, [1 if node.clamp_type == "RANGE" else 0], ins, [out])
+    return [out]
+
+
+def _mix(b, node, path):
+    dt = node.data_type
+    if dt == "FLOAT":
+        ins = [b.input(node, n, path, "f") for n in ("Factor_Float", "A_Float", "B_Float")]
+        out = b.new("f")
+        b.emit(pg.OP_MIX_FLOAT, [int(node.clamp_factor)], ins, [out])
+        return {"Result_Float": out}
+    if dt == "VECTOR":
+        nonuniform = node.factor_mode == "NON_UNIFORM"
+        fac = b.input(node, "Factor_Vector" if nonuniform else "Factor_Float", path,
+                      "v" if nonuniform else "f")
+        ins = [fac] + [b.input(node, n, path, "v") for n in ("A_Vector", "B_Vector")]
+        out = b.new("v")
+        b.emit(pg.OP_MIX_VECTOR_NONUNIFORM if nonuniform else pg.OP_MIX_VECTOR,
+               [int(node.clamp_factor)], ins, [out])
+        return {"Result_Vector": out}
+    if dt == "RGBA":
+        ins = [b.input(node, "Factor_Float", path, "f")] + \
+              [b.input(node, n, path, "c") for n in ("A_Color", "B_Color")]
+        out = b.new("c")
+        b.emit(pg.OP_MIX_COLOR, [cc.BLEND_TYPES[node.blend_type], int(node.clamp_factor),
+                                 int(node.clamp_result)], ins, [out])
+        return {"Result_Color": out}
+    return {}
+
+
+def _mix_rgb(b, node, path):
+    ins = [b.input(node, "Fac", path, "f")] + [b.input(node, n, path, "c")
+                                                for n in ("Color1", "Color2")]
+    out = b.new("c")
+    b.emit(pg.OP_MIX_COLOR, [cc.BLEND_TYPES[node.blend_type], 1, int(node.use_clamp)], ins,
+           [out])
+    return [out]
+
+
+def _separate(kind, mode_of):
+    def handler(b, node, path):
+        mode = mode_of(node)
+        if mode is None:
+            b.warn(("mode", path, node.name), f"node '{node.name}': mode "
+                   f"'{getattr(node, 'mode', '')}' is not supported")
+            return []
+        v = b.input(node, 0, path, kind)
+        outs = [b.new("f") for _ in range(3)]
+        b.emit(pg.OP_SEPARATE, [mode], [v], outs)
+        return outs
+    return handler
+
+
+def _combine(kind, mode_of):
+    def handler(b, node, path):
+        mode = mode_of(node)
+        if mode is None:
+            b.warn(("mode", path, node.name), f"node '{node.name}': mode "
+                   f"'{getattr(node, 'mode', '')}' is not supported")
+            return []
+        ins = [b.input(node, i, path, "f") for i in range(3)]
+        out = b.new(kind)
+        b.emit(pg.OP_COMBINE, [mode], ins, [out])
+        return [out]
+    return handler
+
+
+def _color_mode(node):
+    return {"RGB": 0, "HSV": 1}.get(node.mode)
+
+
+def _ramp(b, node, path):
+    ramp = node.color_ramp
+    first = len(b.tables)
+    for i in range(RAMP_TABLE_SIZE):
+        b.tables.append(tuple(ramp.evaluate(i / (RAMP_TABLE_SIZE - 1))))
+    fac = b.input(node, "Fac", path, "f") or b.input(node, 0, path, "f")
+    color, alpha = b.new("c"), b.new("f")
+    b.emit(pg.OP_RAMP, [first, RAMP_TABLE_SIZE, int(ramp.interpolation != "CONSTANT")],
+           [fac], [color, alpha])
+    return [color, alpha]
+
+
+def _mapping(b, node, path):
+    vec = b.input(node, "Vector", path, "v")
+    loc = b.input(node, "Location", path, "v") if _find_input(node, "Location") and \
+        _find_input(node, "Location").enabled else b.const((0, 0, 0), "v")
+    rot = b.input(node, "Rotation", path, "v")
+    scale = b.input(node, "Scale", path, "v")
+    out = b.new("v")
+    b.emit(pg.OP_MAPPING, [cn.MAPPING_TYPES[node.vector_type]], [vec, loc, rot, scale], [out])
+    return [out]
+
+
+def _simple(op, names, kinds, out_kind):
+    def handler(b, node, path):
+        ins = [b.input(node, n, path, k) for n, k in zip(names, kinds)]
+        out = b.new(out_kind)
+        b.emit(op, [], ins, [out])
+        return [out]
+    return handler
+
+
+def _rgb_to_bw(b, node, path):
+    out = b.new("f")
+    b.emit(pg.OP_RGB_TO_BW, [], [b.input(node, "Color", path, "c"),
+                                 b.const(b.luminance, "v")], [out])
+    return [out]
+
+
+def _checker(b, node, path):
+    ins = [b.texture_vector(node, path), b.input(node, "Color1", path, "c"),
+           b.input(node, "Color2", path, "c"), b.input(node, "Scale", path, "f")]
+    color, fac = b.new("c"), b.new("f")
+    b.emit(pg.OP_CHECKER, [], ins, [color, fac])
+    return [color, fac]
+
+
+def _gradient(b, node, path):
+    color, fac = b.new("c"), b.new("f")
+    b.emit(pg.OP_GRADIENT, [ct.GRADIENT_TYPES[node.gradient_type]],
+           [b.texture_vector(node, path)], [color, fac])
+    return [color, fac]
+
+
+def _dims(node, attr):
+    return int(str(getattr(node, attr, "3"))[0])
+
+
+def _white_noise(b, node, path):
+    value, color = b.new("f"), b.new("c")
+    b.emit(pg.OP_WHITE_NOISE, [_dims(node, "noise_dimensions")],
+           [b.texture_vector(node, path), b.input(node, "W", path, "f")], [value, color])
+    return [value, color]
+
+
+def _noise(b, node, path):
+    dims = _dims(node, "noise_dimensions")
+    kind = NOISE_TYPES.get(getattr(node, "noise_type", "FBM"), 1)
+    names = ("W", "Scale", "Detail", "Roughness", "Lacunarity", "Offset", "Gain",
+             "Distortion")
+    ins = [b.texture_vector(node, path)] + [
+        b.input(node, n, path, "f") if _find_input(node, n) is not None else
+        b.const({"Lacunarity": 2.0, "Gain": 1.0}.get(n, 0.0), "f") for n in names]
+    value, color = b.new("f"), b.new("c")
+    b.emit(pg.OP_NOISE, [dims, kind, int(getattr(node, "normalize", True)), 1], ins,
+           [value, color])
+    return [value, color]
+
+
+def _voronoi(b, node, path):
+    dims = _dims(node, "voronoi_dimensions")
+    if dims not in (2, 3) or node.feature not in FEATURES:
+        b.warn(("voronoi", path, node.name), f"node '{node.name}': Voronoi "
+               f"{dims}D {node.feature} is not supported (2D and 3D F1, F2, Smooth F1, "
+               f"Distance to Edge are)")
+        return []
+    names = ("W", "Scale", "Detail", "Roughness", "Lacunarity", "Smoothness", "Exponent",
+             "Randomness")
+    ins = [b.texture_vector(node, path)] + [b.input(node, n, path, "f") for n in names]
+    dist, color, pos, w = b.new("f"), b.new("c"), b.new("v"), b.new("f")
+    b.emit(pg.OP_VORONOI, [dims, FEATURES[node.feature], METRICS[node.distance],
+                           int(node.normalize) | (0 if compat.VORONOI_PCG_HASH else 2)],
+           ins, [dist, color, pos, w])
+    return {"Distance": dist, "Color": color, "Position": pos, "W": w}
+
+
+def _wave(b, node, path):
+    names = ("Scale", "Distortion", "Detail", "Detail Scale", "Detail Roughness",
+             "Phase Offset")
+    ins = [b.texture_vector(node, path)] + [b.input(node, n, path, "f") for n in names]
+    color, fac = b.new("c"), b.new("f")
+    b.emit(pg.OP_WAVE, [ct.WAVE_TYPES[node.wave_type],
+                        ct.WAVE_BANDS_DIRECTIONS[node.bands_direction],
+                        ct.WAVE_RINGS_DIRECTIONS[node.rings_direction],
+                        ct.WAVE_PROFILES[node.wave_profile]], ins, [color, fac])
+    return [color, fac]
+
+
+def _magic(b, node, path):
+    ins = [b.texture_vector(node, path), b.input(node, "Scale", path, "f"),
+           b.input(node, "Distortion", path, "f")]
+    color, fac = b.new("c"), b.new("f")
+    b.emit(pg.OP_MAGIC, [int(node.turbulence_depth)], ins, [color, fac])
+    return [color, fac]
+
+
+def _brick(b, node, path):
+    ins = [b.texture_vector(node, path)] + \
+        [b.input(node, n, path, "c") for n in ("Color1", "Color2", "Mortar")] + \
+        [b.input(node, n, path, "f") for n in ("Scale", "Mortar Size", "Mortar Smooth",
+                                               "Bias", "Brick Width", "Row Height")] + \
+        [b.const(float(node.offset), "f"), b.const(float(node.squash), "f")]
+    color, fac = b.new("c"), b.new("f")
+    b.emit(pg.OP_BRICK, [int(node.offset_frequency), int(node.squash_frequency)], ins,
+           [color, fac])
+    return [color, fac]
+
+
+REC709_TO_SCENE_LINEAR = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
+"""Blackbody's Rec.709 -> scene linear matrix: identity for Blender's default OCIO
+configuration (scene linear = Linear Rec.709)."""
+
+
+def _blackbody(b, node, path):
+    rows = [b.const(row, "v") for row in REC709_TO_SCENE_LINEAR]
+    out = b.new("c")
+    b.emit(pg.OP_BLACKBODY, [], [b.input(node, "Temperature", path, "f")] + rows, [out])
+    return [out]
+
+
+def _curve_table(b, mapping, curves, rgb):
+    """Bake a CurveMapping like Cycles' curvemapping_*_to_array: 256 rows over the x range
+    spanned by the curves' end points. Returns (first row, min x, max x)."""
+    mapping.update()
+    lo = min(c.points[0].location[0] for c in curves)
+    hi = max(c.points[len(c.points) - 1].location[0] for c in curves)
+    first = len(b.tables)
+    for i in range(RAMP_TABLE_SIZE):
+        t = lo + i / (RAMP_TABLE_SIZE - 1) * (hi - lo)
+        if rgb:
+            combined = mapping.evaluate(mapping.curves[3], t)
+            b.tables.append(tuple(mapping.evaluate(mapping.curves[c], combined)
+                                  for c in range(3)) + (0.0,))
+        else:
+            b.tables.append((mapping.evaluate(mapping.curves[0], t), 0.0, 0.0, 0.0))
+    return first, lo, hi
+
+
+def _rgb_curves(b, node, path):
+    m = node.mapping
+    first, lo, hi = _curve_table(b, m, list(m.curves), True)
+    ins = [b.input(node, "Fac", path, "f"), b.input(node, "Color", path, "c"),
+           b.const(lo, "f"), b.const(hi, "f")]
+    out = b.new("c")
+    b.emit(pg.OP_CURVES, [first, RAMP_TABLE_SIZE, int(m.extend == "EXTRAPOLATED")], ins,
+           [out])
+    return [out]
+
+
+def _float_curve(b, node, path):
+    m = node.mapping
+    first, lo, hi = _curve_table(b, m, [m.curves[0]], False)
+    ins = [b.input(node, "Factor", path, "f"), b.input(node, "Value", path, "f"),
+           b.const(lo, "f"), b.const(hi, "f")]
+    out = b.new("f")
+    b.emit(pg.OP_FLOAT_CURVE, [first, RAMP_TABLE_SIZE, int(m.extend == "EXTRAPOLATED")],
+           ins, [out])
+    return [out]
+
+
+SUPPORTED = {
+    "ShaderNodeTexCoord": _tex_coord, "ShaderNodeUVMap": _uv_map,
+    "ShaderNodeNewGeometry": _geometry, "ShaderNodeObjectInfo": _object_info,
+    "ShaderNodeValue": _value, "ShaderNodeRGB": _rgb, "ShaderNodeMath": _math,
+    "ShaderNodeVectorMath": _vector_math, "ShaderNodeMapRange": _map_range,
+    "ShaderNodeClamp": _clamp, "ShaderNodeMix": _mix, "ShaderNodeMixRGB": _mix_rgb,
+    "ShaderNodeSeparateXYZ": _separate("v", lambda n: 0),
+    "ShaderNodeCombineXYZ": _combine("v", lambda n: 0),
+    "ShaderNodeSeparateColor": _separate("c", _color_mode),
+    "ShaderNodeCombineColor": _combine("c", _color_mode),
+    "ShaderNodeValToRGB": _ramp, "ShaderNodeMapping": _mapping,
+    "ShaderNodeInvert": _simple(pg.OP_INVERT, ("Fac", "Color"), "fc", "c"),
+    "ShaderNodeGamma": _simple(pg.OP_GAMMA, ("Color", "Gamma"), "cf", "c"),
+    "ShaderNodeHueSaturation": _simple(pg.OP_HSV, ("Hue", "Saturation", "Value", "Fac",
+                                                   "Color"), "ffffc", "c"),
+    "ShaderNodeBrightContrast": _simple(pg.OP_BRIGHT_CONTRAST, ("Color", "Bright",
+                                                                "Contrast"), "cff", "c"),
+    "ShaderNodeRGBToBW": _rgb_to_bw, "ShaderNodeTexChecker": _checker,
+    "ShaderNodeTexGradient": _gradient, "ShaderNodeTexWhiteNoise": _white_noise,
+    "ShaderNodeTexNoise": _noise, "ShaderNodeTexVoronoi": _voronoi,
+    "ShaderNodeTexWave": _wave, "ShaderNodeTexMagic": _magic, "ShaderNodeTexBrick": _brick,
+    "ShaderNodeBlackbody": _blackbody, "ShaderNodeRGBCurve": _rgb_curves,
+    "ShaderNodeFloatCurve": _float_curve,
+}
+"""bl_idname -> handler of every node the compiler translates (plus Reroute, Group,
+Group Input / Output and muted nodes, handled by the walk itself)."""
+
+
+def compile_sockets(material, targets, uv_maps=(), attributes=(),
+                    luminance=cn.LUMINANCE_REC709) -> ShaderCompile:
+    """Compile the values of input sockets of ``material``'s node tree.
+
+    targets: [(socket, target, closure, slot)]: an input socket of a node of the
+      material's tree, its TARGET_* (core.shading.program), the closure index and the
+      first slot (a colour or vector socket fills slot, slot + 1, slot + 2).
+    uv_maps: the mesh's UV map names, in the order of ``ShadingInputs.uv`` (the first is
+      the default UV). attributes: attribute names in the order of
+      ``ShadingInputs.attributes``. luminance: the scene-linear RGB -> Y weights.
+    """
+    warnings: list[str] = []
+    b = _Builder(material.name, uv_maps, attributes, luminance, warnings)
+    b.group_bindings = {}
+    values = []
+    for sock, target, closure, slot in targets:
+        kind = _socket_kind(sock) or "f"
+        value = b.as_kind(b.socket_value(sock, ()), kind)
+        width = 1 if kind == "f" else 3
+        values.append((value, [(target, closure, slot + c) for c in range(width)]))
+    program, constant = b.finish(values)
+    return ShaderCompile(program, constant, warnings)

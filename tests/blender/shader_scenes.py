@@ -1,0 +1,183 @@
+"""Cycles as the reference for the shader nodes: planes whose Emission colour is driven by
+a node graph, side by side in one orthographic view, rendered by Cycles in this bpy
+process; and the same graphs compiled (photon_engine/export_shader.py) and run by the
+core interpreter at the pixel centres' surface points, computed here from the camera.
+
+Cycles is set to sample at the pixel centre: a box filter 0.01 pixel wide, no bounces,
+no denoising; the Emission radiance is the colour (strength 1) in the linear EXR.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+import bpy
+
+from tests.blender import scenes
+from tests.conftest import load_extension_package
+
+photon_map = load_extension_package()
+from photon_map.core.shading import program as pg  # noqa: E402
+from photon_map.core.shading.inputs import ShadingInputs  # noqa: E402
+from photon_map.core.shading.interpreter import evaluate  # noqa: E402
+from photon_map.photon_engine.export_shader import compile_sockets  # noqa: E402
+
+CELL = 2.0      # metres per plane (Blender's default plane)
+PIXELS = 32     # pixels per plane side
+OFF_CENTRE = 0.2
+"""How far from the pixel centre (pixels) Cycles was measured to place an occasional
+sample even with a FILTER-wide filter (about 0.15: 8 of 2048 pixels at 4 samples)."""
+FILTER = 0.01   # Cycles' Gaussian filter width in pixels: samples land at the pixel centre
+
+
+def emission_material(name, build):
+    """A material Emission (strength 1) -> Material Output; ``build(tree, color_socket)``
+    links a node graph into the Emission's Color."""
+    mat = bpy.data.materials.new(name)
+    tree = scenes.ensure_node_tree(mat)
+    tree.nodes.clear()
+    out = tree.nodes.new("ShaderNodeOutputMaterial")
+    em = tree.nodes.new("ShaderNodeEmission")
+    em.inputs["Strength"].default_value = 1.0
+    tree.links.new(em.outputs[0], out.inputs["Surface"])
+    build(tree, em.inputs["Color"])
+    return mat
+
+
+def layout(specs):
+    """A fresh scene with one 2 m plane per (name, build) of ``specs`` (its material by
+    ``emission_material``) on a square grid, row by row from the top left, and an
+    orthographic camera above looking down at all of them.
+    Returns (scene, [plane objects], grid side)."""
+    scene = scenes.reset()
+    materials = [emission_material(name, build) for name, build in specs]
+    g = int(np.ceil(np.sqrt(len(materials))))
+    planes = []
+    for k, mat in enumerate(materials):
+        row, col = divmod(k, g)
+        loc = ((col - (g - 1) / 2) * CELL, ((g - 1) / 2 - row) * CELL, 0.0)
+        planes.append(scenes.add_plane(size=CELL, location=loc, material=mat,
+                                       name=f"Plane{k}"))
+    cam_data = bpy.data.cameras.new("Ortho")
+    cam_data.type = 'ORTHO'
+    cam_data.ortho_scale = g * CELL
+    cam = bpy.data.objects.new("Ortho", cam_data)
+    scene.collection.objects.link(cam)
+    cam.location = (0.0, 0.0, 10.0)
+    scene.camera = cam
+    scenes.set_resolution(g * PIXELS, g * PIXELS)
+    return scene, planes, g
+
+
+def render_cycles(scene, samples=4) -> np.ndarray:
+    """(H, W, 3) float32 linear radiance, row 0 at the top."""
+    scene.render.engine = 'CYCLES'
+    c = scene.cycles
+    c.device = 'CPU'
+    c.samples = samples
+    c.use_denoising = False
+    c.use_adaptive_sampling = False
+    c.max_bounces = 0
+    c.pixel_filter_type = 'GAUSSIAN'  # Cycles' box filter is always 1 pixel wide
+    c.filter_width = FILTER
+    scene.view_settings.view_transform = 'Standard'
+    return scenes.render_passes(scene)["Combined"][..., :3].astype(np.float32)
+
+
+def plane_inputs(plane, g, offset=(0.0, 0.0)) -> ShadingInputs:
+    """The surface points of ``plane``'s pixels (PIXELS x PIXELS, row 0 at the top),
+    shifted by ``offset`` pixels: world position, normal +Z, incoming +Z, generated and
+    object coordinates, the UV map interpolated (an affine fit of the plane's corners)."""
+    px = CELL / PIXELS
+    lx, ly, _ = plane.location
+    i = np.arange(PIXELS)
+    x = lx - CELL / 2 + (i + 0.5 + offset[0]) * px
+    y = ly + CELL / 2 - (i + 0.5 + offset[1]) * px
+    X, Y = np.meshgrid(x, y)
+    P = np.stack([X.ravel(), Y.ravel(), np.zeros(X.size)], 1)
+    obj = P - np.array(plane.location)
+    mesh = plane.data
+    tl, ts = np.array(mesh.texspace_location), np.array(mesh.texspace_size)
+    gen = np.where(ts != 0, (obj - tl) / np.where(ts != 0, 2 * ts, 1) + 0.5, 0.5)
+    co = np.array([mesh.vertices[lp.vertex_index].co[:2] for lp in mesh.loops])
+    uv_layer = mesh.uv_layers[0].data
+    uvs = np.array([d.uv[:] for d in uv_layer])
+    A = np.linalg.lstsq(np.c_[co, np.ones(len(co))], uvs, rcond=None)[0]
+    uv = np.c_[obj[:, :2], np.ones(len(obj))] @ A
+    up = np.tile([0.0, 0.0, 1.0], (len(P), 1))
+    return ShadingInputs.build(P, up, incoming=up, generated=gen, object_coords=obj,
+                               object_normal=up,
+                               object_location=np.tile(plane.location, (len(P), 1)),
+                               uv=uv[None])
+
+
+def compile_planes(planes):
+    """[(plane, ShaderCompile of its Emission colour)], and every warning."""
+    out, warnings = [], []
+    for plane in planes:
+        mat = plane.data.materials[0]
+        em = next(n for n in mat.node_tree.nodes if n.bl_idname == "ShaderNodeEmission")
+        result = compile_sockets(mat, [(em.inputs["Color"], pg.TARGET_EMISSION, 0, 0)],
+                                 uv_maps=[u.name for u in plane.data.uv_layers])
+        warnings += result.warnings
+        out.append((plane, result))
+    return out, warnings
+
+
+def photon_map_image(planes, g, offset=(0.0, 0.0), compiled=None):
+    """(H, W, 3) float32: each plane's compiled Emission colour at its pixels (shifted
+    by ``offset`` pixels), and the compiler's warnings."""
+    if compiled is None:
+        compiled, warnings = compile_planes(planes)
+    else:
+        warnings = []
+    img = np.zeros((g * PIXELS, g * PIXELS, 3), np.float32)
+    for k, (plane, result) in enumerate(compiled):
+        if result.program is None:
+            values = np.tile(np.array(result.constant[0], np.float32), (PIXELS * PIXELS, 1))
+        else:
+            values = evaluate(result.program, plane_inputs(plane, g, offset))
+        row, col = divmod(k, g)
+        img[row * PIXELS:(row + 1) * PIXELS, col * PIXELS:(col + 1) * PIXELS] = \
+            values.reshape(PIXELS, PIXELS, 3)
+    return img, warnings
+
+
+def compare(specs, samples=4, jump=2e-2):
+    """Render the planes of ``specs`` ([(material name, build)], see ``layout``) by
+    Cycles and Photon Map. Returns a dict: ``cycles``, ``ours`` (H, W, 3); ``error``
+    (H, W): the worst channel's |difference| beyond our own value's variation within the
+    filter's footprint (+-FILTER/2 pixel), over max(1, |cycles|); ``edge`` (H, W) bool where
+    that variation exceeds ``jump`` (a discontinuity inside the footprint); ``loose_error``
+    like ``error`` beyond the variation within +-OFF_CENTRE pixel; ``warnings``. Each
+    variation is the largest change of our value over a 5 x 5 grid of offsets."""
+    scene, planes, g = layout(specs)
+    cycles = render_cycles(scene, samples)
+    compiled, warnings = compile_planes(planes)
+    ours, _ = photon_map_image(planes, g, compiled=compiled)
+    scale = np.maximum(1.0, np.abs(cycles))
+    out = {"cycles": cycles, "ours": ours, "warnings": warnings, "grid": g}
+    for name, reach in (("error", FILTER / 2), ("loose_error", OFF_CENTRE)):
+        steps = (-reach, -reach / 2, 0.0, reach / 2, reach)  # a 5 x 5 grid: thin features
+        around = np.stack([photon_map_image(planes, g, (dx, dy), compiled)[0]
+                           for dx in steps for dy in steps if dx or dy])
+        spread = np.abs(around - ours).max(0)
+        out[name] = (np.maximum(np.abs(cycles - ours) - spread, 0.0) / scale).max(-1)
+        if name == "error":
+            # a jump inside the footprint, or the exact centre on a lattice boundary (a
+            # checker corner: our float64 point is on it, Cycles' float32 one is not)
+            isolated = np.abs(ours - np.median(around, 0))
+            out["edge"] = (np.maximum(spread, isolated) / scale).max(-1) > jump
+    return out
+
+
+def per_plane(result, fn):
+    """[fn(error block, edge block, loose error block)] for each plane of a compare()
+    result."""
+    g = result["grid"]
+    out = []
+    for row in range(g):
+        for col in range(g):
+            s = np.s_[row * PIXELS:(row + 1) * PIXELS, col * PIXELS:(col + 1) * PIXELS]
+            out.append(fn(result["error"][s], result["edge"][s], result["loose_error"][s]))
+    return out

@@ -1,0 +1,110 @@
+"""The measured agreement of every shader node test plane with Cycles (docs/shading.md's
+table): renders the scenes of tests/blender/test_shader_nodes.py and prints, per plane,
+the 99th-percentile per-pixel error (relative to max(1, |Cycles|)) on the non-edge
+pixels, the worst error beyond our value's variation within 0.2 pixel (Cycles' occasional
+off-centre sample) and at the centre, and the fraction of edge pixels.
+
+    .venv/bin/python tools/shader_agreement.py > /tmp/agreement.md
+"""
+
+from __future__ import annotations
+
+import pathlib
+import sys
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+import numpy as np  # noqa: E402
+
+from tests.blender import shader_scenes as ss  # noqa: E402
+from tests.blender import test_shader_nodes as t  # noqa: E402
+
+
+def scenes():
+    yield "Inputs", [(f"{k}", t.input_plane(k)) for k in t.INPUTS]
+    yield "Math", [("Math " + op, t.math_plane([op])) for op in t.MATH_OPS]
+    yield "Vector Math", [(f"Vector Math {op}", t.vector_plane(op)) for op in
+                         t.available("ShaderNodeVectorMath", "operation", t.VECTOR_OPS)]
+    specs = [(f"Mix colour {b}", t.mix_color_plane(b)) for b in t.BLENDS]
+    specs += [("Mix float", t.mix_plane('FLOAT')), ("Mix vector", t.mix_plane('VECTOR')),
+              ("Mix vector non-uniform", t.mix_plane('VECTOR', nonuniform=True))]
+    for kind in ("LINEAR", "STEPPED", "SMOOTHSTEP", "SMOOTHERSTEP"):
+        specs += [(f"Map Range {kind}", t.map_range_plane(kind)),
+                  (f"Map Range vector {kind}", t.map_range_plane(kind, vector=True))]
+    specs += [("Clamp MINMAX", t.clamp_plane("MINMAX")), ("Clamp RANGE", t.clamp_plane("RANGE")),
+              ("Separate/Combine Color RGB", t.separate_combine_plane("RGB")),
+              ("Separate/Combine Color HSV", t.separate_combine_plane("HSV"))]
+    specs += [(f"ColorRamp {i}", t.ramp_plane(i)) for i in ("LINEAR", "CONSTANT", "EASE",
+                                                            "CARDINAL", "B_SPLINE")]
+    specs += [(f"Mapping {k}", t.mapping_plane(k)) for k in ("POINT", "TEXTURE", "VECTOR",
+                                                           "NORMAL")]
+    specs += [("Invert", t.color_node_plane("ShaderNodeInvert", {"Fac": 0.7})),
+              ("Gamma", t.color_node_plane("ShaderNodeGamma", {"Gamma": 2.2})),
+              ("Hue/Saturation/Value", t.color_node_plane(
+                  "ShaderNodeHueSaturation", {"Hue": 0.3, "Saturation": 1.4, "Value": 0.8,
+                                              "Fac": 0.9})),
+              ("Brightness/Contrast", t.color_node_plane(
+                  "ShaderNodeBrightContrast", {"Bright": 0.1, "Contrast": 0.4})),
+              ("RGB to BW", t.color_node_plane("ShaderNodeRGBToBW", {}))]
+    yield "Converters and colour", specs
+    specs = [(f"Noise {d}", t.noise_plane(d)) for d in ("1D", "2D", "3D", "4D")]
+    specs += [(f"Noise {d} distortion 0.7", t.noise_plane(d, Distortion=0.7))
+              for d in ("2D", "3D")]
+    for kind in ("MULTIFRACTAL", "HYBRID_MULTIFRACTAL", "RIDGED_MULTIFRACTAL",
+                 "HETERO_TERRAIN"):
+        specs += [(f"Noise {kind}", t.noise_plane("3D", kind, output="Factor", Offset=0.8,
+                                                  Gain=1.3, Roughness=0.5))]
+    yield "Noise", specs
+    specs = []
+    for dims in ("2D", "3D"):
+        for feature in ("F1", "F2", "SMOOTH_F1"):
+            specs += [(f"Voronoi {dims} {feature} colour", t.voronoi_plane(dims, feature)),
+                      (f"Voronoi {dims} {feature} distance",
+                       t.voronoi_plane(dims, feature, output="Distance"))]
+        specs += [(f"Voronoi {dims} distance to edge",
+                   t.voronoi_plane(dims, "DISTANCE_TO_EDGE", output="Distance"))]
+    for metric in ("MANHATTAN", "CHEBYCHEV", "MINKOWSKI"):
+        specs += [(f"Voronoi {metric}", t.voronoi_plane("3D", "F1", metric,
+                                                        output="Distance", Exponent=1.5))]
+    specs += [("Voronoi position", t.voronoi_plane("3D", "F1", output="Position")),
+              ("Voronoi fractal (detail 1.5)", t.voronoi_plane(
+                  "3D", "F1", output="Distance", Detail=1.5, Roughness=0.6, Lacunarity=2.2))]
+    yield "Voronoi", specs
+    specs = [("Checker", t.checker_plane)]
+    specs += [(f"Gradient {k}", t.gradient_plane(k)) for k in (
+        "LINEAR", "QUADRATIC", "EASING", "DIAGONAL", "RADIAL", "QUADRATIC_SPHERE",
+        "SPHERICAL")]
+    specs += [(f"White Noise {d}", t.white_noise_plane(d)) for d in ("1D", "2D", "3D", "4D")]
+    specs += [(f"Wave {w} {d} {p}", t.wave_plane(w, d, p)) for w, d, p in (
+        ("BANDS", "X", "SIN"), ("BANDS", "DIAGONAL", "SAW"), ("RINGS", "SPHERICAL", "TRI"))]
+    specs += [("Wave distorted", t.wave_plane("BANDS", "Y", "SIN", Distortion=3.0,
+                                              Detail=2.5))]
+    specs += [(f"Magic depth {d}", t.magic_plane(d)) for d in (0, 2, 5)]
+    specs += [("Magic depth 10 (distortion 0.6)", t.magic_plane(10, distortion=0.6))]
+    specs += [("Brick", t.brick_plane(0.5, 2, 1.0, 1)),
+              ("Brick squashed", t.brick_plane(0.3, 3, 0.6, 2)),
+              ("Blackbody", t.blackbody_plane), ("RGB Curves", t.curves_plane(False)),
+              ("RGB Curves extrapolated", t.curves_plane(True)),
+              ("Float Curve", t.float_curve_plane)]
+    specs += [("Group used twice", t.group_twice), ("Group in a group", t.group_in_group)]
+    yield "Textures, groups", specs
+
+
+def main():
+    print("| node (plane) | 99th percentile | max beyond 0.2 px | max at the centre | edge pixels |")
+    print("|---|---:|---:|---:|---:|")
+    for title, specs in scenes():
+        result = ss.compare(specs)
+        figures = ss.per_plane(result, lambda e, edge, loose: (
+            float(e[~edge].max()) if (~edge).any() else 0.0,
+            float(np.percentile(e[~edge], 99)) if (~edge).any() else 0.0,
+            float(edge.mean()),
+            float(loose[~edge].max()) if (~edge).any() else 0.0))
+        for (name, _), (worst, p99, edge, loose) in zip(specs, figures):
+            print(f"| {name} | {p99:.1e} | {loose:.1e} | {worst:.1e} | {100 * edge:.1f} % |")
+        sys.stdout.flush()
+
+
+if __name__ == "__main__":
+    main()
