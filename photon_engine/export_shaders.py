@@ -121,23 +121,32 @@ def glossy(reader, node) -> Closure:
 
 def metallic(reader, node) -> Closure:
     """Metallic BSDF (4.3+): F82 tint (Base Color at normal incidence, Edge Tint at 82
-    degrees) or the physical conductor's complex IOR (IOR + i Extinction per channel)."""
-    color, tex, tint = reader.textured_color(node, "Base Color")
-    roughness = reader.ranged(node, "Roughness")
+    degrees) or the physical conductor's complex IOR (IOR + i Extinction per channel).
+    Blender hides the inputs of the other Fresnel type (Cycles ignores them): they keep
+    the contract's defaults."""
     fresnel = reader.enum(node, "fresnel_type", FRESNEL, cl.FRESNEL_F82)
-    n = reader.ranged_color(node, "IOR", INF, default=(2.757, 2.513, 2.231))
-    k = reader.ranged_color(node, "Extinction", INF, default=(3.867, 3.404, 3.009))
+    defaults = cl.default_params()
+    if fresnel == cl.FRESNEL_F82:
+        color, tex, tint = reader.textured_color(node, "Base Color")
+        edge = reader.ranged_color(node, "Edge Tint", default=(1, 1, 1))
+        n, k = defaults[cl.METAL_N:cl.METAL_N + 3], defaults[cl.METAL_K:cl.METAL_K + 3]
+    else:
+        color, tex = defaults[cl.COLOR:cl.COLOR + 3], -1
+        edge = defaults[cl.SPECULAR_TINT:cl.SPECULAR_TINT + 3]
+        n = reader.ranged_color(node, "IOR", INF, default=defaults[cl.METAL_N:cl.METAL_N + 3])
+        k = reader.ranged_color(node, "Extinction", INF,
+                                default=defaults[cl.METAL_K:cl.METAL_K + 3])
+        # Legacy tint: the conductor's reflectance at normal incidence.
+        tint = ((n - 1) ** 2 + k ** 2) / np.maximum((n + 1) ** 2 + k ** 2, 1e-12)
+    roughness = reader.ranged(node, "Roughness")
     reader.thin_film(node)
     reader.ignored_links(node, "Normal", "Tangent")
-    values = dict(color=color, roughness=roughness,
-                  specular_tint=reader.ranged_color(node, "Edge Tint", default=(1, 1, 1)),
+    values = dict(color=color, roughness=roughness, specular_tint=edge,
                   anisotropic=reader.ranged(node, "Anisotropy", -1.0, 1.0, default=0.0),
                   anisotropic_rotation=reader.ranged(node, "Rotation", -INF, INF, default=0.0),
                   distribution=_distribution(reader, node, ("BECKMANN", "GGX", "MULTI_GGX"),
                                              "MULTI_GGX"),
                   fresnel_type=float(fresnel), metal_n=n, metal_k=k)
-    if fresnel == cl.FRESNEL_CONDUCTOR:  # legacy tint: the conductor's normal reflectance
-        tint = ((n - 1) ** 2 + k ** 2) / np.maximum((n + 1) ** 2 + k ** 2, 1e-12)
     return legacy_glossy(Closure(bsdfs=[bsdf(cl.CLOSURE_METALLIC, texture=tex, **values)]),
                          spec=tint, roughness=roughness)
 
