@@ -346,3 +346,15 @@ def test_volume_only_material_leaves_its_faces_out_with_a_warning():
     per_object = dict(zip(mesh.object_names, counts.tolist()))
     assert "Fog" not in per_object and "Fog2" not in per_object
     assert per_object["Floor"] == 2 and per_object["Half"] == 6  # three floor quads
+
+
+def test_volume_beside_a_surface_renders_the_surface_with_a_warning():
+    new_scene()
+    mat, _ = shader("Murky", 'ShaderNodeBsdfDiffuse', {"Color": (0.2, 0.3, 0.4, 1.0)}.items())
+    volume = mat.node_tree.nodes.new('ShaderNodeVolumeAbsorption')
+    mat.node_tree.links.new(volume.outputs[0],
+                            mat.node_tree.nodes["Material Output"].inputs["Volume"])
+    result, [[c]] = export_planes(mat)
+    msg = _only_warning(result, "Murky")
+    assert "Volume" in msg and "ignored" in msg
+    assert c["kind"] == cl.CLOSURE_DIFFUSE and result.scene.mesh.triangle_count == 2
