@@ -141,8 +141,9 @@ def metallic(reader, node) -> Closure:
     roughness = reader.ranged(node, "Roughness")
     reader.thin_film(node)
     reader.ignored_links(node, "Normal", "Tangent")
+    # Anisotropy in [0, 1] as Principled's (the Glossy BSDF's goes negative).
     values = dict(color=color, roughness=roughness, specular_tint=edge,
-                  anisotropic=reader.ranged(node, "Anisotropy", -1.0, 1.0, default=0.0),
+                  anisotropic=reader.ranged(node, "Anisotropy", default=0.0),
                   anisotropic_rotation=reader.ranged(node, "Rotation", -INF, INF, default=0.0),
                   distribution=_distribution(reader, node, ("BECKMANN", "GGX", "MULTI_GGX"),
                                              "MULTI_GGX"),
