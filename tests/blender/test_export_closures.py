@@ -358,3 +358,13 @@ def test_volume_beside_a_surface_renders_the_surface_with_a_warning():
     msg = _only_warning(result, "Murky")
     assert "Volume" in msg and "ignored" in msg
     assert c["kind"] == cl.CLOSURE_DIFFUSE and result.scene.mesh.triangle_count == 2
+
+
+def test_ior_from_a_driver_is_checked_like_a_typed_one():
+    new_scene()
+    mat, node = shader("DrivenGlass", 'ShaderNodeBsdfGlass', {"IOR": 1.5}.items())
+    node.inputs["IOR"].driver_add("default_value").driver.expression = "-2.0"
+    result, [[c]] = export_planes(mat)
+    msg = _only_warning(result, "DrivenGlass")
+    assert '"IOR" = -2' in msg and "IOR 1" in msg
+    assert c["params"][cl.IOR] == 1.0
