@@ -96,7 +96,7 @@ class Closure:
                 "alpha_texture": int(self.alpha_texture), "closures": rows}
 
 
-def bsdf(kind: int, weight=1.0, texture: int = -1, **values) -> dict:
+def closure_row(kind: int, weight=1.0, texture: int = -1, **values) -> dict:
     """A closure row: ``kind`` (closures.CLOSURE_*), Mix/Add ``weight`` (scalar or (3,)),
     the COLOR ``texture`` and slot ``values`` as ``closures.params`` takes them."""
     return {"kind": int(kind), "weight": np.broadcast_to(np.asarray(weight, np.float64), (3,)).copy(),
@@ -107,7 +107,7 @@ def diffuse_closure(color, texture: int = -1) -> Closure:
     """A Lambert closure of albedo ``color`` (3,) in both forms (texture multiplies it)."""
     color = np.asarray(color, np.float64)
     return Closure(diffuse=color, diffuse_texture=texture,
-                   bsdfs=[bsdf(closures.CLOSURE_DIFFUSE, color=color, roughness=0.0,
+                   bsdfs=[closure_row(closures.CLOSURE_DIFFUSE, color=color, roughness=0.0,
                                texture=texture)])
 
 

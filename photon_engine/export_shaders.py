@@ -29,7 +29,7 @@ import numpy as np
 
 from ..core.scene import closures as cl
 from . import compat
-from .export_nodes import Closure, bsdf, diffuse_closure, legacy_glossy
+from .export_nodes import Closure, closure_row, diffuse_closure, legacy_glossy
 
 INF = float("inf")
 
@@ -79,7 +79,7 @@ def principled(reader, node) -> Closure:
         thin_wall=1.0 if compat.thin_wall(node) else 0.0,
         distribution=_distribution(reader, node, ("GGX", "MULTI_GGX"), "MULTI_GGX"),
     )
-    c = legacy_glossy(Closure(bsdfs=[bsdf(cl.CLOSURE_PRINCIPLED, texture=tex, **values)]),
+    c = legacy_glossy(Closure(bsdfs=[closure_row(cl.CLOSURE_PRINCIPLED, texture=tex, **values)]),
                       spec=tint * metallic, trans=tint * (1 - metallic) * transmission,
                       roughness=roughness, ior=ior)
     c.diffuse = base * (1 - metallic) * (1 - transmission)
@@ -115,7 +115,7 @@ def glossy(reader, node) -> Closure:
                   anisotropic=reader.ranged(node, "Anisotropy", -1.0, 1.0, default=0.0),
                   anisotropic_rotation=reader.ranged(node, "Rotation", -INF, INF, default=0.0),
                   distribution=_distribution(reader, node, tuple(MICROFACETS), "MULTI_GGX"))
-    return legacy_glossy(Closure(bsdfs=[bsdf(cl.CLOSURE_GLOSSY, texture=tex, **values)]),
+    return legacy_glossy(Closure(bsdfs=[closure_row(cl.CLOSURE_GLOSSY, texture=tex, **values)]),
                          spec=tint, roughness=roughness)
 
 
@@ -148,7 +148,7 @@ def metallic(reader, node) -> Closure:
                   distribution=_distribution(reader, node, ("BECKMANN", "GGX", "MULTI_GGX"),
                                              "MULTI_GGX"),
                   fresnel_type=float(fresnel), metal_n=n, metal_k=k)
-    return legacy_glossy(Closure(bsdfs=[bsdf(cl.CLOSURE_METALLIC, texture=tex, **values)]),
+    return legacy_glossy(Closure(bsdfs=[closure_row(cl.CLOSURE_METALLIC, texture=tex, **values)]),
                          spec=tint, roughness=roughness)
 
 
@@ -160,7 +160,7 @@ def _dielectric(reader, node, kind, allowed, fallback) -> Closure:
     reader.ignored_links(node, "Normal")
     values = dict(color=color, roughness=roughness, ior=ior,
                   distribution=_distribution(reader, node, allowed, fallback))
-    return legacy_glossy(Closure(bsdfs=[bsdf(kind, texture=tex, **values)]),
+    return legacy_glossy(Closure(bsdfs=[closure_row(kind, texture=tex, **values)]),
                          trans=tint, roughness=roughness, ior=ior)
 
 
@@ -180,7 +180,7 @@ def translucent(reader, node) -> Closure:
     color, tex, _ = reader.textured_color(node, "Color")
     reader.ignored_links(node, "Normal")
     return Closure(diffuse=color, diffuse_texture=tex,
-                   bsdfs=[bsdf(cl.CLOSURE_TRANSLUCENT, texture=tex, color=color)])
+                   bsdfs=[closure_row(cl.CLOSURE_TRANSLUCENT, texture=tex, color=color)])
 
 
 def sheen(reader, node) -> Closure:
@@ -191,7 +191,7 @@ def sheen(reader, node) -> Closure:
         reader.note_node(node, f'sheen distribution "{node.distribution}" is rendered as '
                                f'MICROFIBER')
     reader.ignored_links(node, "Normal")
-    return Closure(bsdfs=[bsdf(cl.CLOSURE_SHEEN, texture=tex, color=color,
+    return Closure(bsdfs=[closure_row(cl.CLOSURE_SHEEN, texture=tex, color=color,
                                roughness=reader.ranged(node, "Roughness"))])
 
 
