@@ -300,7 +300,8 @@ class _Geometry:
         verts, tris, normals, uvs, mats, objs = (np.concatenate(col) for col in zip(*parts))
         if left_out:  # faces of volume-only materials on objects with other slots too
             keep = ~np.isin(mats, list(left_out))
-            tris, normals, uvs, mats, objs = tris[keep], normals[keep], uvs[keep], mats[keep], objs[keep]
+            tris, normals, uvs = tris[keep], normals[keep], uvs[keep]
+            mats, objs = mats[keep], objs[keep]
         verts -= np.asarray(origin, np.float64)
         f32, i32 = np.float32, np.int32
         return Mesh(vertices=verts.astype(f32), triangles=tris.astype(i32, copy=False),

@@ -99,7 +99,8 @@ class Closure:
 def closure_row(kind: int, weight=1.0, texture: int = -1, **values) -> dict:
     """A closure row: ``kind`` (closures.CLOSURE_*), Mix/Add ``weight`` (scalar or (3,)),
     the COLOR ``texture`` and slot ``values`` as ``closures.params`` takes them."""
-    return {"kind": int(kind), "weight": np.broadcast_to(np.asarray(weight, np.float64), (3,)).copy(),
+    weight = np.broadcast_to(np.asarray(weight, np.float64), (3,)).copy()
+    return {"kind": int(kind), "weight": weight,
             "params": closures.params(**values), "texture": int(texture)}
 
 

@@ -7,7 +7,7 @@ legacy lobes the core's passes read until they read the closure table:
 
 | node | closure | legacy lobes |
 |---|---|---|
-| Principled BSDF | PRINCIPLED, every slot | base (1-m)(1-t) diffuse, base m specular, base (1-m) t glass |
+| Principled BSDF | PRINCIPLED, every slot | diffuse base (1-m)(1-t), specular base m, glass base (1-m) t |
 | Diffuse BSDF | DIFFUSE (colour, roughness) | diffuse |
 | Glossy BSDF | GLOSSY (colour, roughness, anisotropy, rotation, distribution) | specular |
 | Metallic BSDF (4.3+) | METALLIC (F0, edge tint, n, k, Fresnel type, ...) | specular = F0 |

@@ -123,7 +123,8 @@ def test_principled_inputs_fill_every_slot():
     assert c["kind"] == cl.CLOSURE_PRINCIPLED and c["texture"] == -1
     np.testing.assert_allclose(c["weight"], 1.0)
     has = {name: name in node.inputs for name in ("Diffuse Roughness", "Thin Wall")}
-    assert has["Diffuse Roughness"] == (VERSION >= (4, 3)) and has["Thin Wall"] == (VERSION >= (5, 2))
+    assert has["Diffuse Roughness"] == (VERSION >= (4, 3))
+    assert has["Thin Wall"] == (VERSION >= (5, 2))
     assert_params(c["params"], color=(0.5, 0.4, 0.2), metallic=0.25, roughness=0.35, ior=1.33,
                   specular_level=0.7, specular_tint=(0.9, 0.8, 0.7), transmission=0.4,
                   coat_weight=0.6, coat_roughness=0.2, coat_ior=1.6, coat_tint=(0.7, 0.8, 0.9),
