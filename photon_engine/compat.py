@@ -12,7 +12,10 @@ asks this module instead of testing ``bpy.app.version`` itself:
   Color", "Transmission" -> "Transmission Weight", "Specular" -> "Specular IOR Level",
   "Subsurface" -> "Subsurface Weight", "Clearcoat" -> "Coat Weight", "Sheen" -> "Sheen
   Weight"); 4.x+ mix and math nodes say "Factor" where 3.x said "Fac". ``input_socket``
-  finds an input by today's name or any older one.
+  finds an input by today's name or any older one. 3.x's Principled (v1) has scalar
+  "Specular Tint" and "Sheen Tint" (a blend from white to the base colour's hue) where 4.0
+  has colours: the node reader turns them into colours (export_nodes.NodeReader.tint);
+  3.x's distributions include "SHARP" (roughness 0, export_shaders).
 - 5.2's Principled BSDF has a boolean "Thin Wall" input (``thin_wall``), absent before.
   Otherwise the shader nodes' input names are the same from 4.2 to 5.2 (checked input by
   input in bpy 4.2.23 and 5.2.3); newer inputs and nodes: Principled "Diffuse Roughness"
@@ -73,6 +76,7 @@ SOCKET_ALIASES: dict[str, tuple[str, ...]] = {
     "Specular IOR Level": ("Specular",),
     "Subsurface Weight": ("Subsurface",),
     "Coat Weight": ("Clearcoat",),
+    "Coat Roughness": ("Clearcoat Roughness",),
     "Sheen Weight": ("Sheen",),
     "Factor": ("Fac",),
 }

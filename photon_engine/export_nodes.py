@@ -223,6 +223,18 @@ class NodeReader:
             self.note_node(node, f'input "{name}" = ({shown}) is outside {span}; clamped')
         return c
 
+    def tint(self, node, name, base, default=(1.0, 1.0, 1.0)) -> np.ndarray:
+        """(3,) a tint colour input (Specular / Sheen Tint), clamped to >= 0. Blender 3.x's
+        Principled (v1) has a scalar there instead, t in [0, 1]: the tint goes from white
+        (t = 0) to the base colour's hue (base / its luminance, t = 1), as Cycles 3.x."""
+        sock = compat.input_socket(node, name)
+        if sock is None or sock.type != 'VALUE':
+            return self.ranged_color(node, name, float("inf"), default=default)
+        t = self.ranged(node, name)
+        lum = float(luminance(base))
+        hue = base / lum if lum > 0 else np.ones(3)
+        return (1.0 - t) + t * hue
+
     def ior(self, node, name="IOR", default=None) -> float:
         """An index of refraction: <= 0 (or not finite) means nothing and renders as 1
         (no refraction, no reflection), reported; Cycles would clamp it to 1e-5, which

@@ -35,16 +35,25 @@ INF = float("inf")
 
 MICROFACETS = {"GGX": cl.DISTRIBUTION_GGX, "MULTI_GGX": cl.DISTRIBUTION_MULTI_GGX,
                "BECKMANN": cl.DISTRIBUTION_BECKMANN,
-               "ASHIKHMIN_SHIRLEY": cl.DISTRIBUTION_ASHIKHMIN_SHIRLEY}
-"""Blender's ``distribution`` enum items -> the DISTRIBUTION slot."""
+               "ASHIKHMIN_SHIRLEY": cl.DISTRIBUTION_ASHIKHMIN_SHIRLEY,
+               "SHARP": cl.DISTRIBUTION_GGX}
+"""Blender's ``distribution`` enum items -> the DISTRIBUTION slot. Blender 3.x's "SHARP"
+is GGX at roughness 0 (``_roughness``)."""
 
 FRESNEL = {"F82": cl.FRESNEL_F82, "PHYSICAL_CONDUCTOR": cl.FRESNEL_CONDUCTOR}
 """Metallic BSDF's ``fresnel_type`` items -> the FRESNEL_TYPE slot."""
 
 
 def _distribution(reader, node, allowed, fallback):
-    table = {k: MICROFACETS[k] for k in allowed}
+    table = {k: MICROFACETS[k] for k in (*allowed, "SHARP")}
     return float(reader.enum(node, "distribution", table, table[fallback]))
+
+
+def _roughness(reader, node) -> float:
+    """The Roughness input; 0 under Blender 3.x's "SHARP" distribution (which hides it)."""
+    if getattr(node, "distribution", None) == "SHARP":
+        return 0.0
+    return reader.ranged(node, "Roughness")
 
 
 def principled(reader, node) -> Closure:
@@ -63,7 +72,7 @@ def principled(reader, node) -> Closure:
     values = dict(
         color=base, metallic=metallic, roughness=roughness, ior=ior,
         specular_level=reader.ranged(node, "Specular IOR Level", 0.0, INF, default=0.5),
-        specular_tint=reader.ranged_color(node, "Specular Tint", INF, default=(1, 1, 1)),
+        specular_tint=reader.tint(node, "Specular Tint", base),
         transmission=transmission,
         coat_weight=reader.ranged(node, "Coat Weight", default=0.0),
         coat_roughness=reader.ranged(node, "Coat Roughness", default=0.03),
@@ -71,7 +80,7 @@ def principled(reader, node) -> Closure:
         coat_tint=reader.ranged_color(node, "Coat Tint", default=(1, 1, 1)),
         sheen_weight=reader.ranged(node, "Sheen Weight", default=0.0),
         sheen_roughness=reader.ranged(node, "Sheen Roughness", default=0.5),
-        sheen_tint=reader.ranged_color(node, "Sheen Tint", default=(1, 1, 1)),
+        sheen_tint=np.minimum(reader.tint(node, "Sheen Tint", base), 1.0),
         anisotropic=reader.ranged(node, "Anisotropic", default=0.0),
         anisotropic_rotation=reader.ranged(node, "Anisotropic Rotation", -INF, INF, default=0.0),
         diffuse_roughness=reader.ranged(node, "Diffuse Roughness", default=0.0),
@@ -109,7 +118,7 @@ def glossy(reader, node) -> Closure:
     tint, Anisotropy in [-1, 1] (Cycles clamps to +-0.99: negative stretches along the
     bitangent), Rotation a fraction of a turn."""
     color, tex, tint = reader.textured_color(node, "Color")
-    roughness = reader.ranged(node, "Roughness")
+    roughness = _roughness(reader, node)
     reader.ignored_links(node, "Normal", "Tangent")
     values = dict(color=color, roughness=roughness,
                   anisotropic=reader.ranged(node, "Anisotropy", -1.0, 1.0, default=0.0),
@@ -154,7 +163,7 @@ def metallic(reader, node) -> Closure:
 
 def _dielectric(reader, node, kind, allowed, fallback) -> Closure:
     color, tex, tint = reader.textured_color(node, "Color")
-    roughness = reader.ranged(node, "Roughness")
+    roughness = _roughness(reader, node)
     ior = reader.ior(node, "IOR")
     reader.thin_film(node)
     reader.ignored_links(node, "Normal")
