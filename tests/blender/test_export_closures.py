@@ -369,3 +369,34 @@ def test_ior_from_a_driver_is_checked_like_a_typed_one():
     msg = _only_warning(result, "DrivenGlass")
     assert '"IOR" = -2' in msg and "IOR 1" in msg
     assert c["params"][cl.IOR] == 1.0
+
+
+def test_new_nodes_keep_main_rendering_through_the_legacy_lobes():
+    """Until the core's passes read the closure table, each row also carries the lobes they
+    read (docs/export.md, "The legacy lobes")."""
+    new_scene()
+    mats = [shader("Refr", 'ShaderNodeBsdfRefraction', {"Color": (0.9, 0.8, 0.7, 1.0),
+                                                        "IOR": 1.33, "Roughness": 0.0}.items())[0],
+            shader("Transl", 'ShaderNodeBsdfTranslucent',
+                   {"Color": (0.3, 0.6, 0.2, 1.0)}.items())[0],
+            shader("Sss", 'ShaderNodeSubsurfaceScattering',
+                   {"Color": (0.7, 0.5, 0.4, 1.0)}.items())[0]]
+    result, _ = export_planes(*mats)
+    m, mesh = result.scene.materials, result.scene.mesh
+    row = {name: mesh.material_index[mesh.object_index == mesh.object_names.index(f"P{i}")][0]
+           for i, name in enumerate(("Refr", "Transl", "Sss"))}
+    np.testing.assert_allclose(m.transmission[row["Refr"]], [0.9, 0.8, 0.7], rtol=1e-6)
+    assert m.ior[row["Refr"]] == pytest.approx(1.33)
+    np.testing.assert_allclose(m.diffuse[row["Transl"]], [0.3, 0.6, 0.2], rtol=1e-6)
+    np.testing.assert_allclose(m.diffuse[row["Sss"]], [0.7, 0.5, 0.4], rtol=1e-6)
+    assert any('"Sss"' in w and "diffuse approximation" in w for w in result.warnings)
+    if VERSION >= (4, 3):
+        new_scene()
+        n, k = np.array([0.2, 0.9, 1.1]), np.array([3.9, 2.4, 2.2])
+        metal, _ = shader("Conductor", 'ShaderNodeBsdfMetallic',
+                          {"IOR": tuple(n), "Extinction": tuple(k)}.items(),
+                          fresnel_type='PHYSICAL_CONDUCTOR')
+        result, _ = export_planes(metal)
+        # Normal-incidence reflectance of a conductor of complex IOR n + ik.
+        f0 = ((n - 1) ** 2 + k ** 2) / ((n + 1) ** 2 + k ** 2)
+        np.testing.assert_allclose(result.scene.materials.specular[0], f0, rtol=1e-5)
