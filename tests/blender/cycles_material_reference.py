@@ -9,7 +9,8 @@ light (glass and the thin wall also refract the world through the sphere).
 ``MATERIALS`` names each material and the node tree that makes it: every plain lobe of
 issue 13 (Diffuse with and without roughness, Glossy, Metallic, Glass, Refraction,
 Translucent, Sheen) and the Principled BSDF (default; roughness 0 / 0.25 / 0.6 x metallic
-0 / 1; coat; sheen; rough glass; thin wall, Blender 5.2's input).
+0 / 1; coat; sheen; rough glass; thin wall, Blender 5.2's input), a Mix Shader of Diffuse
+and Glossy and an Add Shader of Diffuse and Sheen.
 
 The Cornell box: the demo's box (examples/cornell_box.py) without its spheres and with one
 rough-metal sphere (Principled metallic 1, roughness 0.3) where the mirror sphere was, so
@@ -75,6 +76,34 @@ def principled(name, **inputs):
     return node_material(name, 'ShaderNodeBsdfPrincipled', **inputs)
 
 
+def combined(name, how, fac=0.3):
+    """Mix Shader (``how`` "MIX", factor ``fac``) or Add Shader ("ADD") of a red Diffuse
+    BSDF and a white Glossy BSDF of roughness 0.2 (Add: Diffuse 0.5 grey + Sheen)."""
+    mat = bpy.data.materials.new(name)
+    tree = scenes.ensure_node_tree(mat)
+    nodes, links = tree.nodes, tree.links
+    nodes.clear()
+    first = nodes.new('ShaderNodeBsdfDiffuse')
+    if how == "MIX":
+        first.inputs["Color"].default_value = RED
+        second = nodes.new('ShaderNodeBsdfGlossy')
+        second.inputs["Color"].default_value = (0.9, 0.9, 0.9, 1.0)
+        second.inputs["Roughness"].default_value = 0.2
+        node = nodes.new('ShaderNodeMixShader')
+        node.inputs[0].default_value = fac
+        inputs = node.inputs[1], node.inputs[2]
+    else:
+        first.inputs["Color"].default_value = (0.5, 0.5, 0.5, 1.0)
+        second = nodes.new('ShaderNodeBsdfSheen')
+        second.inputs["Color"].default_value = (0.8, 0.8, 0.8, 1.0)
+        node = nodes.new('ShaderNodeAddShader')
+        inputs = node.inputs[0], node.inputs[1]
+    links.new(first.outputs[0], inputs[0])
+    links.new(second.outputs[0], inputs[1])
+    links.new(node.outputs[0], nodes.new('ShaderNodeOutputMaterial').inputs["Surface"])
+    return mat
+
+
 GOLD = (1.0, 0.71, 0.29, 1.0)
 RED = (0.8, 0.15, 0.1, 1.0)
 
@@ -108,6 +137,8 @@ MATERIALS = {
         "Base Color": (1.0, 1.0, 1.0, 1.0), "Transmission Weight": 1.0}),
     "thin_wall": lambda: principled("ThinWall", Roughness=0.0, IOR=1.5, **{
         "Base Color": (1.0, 1.0, 1.0, 1.0), "Transmission Weight": 1.0, "Thin Wall": True}),
+    "mix_diffuse_glossy": lambda: combined("MixDiffuseGlossy", "MIX"),
+    "add_diffuse_sheen": lambda: combined("AddDiffuseSheen", "ADD"),
 }
 """Scene name -> a function making the sphere's material (in a fresh scene)."""
 
@@ -187,6 +218,8 @@ def fingerprint(name) -> str:
         # The material's own lambda: its line(s) of the MATERIALS table.
         parts += [name, inspect.getsource(sphere_scene), _material_source(name),
                   repr(RESOLUTION)]
+        if name.startswith(("mix_", "add_")):
+            parts.append(inspect.getsource(combined))
     return hashlib.sha256("\n".join(parts).encode()).hexdigest()[:16]
 
 

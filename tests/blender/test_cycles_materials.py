@@ -40,6 +40,8 @@ PENDING = {
     "rough_glass": "no rough dielectric lobe in the core yet",
     "thin_wall": "no thin-wall dielectric in the core yet",
     "cornell_rough_metal": _GLOSSY,
+    "mix_diffuse_glossy": _GLOSSY,
+    "add_diffuse_sheen": "no Sheen lobe in the core yet",
 }
 PENDING.update({name: _PRINCIPLED for name in mr.MATERIALS if name.startswith("principled")
                 or name == "coat"})
