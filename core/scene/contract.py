@@ -164,7 +164,7 @@ class Materials:
         for m in range(self.count):
             first.append(len(kind))
             lobes = (
-                (closures.CLOSURE_DIFFUSE, self.diffuse[m], {}, int(tex[m])),
+                (closures.CLOSURE_DIFFUSE, self.diffuse[m], {"roughness": 0.0}, int(tex[m])),
                 (closures.CLOSURE_GLOSSY, self.specular[m],
                  {"roughness": float(self.roughness[m]),
                   "distribution": closures.DISTRIBUTION_GGX}, -1),

@@ -1,0 +1,854 @@
+"""The closure evaluator: a material's BSDF at one hit, for every integrator and the photons.
+
+A material is a weighted sum of closures (core/scene/closures.py). ``table(materials)``
+turns ``Materials.closure_table()`` into a ``ClosureTable`` (float64 / int32 arrays plus the
+albedo look-up tables of ``albedo_tables``) that the numba functions below take as one
+argument:
+
+- ``eval_bsdf``: f * |cos(ns, wi)| summed over the non-delta lobes (RGB), and the pdf with
+  which ``sample_bsdf`` would have produced wi (solid angle, 1/sr; for MIS);
+- ``sample_bsdf``: pick a lobe by its sample weight (over every closure of the material, as
+  Cycles does), sample a direction from it; return the direction, the path weight
+  f |cos| / pdf (RGB; for a rough lobe f and pdf are the whole material's, so the weight is
+  the one MIS expects), the pdf (0 for a delta lobe) and the flags ``LOBE_*`` (0: no
+  direction, the path ends);
+- ``albedo``: the directional albedo of the diffuse-like lobes (0 when the material has none:
+  photons are not stored there) and of the whole material (Russian roulette); estimates
+  from the albedo tables, not clamped (a Mix/Add above 1 gives above 1).
+
+Conventions: wo points to the viewer (or where the photon came from), wi to the light (or
+where the photon goes); every vector unit, world space. ns, ng: shading and geometric
+normals, ng flipped to wo's side (ns is flipped to ng's side here if it is not; where wo is
+below ns the geometric normal shades); t: a unit tangent (``DEFAULT_TANGENT`` when the mesh
+has none; it is made orthogonal to ns here). ``entering``: wo is on the front of the mesh's
+geometric normal, so a dielectric's eta is its IOR (else 1 / IOR). c0..c2: the texel colour
+that multiplies the COLOR slot of the closures that have a texture (closure_texture >= 0);
+the others ignore it.
+
+What each closure becomes (Cycles 4.x/5.x, kernel/svm/closure.h):
+
+- Diffuse: Lambert, or Oren-Nayar (oren_nayar.py) when Roughness > 1e-5;
+- Glossy: GGX reflection (microfacet.py), anisotropic along the tangent (rotated by
+  Anisotropic Rotation), no Fresnel, multiscatter compensated for Multiscatter GGX;
+  Beckmann and Ashikhmin-Shirley are rendered as GGX of the same roughness;
+- Glass: rough dielectric, generalized Schlick "real curve" Fresnel, COLOR tinting both;
+  Refraction: the transmission alone, no Fresnel; Translucent: Lambert on the far side;
+- Sheen: the Microfiber LTC (sheen.py); Metallic: GGX with F82 tint or the physical
+  conductor Fresnel;
+- Principled v2, top to bottom: sheen, coat (with its tint's absorption along the refracted
+  path), metal (F82 tint, weight Metallic), transmission (rough glass, or Thin Wall's
+  reflection + straight-through transmission), the dielectric specular layer (IOR, Specular
+  IOR Level, Specular Tint), diffuse (Oren-Nayar with Diffuse Roughness); each layer scales
+  the ones below by 1 - max(its directional albedo / the weight), like
+  closure_layering_weight. Subsurface is rendered as diffuse (thin wall: half diffuse, half
+  translucent, as Cycles' thin subsurface at anisotropy 0). Emission and alpha are per
+  material, not here.
+
+Like Cycles, radiance through a refraction is not scaled by eta^2 (bsdf_microfacet.h).
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+
+from .. import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
+from .. import sampling
+from ..scene import closures as cl
+from . import albedo_tables, fresnel, lambert, microfacet, oren_nayar, sheen
+
+LOBE_DELTA = 1      # a singular direction (mirror, smooth glass): pdf 0, no eval
+LOBE_GLOSSY = 2     # a rough microfacet lobe
+LOBE_DIFFUSE = 4    # Lambert, Oren-Nayar, translucent, sheen
+LOBE_TRANSMIT = 8   # wi is on the far side of the surface (ng)
+
+DEFAULT_TANGENT = (1.0, 0.0, 0.0)
+"""A tangent for meshes without one: ``frame`` makes it orthogonal to ns (and falls back to
+another axis when it is parallel)."""
+
+CUTOFF = 1e-5  # Cycles' CLOSURE_WEIGHT_CUTOFF: a layer weighted less is skipped
+
+
+class ClosureTable(NamedTuple):
+    """The closure table as the kernels read it (``table``).
+
+    kind: (C,) int32 CLOSURE_*; weight: (C, 3) float64; params: (C, PARAM_COUNT) float64;
+    texture: (C,) int32 (-1 none); first, count: (M,) int32 closures of material m.
+    The albedo look-up tables (float64, shapes in albedo_tables.py): ggx_E, ggx_Eavg,
+    glass_E, glass_Eavg, schlick_s, schlick5_s, sheen.
+    """
+    kind: np.ndarray
+    weight: np.ndarray
+    params: np.ndarray
+    texture: np.ndarray
+    first: np.ndarray
+    count: np.ndarray
+    ggx_E: np.ndarray
+    ggx_Eavg: np.ndarray
+    glass_E: np.ndarray
+    glass_Eavg: np.ndarray
+    schlick_s: np.ndarray
+    schlick5_s: np.ndarray
+    sheen: np.ndarray
+
+
+_TABLES = None
+
+
+def table(materials) -> ClosureTable:
+    """The ``ClosureTable`` of a ``core.scene.contract.Materials`` (stored or derived
+    closures, ``Materials.closure_table()``), float64 / int32 contiguous copies."""
+    global _TABLES
+    if _TABLES is None:
+        _TABLES = albedo_tables.load()
+    t = materials.closure_table()
+    return ClosureTable(
+        kind=np.ascontiguousarray(t["kind"], np.int32),
+        weight=np.ascontiguousarray(t["weight"], np.float64).reshape(-1, 3),
+        params=np.ascontiguousarray(t["params"], np.float64).reshape(-1, cl.PARAM_COUNT),
+        texture=np.ascontiguousarray(t["texture"], np.int32),
+        first=np.ascontiguousarray(t["first"], np.int32),
+        count=np.ascontiguousarray(t["count"], np.int32),
+        **{k: _TABLES[k] for k in albedo_tables.NAMES})
+
+
+# --- the lobe list of one hit ------------------------------------------------------------------
+# Each closure expands, for the wo at hand, into rows of a (n, NL) float64 array:
+L_LAMBERT, L_OREN_NAYAR, L_TRANSLUCENT, L_GGX, L_DIELECTRIC, L_SHEEN, L_THIN_T = range(7)
+T, W, SW, AX, AY, ROT_C, ROT_S, ETA, MODE, P0, Q0, RT, TT, EST = (
+    0, 1, 4, 5, 6, 7, 8, 9, 10, 11, 14, 17, 20, 23)
+# T type; W (3) weight (energy compensation included); SW sample weight; AX, AY alphas (Oren-
+# Nayar: AX = sigma; sheen: AX, AY = the LTC's a, b); ROT_C, ROT_S the lobe frame's rotation
+# about n; ETA; MODE (GGX: FR_*; dielectric: 1 = refraction only); P0 (3) F0 / n / the
+# Oren-Nayar albedo; Q0 (3) F82's b / k; RT, TT (3) reflection and transmission tints;
+# EST the lobe's directional albedo per unit weight (luminance-free mean, for ``albedo``).
+NL = 24
+MAX_LOBES = 8  # per closure (Principled: sheen, coat, metal, 2 transmission, specular, 2 base)
+FR_NONE, FR_DIELECTRIC, FR_SCHLICK, FR_F82, FR_CONDUCTOR = range(5)
+
+
+@njit(cache=True, error_model="numpy")
+def frame(nsx, nsy, nsz, tx, ty, tz):
+    """Orthonormal shading frame (t, b = n x t) from ns and a tangent (Gram-Schmidt;
+    another axis when t is parallel to ns). Returns tx, ty, tz, bx, by, bz."""
+    d = tx * nsx + ty * nsy + tz * nsz
+    ux, uy, uz = tx - d * nsx, ty - d * nsy, tz - d * nsz
+    ln = np.sqrt(ux * ux + uy * uy + uz * uz)
+    if ln < 1e-6:
+        ux, uy, uz, _, _, _ = sampling.basis(nsx, nsy, nsz)
+        ln = np.sqrt(ux * ux + uy * uy + uz * uz)
+    ux, uy, uz = ux / ln, uy / ln, uz / ln
+    bx = nsy * uz - nsz * uy
+    by = nsz * ux - nsx * uz
+    bz = nsx * uy - nsy * ux
+    return ux, uy, uz, bx, by, bz
+
+
+@njit(cache=True, error_model="numpy")
+def _mean3(a, b, c):
+    return (a + b + c) / 3.0
+
+
+@njit(cache=True, error_model="numpy")
+def _row(L, n, kind, w0, w1, w2, sw):
+    """Start lobe row n (zeroed, rotation identity) and return n + 1."""
+    for j in range(NL):
+        L[n, j] = 0.0
+    L[n, T] = kind
+    L[n, W], L[n, W + 1], L[n, W + 2] = w0, w1, w2
+    L[n, SW] = max(sw, 0.0)
+    L[n, ROT_C] = 1.0
+    L[n, EST] = 1.0
+    return n + 1
+
+
+@njit(cache=True, error_model="numpy")
+def _compensate(tab, L, k, rough, mu, glass, eta, f0, f1, f2):
+    """Multiscatter GGX on lobe k: weight *= 1 + Fms (1 - E) / E per channel (Fss = f*), the
+    sample weight by the mean "darkening" (Cycles' microfacet_ggx_preserve_energy). Returns
+    the darkening (RGB) that Cycles folds into the lobe's weight (its albedo for layering)."""
+    if glass:
+        e, e_avg = albedo_tables.glass_e(tab.glass_E, tab.glass_Eavg, rough, mu, eta)
+    else:
+        e, e_avg = albedo_tables.reflect_e(tab.ggx_E, tab.ggx_Eavg, rough, mu)
+    e = max(e, 1e-4)
+    scale = 1.0 / e
+    m0 = albedo_tables.compensation(e, e_avg, f0)
+    m1 = albedo_tables.compensation(e, e_avg, f1)
+    m2 = albedo_tables.compensation(e, e_avg, f2)
+    L[k, W] *= m0
+    L[k, W + 1] *= m1
+    L[k, W + 2] *= m2
+    d0, d1, d2 = m0 / scale, m1 / scale, m2 / scale
+    L[k, SW] *= _mean3(d0, d1, d2)
+    L[k, EST] *= e  # the single-scattering part; the weight carries the rest
+    return d0, d1, d2
+
+
+@njit(cache=True, error_model="numpy")
+def _rough_of(ax, ay):
+    return np.sqrt(np.sqrt(ax * ay))
+
+
+@njit(cache=True, error_model="numpy")
+def _ggx_lobe(tab, L, n, w0, w1, w2, ax, ay, rc, rs, mode, p, q, eta, mu, multi, fss):
+    """Append a GGX reflection lobe with Fresnel ``mode`` (params p, q: 3-tuples) and its
+    sample weight mean(w) * mean(Fresnel albedo estimate); multiscatter when ``multi``.
+    Returns (n + 1, estimated albedo RGB per unit weight, darkening RGB)."""
+    k = n
+    n = _row(L, n, L_GGX, w0, w1, w2, _mean3(w0, w1, w2))
+    L[k, AX], L[k, AY], L[k, ROT_C], L[k, ROT_S] = ax, ay, rc, rs
+    L[k, ETA], L[k, MODE] = eta, mode
+    L[k, P0], L[k, P0 + 1], L[k, P0 + 2] = p[0], p[1], p[2]
+    L[k, Q0], L[k, Q0 + 1], L[k, Q0 + 2] = q[0], q[1], q[2]
+    rough = _rough_of(ax, ay)
+    # Fresnel albedo estimate at wo (bsdf_microfacet_estimate_albedo)
+    if mode == FR_SCHLICK or mode == FR_DIELECTRIC:
+        s = albedo_tables.read_3d(tab.schlick_s, rough, mu, albedo_tables.ior_z(eta))
+        e0, e1, e2 = p[0] + (1.0 - p[0]) * s, p[1] + (1.0 - p[1]) * s, p[2] + (1.0 - p[2]) * s
+    elif mode == FR_F82:
+        s = albedo_tables.read_2d(tab.schlick5_s, rough, mu)
+        e0, e1, e2 = p[0] + (1.0 - p[0]) * s, p[1] + (1.0 - p[1]) * s, p[2] + (1.0 - p[2]) * s
+    elif mode == FR_CONDUCTOR:
+        e0 = fresnel.conductor(mu, p[0], q[0])
+        e1 = fresnel.conductor(mu, p[1], q[1])
+        e2 = fresnel.conductor(mu, p[2], q[2])
+    else:
+        e0 = e1 = e2 = 1.0
+    L[k, SW] *= _mean3(e0, e1, e2)
+    L[k, EST] = 1.0
+    d0 = d1 = d2 = 1.0
+    if multi:
+        d0, d1, d2 = _compensate(tab, L, k, rough, mu, False, 1.0, fss[0], fss[1], fss[2])
+    else:
+        L[k, EST] = albedo_tables.read_2d(tab.ggx_E, rough, mu)
+    return n, (e0, e1, e2), (d0, d1, d2)
+
+
+@njit(cache=True, error_model="numpy")
+def _glass_lobe(tab, L, n, w0, w1, w2, alpha, eta, refract_only, f0, rt, tt, mu, multi):
+    """Append a rough dielectric lobe (f0, rt, tt: 3-tuples). Returns n + 1."""
+    k = n
+    n = _row(L, n, L_DIELECTRIC, w0, w1, w2, _mean3(w0, w1, w2))
+    L[k, AX] = alpha
+    L[k, AY] = alpha
+    L[k, ETA] = eta
+    L[k, MODE] = 1.0 if refract_only else 0.0
+    L[k, P0], L[k, P0 + 1], L[k, P0 + 2] = f0[0], f0[1], f0[2]
+    L[k, RT], L[k, RT + 1], L[k, RT + 2] = rt[0], rt[1], rt[2]
+    L[k, TT], L[k, TT + 1], L[k, TT + 2] = tt[0], tt[1], tt[2]
+    rough = np.sqrt(alpha)
+    if refract_only:
+        L[k, EST] = 1.0
+        return n
+    s = albedo_tables.read_3d(tab.schlick_s, rough, mu, albedo_tables.ior_z(eta))
+    est = 0.0
+    for j in range(3):
+        fj = f0[j] + (1.0 - f0[j]) * s
+        est += (fj * rt[j] + (1.0 - fj) * tt[j]) / 3.0
+    L[k, SW] *= est
+    L[k, EST] = est
+    if multi:
+        _compensate(tab, L, k, rough, mu, True, eta, tt[0], tt[1], tt[2])
+    return n
+
+
+@njit(cache=True, error_model="numpy")
+def _layer(a0, a1, a2, v0, v1, v2):
+    """closure_layering_weight: v * clamp(1 - max(a / v), 0, 1) (a: the layer's albedo)."""
+    m = 0.0
+    if v0 > 0.0:
+        m = max(m, a0 / v0)
+    if v1 > 0.0:
+        m = max(m, a1 / v1)
+    if v2 > 0.0:
+        m = max(m, a2 / v2)
+    k = min(max(1.0 - m, 0.0), 1.0)
+    return v0 * k, v1 * k, v2 * k
+
+
+@njit(cache=True, error_model="numpy")
+def _sheen_lobe(tab, L, n, w0, w1, w2, roughness, mu, wox, woy):
+    """Append a sheen lobe (weight w times the LTC's albedo); returns (n', albedo factor)."""
+    r = min(max(roughness, 1e-3), 1.0)
+    a = albedo_tables.read_2d(tab.sheen[0], mu, r)
+    b = albedo_tables.read_2d(tab.sheen[1], mu, r)
+    alb = albedo_tables.read_2d(tab.sheen[2], mu, r)
+    if abs(a) < 1e-5 or alb < 1e-5:
+        return n, 0.0
+    k = n
+    n = _row(L, n, L_SHEEN, w0 * alb, w1 * alb, w2 * alb, _mean3(w0, w1, w2) * alb)
+    L[k, AX] = a
+    L[k, AY] = b
+    L[k, ROT_C], L[k, ROT_S] = sheen.frame_of(wox, woy)
+    return n, alb
+
+
+@njit(cache=True, error_model="numpy")
+def _aniso_rotation(rotation):
+    ang = rotation * 2.0 * np.pi
+    return np.cos(ang), np.sin(ang)
+
+
+@njit(cache=True, error_model="numpy")
+def _diffuse(L, n, w0, w1, w2, sigma, r0, r1, r2):
+    if sigma < 1e-5:
+        return _row(L, n, L_LAMBERT, w0, w1, w2, _mean3(w0, w1, w2))
+    k = n
+    n = _row(L, n, L_OREN_NAYAR, w0, w1, w2, _mean3(w0, w1, w2))
+    L[k, AX] = sigma
+    L[k, P0], L[k, P0 + 1], L[k, P0 + 2] = r0, r1, r2
+    return n
+
+
+@njit(cache=True, error_model="numpy")
+def _principled(tab, L, n, W0, W1, W2, p, b0, b1, b2, wox, woy, woz, entering):
+    """Principled BSDF v2 (svm_node_closure_bsdf, CLOSURE_BSDF_PRINCIPLED_ID)."""
+    mu = woz
+    multi = int(p[cl.DISTRIBUTION]) == cl.DISTRIBUTION_MULTI_GGX
+    # Sheen on top
+    sheen_w = max(p[cl.SHEEN_WEIGHT], 0.0)
+    coat_w = max(p[cl.COAT_WEIGHT], 0.0)
+    if sheen_w > CUTOFF:
+        s0 = sheen_w * max(p[cl.SHEEN_TINT], 0.0) * W0
+        s1 = sheen_w * max(p[cl.SHEEN_TINT + 1], 0.0) * W1
+        s2 = sheen_w * max(p[cl.SHEEN_TINT + 2], 0.0) * W2
+        n, alb = _sheen_lobe(tab, L, n, s0, s1, s2, min(max(p[cl.SHEEN_ROUGHNESS], 0.0), 1.0),
+                             mu, wox, woy)
+        if alb > 0.0:
+            W0, W1, W2 = _layer(s0 * alb, s1 * alb, s2 * alb, W0, W1, W2)
+    # Coat
+    if coat_w > CUTOFF:
+        cr = min(max(p[cl.COAT_ROUGHNESS], 0.0), 1.0)
+        cior = max(p[cl.COAT_IOR], 1.0)
+        ca = cr * cr
+        f0c = fresnel.f0_from_ior(cior)
+        fss = fresnel.dielectric_fss(cior)
+        k = n
+        n, est, dk = _ggx_lobe(tab, L, n, coat_w * W0, coat_w * W1, coat_w * W2, ca, ca,
+                               1.0, 0.0, FR_DIELECTRIC, (f0c, f0c, f0c), (0.0, 0.0, 0.0),
+                               cior, mu, True, (fss, fss, fss))
+        W0, W1, W2 = _layer(coat_w * W0 * dk[0] * est[0], coat_w * W1 * dk[1] * est[1],
+                            coat_w * W2 * dk[2] * est[2], W0, W1, W2)
+        t0, t1, t2 = (max(p[cl.COAT_TINT], 0.0), max(p[cl.COAT_TINT + 1], 0.0),
+                      max(p[cl.COAT_TINT + 2], 0.0))
+        if t0 != 1.0 or t1 != 1.0 or t2 != 1.0:
+            # Beer's law along the path refracted into a coat of unit thickness
+            cos_nt = np.sqrt(max(1.0 - (1.0 - mu * mu) / (cior * cior), 1e-12))
+            depth = 1.0 / cos_nt
+            W0 *= 1.0 + coat_w * (t0 ** depth - 1.0)
+            W1 *= 1.0 + coat_w * (t1 ** depth - 1.0)
+            W2 *= 1.0 + coat_w * (t2 ** depth - 1.0)
+    base0, base1, base2 = max(p[cl.COLOR] * b0, 0.0), max(p[cl.COLOR + 1] * b1, 0.0), \
+        max(p[cl.COLOR + 2] * b2, 0.0)
+    cb0, cb1, cb2 = min(base0, 1.0), min(base1, 1.0), min(base2, 1.0)
+    ior = max(p[cl.IOR], 1e-5)
+    rough = min(max(p[cl.ROUGHNESS], 0.0), 1.0)
+    aniso = min(max(p[cl.ANISOTROPIC], 0.0), 1.0)
+    ax = ay = rough * rough
+    rc, rs = 1.0, 0.0
+    if aniso > 0.0:
+        aspect = np.sqrt(1.0 - aniso * 0.9)
+        ax /= aspect
+        ay *= aspect
+        rc, rs = _aniso_rotation(p[cl.ANISOTROPIC_ROTATION])
+    st0, st1, st2 = (max(p[cl.SPECULAR_TINT], 0.0), max(p[cl.SPECULAR_TINT + 1], 0.0),
+                     max(p[cl.SPECULAR_TINT + 2], 0.0))
+    # Metal
+    metallic = min(max(p[cl.METALLIC], 0.0), 1.0)
+    if metallic > CUTOFF:
+        q = (fresnel.f82_b(cb0, min(st0, 1.0)), fresnel.f82_b(cb1, min(st1, 1.0)),
+             fresnel.f82_b(cb2, min(st2, 1.0)))
+        fss = (fresnel.f82_fss(cb0, q[0]), fresnel.f82_fss(cb1, q[1]),
+               fresnel.f82_fss(cb2, q[2]))
+        n, _, _ = _ggx_lobe(tab, L, n, metallic * W0, metallic * W1, metallic * W2, ax, ay,
+                            rc, rs, FR_F82, (cb0, cb1, cb2), q, 1.0, mu, multi, fss)
+        W0 *= 1.0 - metallic
+        W1 *= 1.0 - metallic
+        W2 *= 1.0 - metallic
+    thin = p[cl.THIN_WALL] > 0.5
+    # Transmission
+    tw = min(max(p[cl.TRANSMISSION], 0.0), 1.0)
+    if tw > CUTOFF:
+        if thin:
+            n = _thin_glass(tab, L, n, tw * W0, tw * W1, tw * W2, rough * rough, ior,
+                            (st0, st1, st2), (cb0, cb1, cb2), mu)
+        else:
+            eta = ior if entering else 1.0 / ior
+            f0 = fresnel.f0_from_ior(ior)
+            n = _glass_lobe(tab, L, n, tw * W0, tw * W1, tw * W2, rough * rough, eta, False,
+                            (min(f0 * st0, 1.0), min(f0 * st1, 1.0), min(f0 * st2, 1.0)),
+                            (1.0, 1.0, 1.0), (np.sqrt(cb0), np.sqrt(cb1), np.sqrt(cb2)), mu,
+                            multi)
+        W0 *= 1.0 - tw
+        W1 *= 1.0 - tw
+        W2 *= 1.0 - tw
+    # Dielectric specular layer: IOR scaled by Specular IOR Level
+    level = max(p[cl.SPECULAR_LEVEL], 0.0)
+    eta = ior
+    f0 = fresnel.f0_from_ior(eta)
+    if level != 0.5:
+        f0 *= 2.0 * level
+        eta = fresnel.ior_from_f0(f0)
+        if ior < 1.0:
+            eta = 1.0 / eta
+    if eta != 1.0:
+        f00, f01, f02 = min(f0 * st0, 1.0), min(f0 * st1, 1.0), min(f0 * st2, 1.0)
+        f0r = fresnel.f0_from_ior(eta)
+        s = (fresnel.dielectric_fss(eta) - f0r) / (1.0 - f0r) if f0r < 1.0 else 1.0
+        s = min(max(s, 0.0), 1.0)
+        fss = (f00 + (1.0 - f00) * s, f01 + (1.0 - f01) * s, f02 + (1.0 - f02) * s)
+        n, est, dk = _ggx_lobe(tab, L, n, W0, W1, W2, ax, ay, rc, rs, FR_SCHLICK,
+                               (f00, f01, f02), (0.0, 0.0, 0.0), eta, mu, multi, fss)
+        W0, W1, W2 = _layer(W0 * dk[0] * est[0], W1 * dk[1] * est[1], W2 * dk[2] * est[2],
+                            W0, W1, W2)
+    # Diffuse base (subsurface rendered as diffuse)
+    ss = min(max(p[cl.SUBSURFACE_WEIGHT], 0.0), 1.0)
+    sigma = min(max(p[cl.DIFFUSE_ROUGHNESS], 0.0), 1.0)
+    if thin and ss > CUTOFF:
+        h = 0.5 * ss
+        n = _diffuse(L, n, cb0 * h * W0, cb1 * h * W1, cb2 * h * W2, 0.0, cb0, cb1, cb2)
+        n = _row(L, n, L_TRANSLUCENT, cb0 * h * W0, cb1 * h * W1, cb2 * h * W2,
+                 _mean3(cb0 * W0, cb1 * W1, cb2 * W2) * h)
+        ss_as_diffuse = 0.0
+    else:
+        ss_as_diffuse = ss
+    d0 = (base0 * (1.0 - ss) + cb0 * ss_as_diffuse) * W0
+    d1 = (base1 * (1.0 - ss) + cb1 * ss_as_diffuse) * W1
+    d2 = (base2 * (1.0 - ss) + cb2 * ss_as_diffuse) * W2
+    if d0 > 0.0 or d1 > 0.0 or d2 > 0.0:
+        n = _diffuse(L, n, d0, d1, d2, sigma, base0, base1, base2)
+    return n
+
+
+@njit(cache=True, error_model="numpy")
+def _thin_glass(tab, L, n, w0, w1, w2, alpha, ior, rtint, ttint, mu):
+    """Thin Wall transmission (Blender 5.2, bsdf_thin_glass_setup): a glossy reflection and a
+    straight-through transmission (GGX about -n of the mirrored wo, roughened for the two
+    refractions), weighted by the sheet's reflectance and transmittance summed over its
+    internal reflections (OpenPBR's thin-walled case)."""
+    s, cos_t, _ = fresnel.schlick_real(mu, ior)
+    f0 = fresnel.f0_from_ior(ior)
+    R = np.zeros(3)
+    Tt = np.zeros(3)
+    for j in range(3):
+        fj = min(f0 * rtint[j], 1.0)
+        r1 = fj + (1.0 - fj) * s
+        t1 = 1.0 - r1
+        c = ttint[j] ** (1.0 / cos_t) if cos_t > 0.0 else 0.0
+        den = 1.0 - (r1 * c) ** 2
+        Tt[j] = c * t1 * t1 / den if den > 0.0 else 0.0
+        R[j] = r1 + Tt[j] * r1 * c
+    rough = np.sqrt(alpha)
+    if R[0] > 0.0 or R[1] > 0.0 or R[2] > 0.0:
+        k = n
+        n, _, _ = _ggx_lobe(tab, L, n, R[0] * w0, R[1] * w1, R[2] * w2, alpha, alpha, 1.0, 0.0,
+                            FR_NONE, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 1.0, mu, True, rtint)
+    if Tt[0] > 0.0 or Tt[1] > 0.0 or Tt[2] > 0.0:
+        at = min(max(alpha * np.sqrt(3.4 * (ior - 1.0) * (ior - 0.5) ** 2 / (ior ** 3))
+                     if ior > 1.0 else 0.0, 0.0), 1.0)
+        k = n
+        n = _row(L, n, L_THIN_T, Tt[0] * w0, Tt[1] * w1, Tt[2] * w2,
+                 _mean3(Tt[0] * w0, Tt[1] * w1, Tt[2] * w2))
+        L[k, AX] = at
+        L[k, AY] = at
+        if not microfacet.is_singular(at, at):
+            _compensate(tab, L, k, np.sqrt(at), mu, False, 1.0, 1.0, 1.0, 1.0)
+    return n
+
+
+@njit(cache=True, error_model="numpy")
+def _lobes(tab, m, c0, c1, c2, wox, woy, woz, entering):
+    """The lobe rows (n, NL) of material m for wo (local frame, wo.z > 0)."""
+    first = tab.first[m]
+    count = tab.count[m]
+    L = np.empty((max(count, 1) * MAX_LOBES, NL))
+    n = 0
+    mu = min(max(woz, 0.0), 1.0)
+    for c in range(first, first + count):
+        kind = tab.kind[c]
+        p = tab.params[c]
+        W0, W1, W2 = tab.weight[c, 0], tab.weight[c, 1], tab.weight[c, 2]
+        if W0 <= 0.0 and W1 <= 0.0 and W2 <= 0.0:
+            continue
+        if tab.texture[c] >= 0:
+            b0, b1, b2 = c0, c1, c2
+        else:
+            b0 = b1 = b2 = 1.0
+        col0 = max(p[cl.COLOR] * b0, 0.0)
+        col1 = max(p[cl.COLOR + 1] * b1, 0.0)
+        col2 = max(p[cl.COLOR + 2] * b2, 0.0)
+        rough = min(max(p[cl.ROUGHNESS], 0.0), 1.0)
+        multi = int(p[cl.DISTRIBUTION]) == cl.DISTRIBUTION_MULTI_GGX
+        if kind == cl.CLOSURE_PRINCIPLED:
+            n = _principled(tab, L, n, W0, W1, W2, p, b0, b1, b2, wox, woy, woz, entering)
+        elif kind == cl.CLOSURE_DIFFUSE:
+            n = _diffuse(L, n, W0 * col0, W1 * col1, W2 * col2, rough,
+                         min(col0, 1.0), min(col1, 1.0), min(col2, 1.0))
+        elif kind == cl.CLOSURE_TRANSLUCENT:
+            n = _row(L, n, L_TRANSLUCENT, W0 * col0, W1 * col1, W2 * col2,
+                     _mean3(W0 * col0, W1 * col1, W2 * col2))
+        elif kind == cl.CLOSURE_SHEEN:
+            n, _ = _sheen_lobe(tab, L, n, W0 * col0, W1 * col1, W2 * col2, rough, mu, wox, woy)
+        elif kind == cl.CLOSURE_GLOSSY:
+            a = rough * rough
+            an = min(max(p[cl.ANISOTROPIC], -0.99), 0.99)
+            ax = ay = a
+            rc, rs = 1.0, 0.0
+            if abs(an) > 1e-4:
+                if an < 0.0:
+                    ax, ay = a / (1.0 + an), a * (1.0 + an)
+                else:
+                    ax, ay = a * (1.0 - an), a / (1.0 - an)
+                rc, rs = _aniso_rotation(p[cl.ANISOTROPIC_ROTATION])
+            n, _, _ = _ggx_lobe(tab, L, n, W0 * col0, W1 * col1, W2 * col2, ax, ay, rc, rs,
+                                FR_NONE, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 1.0, mu, multi,
+                                (col0, col1, col2))
+        elif kind == cl.CLOSURE_METALLIC:
+            a = rough * rough
+            an = min(max(p[cl.ANISOTROPIC], 0.0), 1.0)
+            ax = ay = a
+            rc, rs = 1.0, 0.0
+            if an > 0.0:
+                aspect = np.sqrt(1.0 - an * 0.9)
+                ax, ay = a / aspect, a * aspect
+                rc, rs = _aniso_rotation(p[cl.ANISOTROPIC_ROTATION])
+            if int(p[cl.FRESNEL_TYPE]) == cl.FRESNEL_CONDUCTOR:
+                nn = (max(p[cl.METAL_N], 0.0), max(p[cl.METAL_N + 1], 0.0),
+                      max(p[cl.METAL_N + 2], 0.0))
+                kk = (max(p[cl.METAL_K], 0.0), max(p[cl.METAL_K + 1], 0.0),
+                      max(p[cl.METAL_K + 2], 0.0))
+                fss = (fresnel.conductor_fss(nn[0], kk[0]), fresnel.conductor_fss(nn[1], kk[1]),
+                       fresnel.conductor_fss(nn[2], kk[2]))
+                n, _, _ = _ggx_lobe(tab, L, n, W0, W1, W2, ax, ay, rc, rs, FR_CONDUCTOR, nn,
+                                    kk, 1.0, mu, multi, fss)
+            else:
+                f0 = (min(col0, 1.0), min(col1, 1.0), min(col2, 1.0))
+                tint = (min(max(p[cl.SPECULAR_TINT], 0.0), 1.0),
+                        min(max(p[cl.SPECULAR_TINT + 1], 0.0), 1.0),
+                        min(max(p[cl.SPECULAR_TINT + 2], 0.0), 1.0))
+                q = (fresnel.f82_b(f0[0], tint[0]), fresnel.f82_b(f0[1], tint[1]),
+                     fresnel.f82_b(f0[2], tint[2]))
+                fss = (fresnel.f82_fss(f0[0], q[0]), fresnel.f82_fss(f0[1], q[1]),
+                       fresnel.f82_fss(f0[2], q[2]))
+                n, _, _ = _ggx_lobe(tab, L, n, W0, W1, W2, ax, ay, rc, rs, FR_F82, f0, q, 1.0,
+                                    mu, multi, fss)
+        elif kind == cl.CLOSURE_GLASS or kind == cl.CLOSURE_REFRACTION:
+            ior = max(p[cl.IOR], 1e-5)
+            eta = ior if entering else 1.0 / ior
+            if kind == cl.CLOSURE_GLASS:
+                f0 = fresnel.f0_from_ior(ior)
+                n = _glass_lobe(tab, L, n, W0, W1, W2, rough * rough, eta, False,
+                                (f0, f0, f0), (col0, col1, col2), (col0, col1, col2), mu,
+                                multi)
+            else:
+                n = _glass_lobe(tab, L, n, W0 * col0, W1 * col1, W2 * col2, rough * rough,
+                                eta, True, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (1.0, 1.0, 1.0),
+                                mu, False)
+    return L[:n]
+
+
+# --- one lobe: f, pdf, sample in its own frame ---------------------------------------------------
+
+@njit(cache=True, error_model="numpy")
+def _rot(L, k, x, y):
+    c, s = L[k, ROT_C], L[k, ROT_S]
+    return c * x + s * y, -s * x + c * y
+
+
+@njit(cache=True, error_model="numpy")
+def _unrot(L, k, x, y):
+    c, s = L[k, ROT_C], L[k, ROT_S]
+    return c * x - s * y, s * x + c * y
+
+
+@njit(cache=True, error_model="numpy")
+def _ggx_fresnel(L, k, cos_ho):
+    mode = int(L[k, MODE])
+    if mode == FR_NONE:
+        return 1.0, 1.0, 1.0
+    if mode == FR_DIELECTRIC:
+        f, _ = fresnel.fresnel_dielectric(min(max(cos_ho, 0.0), 1.0), L[k, ETA])
+        return f, f, f
+    if mode == FR_SCHLICK:
+        s, _, _ = fresnel.schlick_real(cos_ho, L[k, ETA])
+        return (L[k, P0] + (1.0 - L[k, P0]) * s, L[k, P0 + 1] + (1.0 - L[k, P0 + 1]) * s,
+                L[k, P0 + 2] + (1.0 - L[k, P0 + 2]) * s)
+    if mode == FR_F82:
+        return (fresnel.f82(cos_ho, L[k, P0], L[k, Q0]),
+                fresnel.f82(cos_ho, L[k, P0 + 1], L[k, Q0 + 1]),
+                fresnel.f82(cos_ho, L[k, P0 + 2], L[k, Q0 + 2]))
+    return (fresnel.conductor(cos_ho, L[k, P0], L[k, Q0]),
+            fresnel.conductor(cos_ho, L[k, P0 + 1], L[k, Q0 + 1]),
+            fresnel.conductor(cos_ho, L[k, P0 + 2], L[k, Q0 + 2]))
+
+
+@njit(cache=True, error_model="numpy")
+def lobe_eval(L, k, wox, woy, woz, wix, wiy, wiz):
+    """Lobe k's f (RGB, 1/sr, without the cosine, weight NOT applied) and pdf at (wo, wi),
+    local frame."""
+    t = int(L[k, T])
+    if t == L_LAMBERT:
+        v = lambert.eval(wiz)
+        return v, v, v, lambert.pdf(wiz)
+    if t == L_TRANSLUCENT:
+        v = lambert.translucent_eval(wiz)
+        return v, v, v, lambert.translucent_pdf(wiz)
+    if t == L_OREN_NAYAR:
+        f0, f1, f2 = oren_nayar.eval(L[k, AX], L[k, P0], L[k, P0 + 1], L[k, P0 + 2],
+                                     wox, woy, woz, wix, wiy, wiz)
+        return f0, f1, f2, oren_nayar.pdf(wiz)
+    if t == L_SHEEN:
+        x, y = _rot(L, k, wix, wiy)
+        v = sheen.eval(L[k, AX], L[k, AY], x, y, wiz)
+        return v, v, v, sheen.pdf(L[k, AX], L[k, AY], x, y, wiz)
+    if t == L_GGX or t == L_THIN_T:
+        if t == L_THIN_T:
+            wiz = -wiz  # the far side mirrored back: straight-through transmission
+        ox, oy = _rot(L, k, wox, woy)
+        ix, iy = _rot(L, k, wix, wiy)
+        f, c = microfacet.reflect_eval(L[k, AX], L[k, AY], ox, oy, woz, ix, iy, wiz)
+        if f <= 0.0:
+            return 0.0, 0.0, 0.0, 0.0
+        pdf = microfacet.reflect_pdf(L[k, AX], L[k, AY], ox, oy, woz, ix, iy, wiz)
+        if t == L_THIN_T:
+            return f, f, f, pdf
+        g0, g1, g2 = _ggx_fresnel(L, k, c)
+        return f * g0, f * g1, f * g2, pdf
+    # L_DIELECTRIC
+    return microfacet.dielectric_eval_pdf(
+        L[k, AX], L[k, ETA], L[k, MODE] > 0.5, L[k, P0], L[k, P0 + 1], L[k, P0 + 2],
+        L[k, RT], L[k, RT + 1], L[k, RT + 2], L[k, TT], L[k, TT + 1], L[k, TT + 2],
+        wox, woy, woz, wix, wiy, wiz)
+
+
+@njit(cache=True, error_model="numpy")
+def lobe_sample(L, k, wox, woy, woz, u1, u2, u3):
+    """Sample lobe k (local frame): (wix, wiy, wiz, v0, v1, v2, pdf, delta, ok); for a delta
+    lobe v is the path weight f cos / probability (weight NOT applied), else unused."""
+    t = int(L[k, T])
+    if t == L_LAMBERT:
+        x, y, z, _, p = lambert.sample(u1, u2)
+        return x, y, z, 1.0, 1.0, 1.0, p, False, True
+    if t == L_OREN_NAYAR:
+        x, y, z, _, p = lambert.sample(u1, u2)
+        return x, y, z, 1.0, 1.0, 1.0, p, False, True
+    if t == L_TRANSLUCENT:
+        x, y, z, _, p = lambert.translucent_sample(u1, u2)
+        return x, y, z, 1.0, 1.0, 1.0, p, False, True
+    if t == L_SHEEN:
+        x, y, z, w, p = sheen.sample(L[k, AX], L[k, AY], u1, u2)
+        x, y = _unrot(L, k, x, y)
+        return x, y, z, 1.0, 1.0, 1.0, p, False, w > 0.0
+    if t == L_GGX or t == L_THIN_T:
+        ox, oy = _rot(L, k, wox, woy)
+        x, y, z, w, p, c = microfacet.reflect_sample(L[k, AX], L[k, AY], ox, oy, woz, u1, u2)
+        x, y = _unrot(L, k, x, y)
+        if t == L_THIN_T:
+            z = -z
+        if w <= 0.0:
+            return x, y, z, 0.0, 0.0, 0.0, 0.0, False, False
+        if p > 0.0:
+            return x, y, z, 1.0, 1.0, 1.0, p, False, True
+        if t == L_THIN_T:
+            return x, y, z, 1.0, 1.0, 1.0, 0.0, True, True
+        g0, g1, g2 = _ggx_fresnel(L, k, c)
+        return x, y, z, g0, g1, g2, 0.0, True, True
+    r = microfacet.dielectric_sample(
+        L[k, AX], L[k, ETA], L[k, MODE] > 0.5, L[k, P0], L[k, P0 + 1], L[k, P0 + 2],
+        L[k, RT], L[k, RT + 1], L[k, RT + 2], L[k, TT], L[k, TT + 1], L[k, TT + 2],
+        wox, woy, woz, u1, u2, u3)
+    return r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[6] <= 0.0, r[8]
+
+
+@njit(cache=True, error_model="numpy")
+def _lobe_flags(L, k):
+    t = int(L[k, T])
+    if t == L_GGX or t == L_DIELECTRIC or t == L_THIN_T:
+        return LOBE_GLOSSY
+    return LOBE_DIFFUSE
+
+
+@njit(cache=True, error_model="numpy")
+def lobes_eval(L, wox, woy, woz, wix, wiy, wiz):
+    """Sum over the lobe rows: (f |cos| RGB, pdf) in the local frame."""
+    f0 = f1 = f2 = 0.0
+    pdf = 0.0
+    total = 0.0
+    for k in range(L.shape[0]):
+        total += L[k, SW]
+    if total <= 0.0:
+        return 0.0, 0.0, 0.0, 0.0
+    ac = abs(wiz)
+    for k in range(L.shape[0]):
+        g0, g1, g2, pk = lobe_eval(L, k, wox, woy, woz, wix, wiy, wiz)
+        f0 += L[k, W] * g0 * ac
+        f1 += L[k, W + 1] * g1 * ac
+        f2 += L[k, W + 2] * g2 * ac
+        pdf += L[k, SW] / total * pk
+    return f0, f1, f2, pdf
+
+
+# --- the public kernels ------------------------------------------------------------------------
+
+@njit(cache=True, error_model="numpy")
+def _local(nsx, nsy, nsz, ngx, ngy, ngz, tx, ty, tz, wox, woy, woz):
+    """The shading frame (n flipped to ng's side; ng itself where wo is below ns)."""
+    if nsx * ngx + nsy * ngy + nsz * ngz < 0.0:
+        nsx, nsy, nsz = -nsx, -nsy, -nsz
+    if nsx * wox + nsy * woy + nsz * woz <= 1e-7:
+        nsx, nsy, nsz = ngx, ngy, ngz
+    ux, uy, uz, bx, by, bz = frame(nsx, nsy, nsz, tx, ty, tz)
+    return ux, uy, uz, bx, by, bz, nsx, nsy, nsz
+
+
+@njit(cache=True, error_model="numpy")
+def eval_bsdf(tab, m, c0, c1, c2, wox, woy, woz, wix, wiy, wiz, nsx, nsy, nsz,
+              ngx, ngy, ngz, tx, ty, tz, entering):
+    """f * |cos(ns, wi)| over material m's non-delta lobes (RGB) and the solid-angle pdf
+    ``sample_bsdf`` gives wi: (f0, f1, f2, pdf). ``entering`` as for ``sample_bsdf`` (the
+    side of the mesh wo is on: a dielectric's eta, so the transmission's value)."""
+    ux, uy, uz, bx, by, bz, nx, ny, nz = _local(nsx, nsy, nsz, ngx, ngy, ngz, tx, ty, tz,
+                                                wox, woy, woz)
+    lox, loy, loz = wox * ux + woy * uy + woz * uz, wox * bx + woy * by + woz * bz, \
+        wox * nx + woy * ny + woz * nz
+    lix, liy, liz = wix * ux + wiy * uy + wiz * uz, wix * bx + wiy * by + wiz * bz, \
+        wix * nx + wiy * ny + wiz * nz
+    if loz <= 0.0:
+        return 0.0, 0.0, 0.0, 0.0
+    L = _lobes(tab, m, c0, c1, c2, lox, loy, loz, entering)
+    return lobes_eval(L, lox, loy, loz, lix, liy, liz)
+
+
+@njit(cache=True, error_model="numpy")
+def sample_bsdf(tab, m, c0, c1, c2, wox, woy, woz, nsx, nsy, nsz, ngx, ngy, ngz,
+                tx, ty, tz, entering, u_lobe, u1, u2):
+    """Sample wi for material m: (wix, wiy, wiz, w0, w1, w2, pdf, flags), w = f |cos| / pdf
+    (path weight, RGB), pdf 0 for a delta lobe, flags LOBE_* (0: no direction). u_lobe
+    picks the lobe (and, rescaled, a dielectric's reflection vs refraction)."""
+    ux, uy, uz, bx, by, bz, nx, ny, nz = _local(nsx, nsy, nsz, ngx, ngy, ngz, tx, ty, tz,
+                                                wox, woy, woz)
+    lox, loy, loz = wox * ux + woy * uy + woz * uz, wox * bx + woy * by + woz * bz, \
+        wox * nx + woy * ny + woz * nz
+    if loz <= 0.0:
+        return 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0
+    L = _lobes(tab, m, c0, c1, c2, lox, loy, loz, entering)
+    total = 0.0
+    for k in range(L.shape[0]):
+        total += L[k, SW]
+    if total <= 0.0:
+        return 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0
+    target = u_lobe * total
+    acc = 0.0
+    k = L.shape[0] - 1
+    for j in range(L.shape[0]):
+        if target < acc + L[j, SW]:
+            k = j
+            break
+        acc += L[j, SW]
+    swk = L[k, SW]
+    if swk <= 0.0:
+        return 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0
+    u3 = min(max((target - acc) / swk, 0.0), 1.0 - 1e-12)
+    lx, ly, lz, v0, v1, v2, pk, delta, ok = lobe_sample(L, k, lox, loy, loz, u1, u2, u3)
+    if not ok:
+        return 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0
+    wix = lx * ux + ly * bx + lz * nx
+    wiy = lx * uy + ly * by + lz * ny
+    wiz = lx * uz + ly * bz + lz * nz
+    ln = np.sqrt(wix * wix + wiy * wiy + wiz * wiz)
+    wix, wiy, wiz = wix / ln, wiy / ln, wiz / ln
+    # The geometric side must agree with the lobe's (as Cycles' samplers check ng).
+    below = wix * ngx + wiy * ngy + wiz * ngz < 0.0
+    if below != (lz < 0.0):
+        return 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0
+    flags = LOBE_TRANSMIT if below else 0
+    if delta:
+        q = total / swk
+        return (wix, wiy, wiz, L[k, W] * v0 * q, L[k, W + 1] * v1 * q, L[k, W + 2] * v2 * q,
+                0.0, flags | LOBE_DELTA)
+    f0, f1, f2, pdf = lobes_eval(L, lox, loy, loz, lx, ly, lz)
+    if not pdf > 0.0:
+        return 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0
+    return wix, wiy, wiz, f0 / pdf, f1 / pdf, f2 / pdf, pdf, flags | _lobe_flags(L, k)
+
+
+@njit(cache=True, error_model="numpy")
+def albedo(tab, m, c0, c1, c2, wox, woy, woz, nsx, nsy, nsz):
+    """Directional albedo at wo: (d0, d1, d2, a0, a1, a2): the diffuse-like lobes' part
+    (Lambert, Oren-Nayar, translucent, sheen; 0 when material m has none: no photon is
+    stored there) and the whole material's (RGB, estimates from the albedo tables)."""
+    cz = nsx * wox + nsy * woy + nsz * woz
+    if cz < 0.0:
+        nsx, nsy, nsz = -nsx, -nsy, -nsz
+        cz = -cz
+    ux, uy, uz, bx, by, bz = frame(nsx, nsy, nsz, 1.0, 0.0, 0.0)
+    lox = wox * ux + woy * uy + woz * uz
+    loy = wox * bx + woy * by + woz * bz
+    L = _lobes(tab, m, c0, c1, c2, lox, loy, max(cz, 1e-7), True)
+    d0 = d1 = d2 = a0 = a1 = a2 = 0.0
+    for k in range(L.shape[0]):
+        e = L[k, EST]
+        if int(L[k, T]) == L_GGX:
+            # the Fresnel estimate at wo times the single-scattering albedo
+            g0, g1, g2 = _ggx_fresnel(L, k, cz)
+        else:
+            g0 = g1 = g2 = 1.0
+        v0, v1, v2 = L[k, W] * e * g0, L[k, W + 1] * e * g1, L[k, W + 2] * e * g2
+        a0 += v0
+        a1 += v1
+        a2 += v2
+        if _lobe_flags(L, k) == LOBE_DIFFUSE:
+            d0 += v0
+            d1 += v1
+            d2 += v2
+    return d0, d1, d2, a0, a1, a2
+
+
+# --- vectorised wrappers (tests, tools) ----------------------------------------------------------
+
+@njit(cache=True, error_model="numpy")
+def _vec_sample(tab, m, wo, ns, ng, t, entering, u, out):
+    for i in range(u.shape[0]):
+        r = sample_bsdf(tab, m, 1.0, 1.0, 1.0, wo[0], wo[1], wo[2], ns[0], ns[1], ns[2],
+                        ng[0], ng[1], ng[2], t[0], t[1], t[2], entering, u[i, 0], u[i, 1],
+                        u[i, 2])
+        out[i, 0], out[i, 1], out[i, 2], out[i, 3] = r[0], r[1], r[2], r[3]
+        out[i, 4], out[i, 5], out[i, 6], out[i, 7] = r[4], r[5], r[6], r[7]
+
+
+def sample_many(tab: ClosureTable, m: int, wo, ns, ng, t, entering: bool, u) -> np.ndarray:
+    """``sample_bsdf`` for uniforms u (N, 3) (u_lobe, u1, u2) at one hit (texel colour 1):
+    (N, 8) float64 rows wi (3), w (3), pdf, flags."""
+    u = np.ascontiguousarray(u, np.float64).reshape(-1, 3)
+    out = np.empty((u.shape[0], 8))
+    _vec_sample(tab, int(m), *(np.asarray(v, np.float64) for v in (wo, ns, ng, t)),
+                bool(entering), u, out)
+    return out
+
+
+@njit(cache=True, error_model="numpy")
+def _vec_eval(tab, m, wo, wi, ns, ng, t, entering, out):
+    for i in range(wi.shape[0]):
+        r = eval_bsdf(tab, m, 1.0, 1.0, 1.0, wo[0], wo[1], wo[2], wi[i, 0], wi[i, 1],
+                      wi[i, 2], ns[0], ns[1], ns[2], ng[0], ng[1], ng[2], t[0], t[1], t[2],
+                      entering)
+        out[i, 0], out[i, 1], out[i, 2], out[i, 3] = r[0], r[1], r[2], r[3]
+
+
+def eval_many(tab: ClosureTable, m: int, wo, wi, ns, ng, t, entering: bool) -> np.ndarray:
+    """``eval_bsdf`` for directions wi (N, 3) at one hit (texel colour 1): (N, 4) float64
+    rows f |cos| (3), pdf."""
+    wi = np.ascontiguousarray(wi, np.float64).reshape(-1, 3)
+    out = np.empty((wi.shape[0], 4))
+    _vec_eval(tab, int(m), np.asarray(wo, np.float64), wi,
+              *(np.asarray(v, np.float64) for v in (ns, ng, t)), bool(entering), out)
+    return out
+
+
+def albedo_at(tab: ClosureTable, m: int, wo, ns, color=(1.0, 1.0, 1.0)) -> np.ndarray:
+    """``albedo`` at one hit: (6,) float64 (diffuse part RGB, total RGB)."""
+    return np.array(albedo(tab, int(m), float(color[0]), float(color[1]), float(color[2]),
+                           *map(float, wo), *map(float, ns)))

@@ -1,0 +1,378 @@
+"""The closure evaluator (core/materials/closure.py) against its own contract and physics:
+
+- chi-square of every closure kind's sampler against the pdf ``eval_bsdf`` reports (Mitsuba
+  3's habit: a histogram of sampled directions in (cos theta, phi) bins against the pdf
+  integrated per bin, failed samples as one more bin; p > 0.01), for several wo;
+- pdf > 0 (and the same pdf) wherever a sample lands;
+- white furnace: the directional albedo (Monte Carlo of the path weights) is 1 within 2 %
+  for multiscatter GGX at colour 1 and for Lambert / Oren-Nayar, and never above 1;
+- energy conservation of the Principled layering with base colour 1 and every layer on;
+- reciprocity where it holds; the legacy lobes (Materials without closures) unchanged.
+"""
+
+import zlib
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from core.materials import bsdf, closure
+from core.scene import closures as cl
+from core.scene import contract
+
+N_UP = np.array([0.0, 0.0, 1.0])
+TANGENT = np.array([1.0, 0.0, 0.0])
+
+# (name, closure rows): one material each
+CASES = {
+    "lambert": [dict(kind=cl.CLOSURE_DIFFUSE, params=dict(color=1.0, roughness=0.0))],
+    "oren_nayar": [dict(kind=cl.CLOSURE_DIFFUSE, params=dict(color=1.0, roughness=0.8))],
+    "translucent": [dict(kind=cl.CLOSURE_TRANSLUCENT, params=dict(color=1.0))],
+    "sheen": [dict(kind=cl.CLOSURE_SHEEN, params=dict(color=1.0, roughness=0.5))],
+    "glossy_ggx_0.3": [dict(kind=cl.CLOSURE_GLOSSY, params=dict(
+        color=1.0, roughness=0.3, distribution=cl.DISTRIBUTION_GGX))],
+    "glossy_multi_0.6": [dict(kind=cl.CLOSURE_GLOSSY, params=dict(
+        color=1.0, roughness=0.6, distribution=cl.DISTRIBUTION_MULTI_GGX))],
+    "glossy_aniso": [dict(kind=cl.CLOSURE_GLOSSY, params=dict(
+        color=1.0, roughness=0.5, anisotropic=0.6, anisotropic_rotation=0.1))],
+    "metal_f82_0.4": [dict(kind=cl.CLOSURE_METALLIC, params=dict(
+        color=(0.9, 0.6, 0.3), specular_tint=(0.8, 0.9, 1.0), roughness=0.4))],
+    "metal_conductor_aniso": [dict(kind=cl.CLOSURE_METALLIC, params=dict(
+        fresnel_type=cl.FRESNEL_CONDUCTOR, roughness=0.5, anisotropic=0.5))],
+    "glass_0.3": [dict(kind=cl.CLOSURE_GLASS, params=dict(color=1.0, roughness=0.3, ior=1.5))],
+    "glass_0.6": [dict(kind=cl.CLOSURE_GLASS, params=dict(color=1.0, roughness=0.6, ior=1.45))],
+    "refraction_0.4": [dict(kind=cl.CLOSURE_REFRACTION, params=dict(
+        color=1.0, roughness=0.4, ior=1.5))],
+    "principled_default": [dict(kind=cl.CLOSURE_PRINCIPLED)],
+    "principled_metal": [dict(kind=cl.CLOSURE_PRINCIPLED, params=dict(
+        metallic=1.0, roughness=0.3, color=(0.95, 0.64, 0.54)))],
+    "principled_layers": [dict(kind=cl.CLOSURE_PRINCIPLED, params=dict(
+        roughness=0.5, transmission=0.5, coat_weight=0.7, coat_roughness=0.3,
+        coat_tint=(0.9, 0.7, 0.6), sheen_weight=0.8, sheen_roughness=0.4,
+        diffuse_roughness=0.5, anisotropic=0.4))],
+    "principled_thin_wall": [dict(kind=cl.CLOSURE_PRINCIPLED, params=dict(
+        roughness=0.5, transmission=1.0, thin_wall=1.0))],
+    "mix": [dict(kind=cl.CLOSURE_DIFFUSE, weight=0.4, params=dict(color=(0.8, 0.2, 0.2))),
+            dict(kind=cl.CLOSURE_GLOSSY, weight=0.6, params=dict(color=1.0, roughness=0.4))],
+}
+NAMES = list(CASES)
+
+
+@pytest.fixture(scope="module")
+def tab():
+    mats = contract.Materials.from_list([{"closures": CASES[k]} for k in NAMES])
+    return closure.table(mats)
+
+
+def _wo(theta_deg, phi_deg=20.0):
+    t, p = np.radians(theta_deg), np.radians(phi_deg)
+    return np.array([np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t)])
+
+
+def _samples(tab, name, wo, entering, n, seed):
+    u = np.random.default_rng(seed).random((n, 3))
+    return closure.sample_many(tab, NAMES.index(name), wo, N_UP, N_UP, TANGENT, entering, u)
+
+
+def _chi2_pvalue(tab, name, wo, entering, n=120_000, n_theta=16, n_phi=32, sub=20):
+    """p-value of the sampled directions' histogram against the integrated pdf."""
+    m = NAMES.index(name)
+    s = _samples(tab, name, wo, entering, n, seed=zlib.crc32(f"{name}{wo}{entering}".encode()))
+    ok = (s[:, 7] > 0) & (s[:, 6] > 0)          # rough lobes (pdf > 0); delta lobes aside
+    assert not np.any((s[:, 7] > 0) & (s[:, 6] <= 0)), "a delta in a rough-only material"
+    d = s[ok, :3]
+    ct = np.clip(d[:, 2], -1, 1)
+    ph = np.mod(np.arctan2(d[:, 1], d[:, 0]), 2 * np.pi)
+    obs, _, _ = np.histogram2d(ct, ph, [n_theta, n_phi], [[-1, 1], [0, 2 * np.pi]])
+    # expected: the pdf integrated over each bin (midpoint rule on a sub x sub grid per bin)
+    cc = -1 + (np.arange(n_theta * sub) + 0.5) * 2 / (n_theta * sub)
+    pc = (np.arange(n_phi * sub) + 0.5) * 2 * np.pi / (n_phi * sub)
+    C, P = np.meshgrid(cc, pc, indexing="ij")
+    st = np.sqrt(1 - C ** 2)
+    wi = np.stack([st * np.cos(P), st * np.sin(P), C], -1).reshape(-1, 3)
+    pdf = closure.eval_many(tab, m, wo, wi, N_UP, N_UP, TANGENT, entering)[:, 3]
+    cell = (2 / (n_theta * sub)) * (2 * np.pi / (n_phi * sub))
+    exp = (pdf.reshape(n_theta, sub, n_phi, sub).sum(axis=(1, 3)) * cell * n)
+    obs = np.append(obs.ravel(), n - ok.sum())
+    exp = np.append(exp.ravel(), max(n - exp.sum(), 0.0))
+    # pool the bins expecting fewer than 5 samples
+    small = exp < 5
+    o = np.append(obs[~small], obs[small].sum())
+    e = np.append(exp[~small], exp[small].sum())
+    keep = e > 0
+    assert np.all(o[~keep] == 0), "samples where the pdf is 0"
+    o, e = o[keep], e[keep]
+    chi2 = np.sum((o - e) ** 2 / e)
+    return stats.chi2.sf(chi2, len(o) - 1)
+
+
+@pytest.mark.parametrize("name", NAMES)
+@pytest.mark.parametrize("theta", [35.0, 72.0])
+def test_sampler_matches_pdf_chi2(tab, name, theta):
+    p = _chi2_pvalue(tab, name, _wo(theta), True)
+    assert p > 0.01, f"{name} at {theta} deg: chi-square p = {p:.2e}"
+
+
+@pytest.mark.parametrize("name", ["glass_0.3", "glass_0.6", "refraction_0.4"])
+def test_sampler_matches_pdf_chi2_leaving_glass(tab, name):
+    """From inside (eta = 1 / IOR): total internal reflection and the widened lobe."""
+    p = _chi2_pvalue(tab, name, _wo(40.0), False)
+    assert p > 0.01, f"{name} leaving: chi-square p = {p:.2e}"
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_pdf_positive_and_equal_where_samples_land(tab, name):
+    m = NAMES.index(name)
+    for theta in (10.0, 60.0, 85.0):
+        wo = _wo(theta)
+        s = _samples(tab, name, wo, True, 4000, seed=7)
+        ok = (s[:, 7] > 0) & (s[:, 6] > 0)
+        ev = closure.eval_many(tab, m, wo, s[ok, :3], N_UP, N_UP, TANGENT, True)
+        assert np.all(ev[:, 3] > 0), f"{name}: pdf 0 where a sample landed"
+        np.testing.assert_allclose(ev[:, 3], s[ok, 6], rtol=1e-9)
+        # the path weight is f |cos| / pdf
+        np.testing.assert_allclose(ev[:, :3] / ev[:, 3:4], s[ok, 3:6], rtol=1e-9)
+        assert np.all(np.isfinite(s)) and np.all(s[:, 3:7] >= 0)
+
+
+def _albedo(tab, name, wo, entering=True, n=200_000, seed=3):
+    s = _samples(tab, name, wo, entering, n, seed)
+    w = np.where(s[:, 7:8] > 0, s[:, 3:6], 0.0)
+    return w.mean(axis=0), w.std(axis=0) / np.sqrt(n)
+
+
+FURNACE_ONE = ["lambert", "oren_nayar", "translucent", "glossy_multi_0.6"]
+
+
+@pytest.mark.parametrize("name", FURNACE_ONE)
+@pytest.mark.parametrize("theta", [15.0, 50.0, 80.0])
+def test_white_furnace_is_one(tab, name, theta):
+    mean, err = _albedo(tab, name, _wo(theta))
+    assert np.all(np.abs(mean - 1) < 0.02), f"{name} at {theta}: albedo {mean} +- {err}"
+
+
+@pytest.mark.parametrize("roughness", [0.2, 0.5, 0.8, 1.0])
+@pytest.mark.parametrize("theta", [15.0, 50.0, 80.0])
+def test_white_furnace_multiscatter_metal(roughness, theta):
+    """Metallic (F82, colour 1) and Principled metal with multiscatter GGX: a rough white
+    metal reflects everything (a single-scattering GGX one is grey: checked too)."""
+    rows = [{"closures": [dict(kind=cl.CLOSURE_METALLIC, params=dict(color=1.0, roughness=roughness))]},
+            {"closures": [dict(kind=cl.CLOSURE_PRINCIPLED, params=dict(
+                color=1.0, metallic=1.0, roughness=roughness))]},
+            {"closures": [dict(kind=cl.CLOSURE_METALLIC, params=dict(
+                color=1.0, roughness=roughness, distribution=cl.DISTRIBUTION_GGX))]}]
+    t = closure.table(contract.Materials.from_list(rows))
+    u = np.random.default_rng(11).random((200_000, 3))
+    for m in (0, 1, 2):
+        s = closure.sample_many(t, m, _wo(theta), N_UP, N_UP, TANGENT, True, u)
+        mean = np.where(s[:, 7:8] > 0, s[:, 3:6], 0.0).mean(axis=0)
+        if m < 2:
+            assert np.all(np.abs(mean - 1) < 0.02), (m, roughness, theta, mean)
+        else:
+            assert np.all(mean < 1.0 + 0.005), (roughness, theta, mean)
+            if roughness >= 0.5:
+                assert np.all(mean < 0.97), "single scattering loses energy"
+
+
+@pytest.mark.parametrize("name", NAMES)
+@pytest.mark.parametrize("theta", [5.0, 45.0, 75.0, 88.0])
+def test_white_furnace_never_above_one(tab, name, theta):
+    mean, err = _albedo(tab, name, _wo(theta), n=100_000)
+    assert np.all(mean <= 1 + 0.01 + 3 * err), f"{name} at {theta}: albedo {mean} +- {err}"
+
+
+@pytest.mark.parametrize("entering", [True, False])
+def test_white_furnace_rough_glass_multiscatter(entering):
+    """Multiscatter rough glass at colour 1 loses no energy: R + T = 1 within 2 %."""
+    t = closure.table(contract.Materials.from_list([{"closures": [dict(
+        kind=cl.CLOSURE_GLASS, params=dict(color=1.0, roughness=0.5, ior=1.5))]}]))
+    for theta in (20.0, 60.0):
+        u = np.random.default_rng(5).random((200_000, 3))
+        s = closure.sample_many(t, 0, _wo(theta), N_UP, N_UP, TANGENT, entering, u)
+        mean = np.where(s[:, 7:8] > 0, s[:, 3:6], 0.0).mean(axis=0)
+        assert np.all(np.abs(mean - 1) < 0.02), (entering, theta, mean)
+
+
+def test_furnace_independent_of_the_sampler(tab):
+    """The same albedo by uniform sphere sampling of eval_bsdf (not the lobe samplers)."""
+    rng = np.random.default_rng(9)
+    n = 400_000
+    z = rng.uniform(-1, 1, n)
+    ph = rng.uniform(0, 2 * np.pi, n)
+    r = np.sqrt(1 - z * z)
+    wi = np.stack([r * np.cos(ph), r * np.sin(ph), z], -1)
+    for name in ["lambert", "oren_nayar", "glossy_multi_0.6", "glass_0.6", "principled_layers"]:
+        m = NAMES.index(name)
+        wo = _wo(40.0)
+        f = closure.eval_many(tab, m, wo, wi, N_UP, N_UP, TANGENT, True)[:, :3] * 4 * np.pi
+        mean, err = f.mean(axis=0), f.std(axis=0) / np.sqrt(n)
+        ref, rerr = _albedo(tab, name, wo)
+        assert np.all(np.abs(mean - ref) < 4 * np.hypot(err, rerr) + 0.005), (name, mean, ref)
+
+
+@pytest.mark.parametrize("metallic", [0.0, 0.5])
+@pytest.mark.parametrize("spec_level", [0.5, 1.0])
+def test_principled_layering_conserves_energy(metallic, spec_level):
+    """Base colour 1, every layer on: the directional albedo never exceeds 1."""
+    p = dict(color=1.0, metallic=metallic, roughness=0.4, transmission=0.3,
+             specular_level=spec_level, coat_weight=1.0, coat_roughness=0.2,
+             sheen_weight=1.0, sheen_roughness=0.3, diffuse_roughness=0.3,
+             subsurface_weight=0.2)
+    t = closure.table(contract.Materials.from_list(
+        [{"closures": [dict(kind=cl.CLOSURE_PRINCIPLED, params=p)]}]))
+    u = np.random.default_rng(2).random((100_000, 3))
+    for theta in (0.0, 30.0, 60.0, 80.0, 88.0):
+        s = closure.sample_many(t, 0, _wo(theta), N_UP, N_UP, TANGENT, True, u)
+        w = np.where(s[:, 7:8] > 0, s[:, 3:6], 0.0)
+        mean, err = w.mean(axis=0), w.std(axis=0) / np.sqrt(len(w))
+        # At grazing view the coat's albedo estimate (Cycles' generalized-Schlick table,
+        # the same estimator Cycles layers with) falls short of the compensated lobe's
+        # true albedo, so the layers below keep a little too much: measured +2 % at 88 deg
+        # with a coat, within 0.5 % elsewhere.
+        slack = 0.005 if theta <= 80.0 else 0.03
+        assert np.all(mean <= 1 + 3 * err + slack), (theta, mean)
+        assert np.all(mean > 0.5), "most of the light comes back from a white material"
+
+
+@pytest.mark.parametrize("name", ["lambert", "oren_nayar", "glossy_ggx_0.3", "metal_f82_0.4",
+                                  "glossy_aniso"])
+def test_reciprocity(tab, name):
+    """f(wo, wi) = f(wi, wo) for the reflection lobes without wo-dependent energy terms."""
+    if name in ("metal_f82_0.4", "glossy_aniso"):  # make them single-scattering GGX
+        row = dict(CASES[name][0])
+        row["params"] = dict(row["params"], distribution=cl.DISTRIBUTION_GGX)
+        t = closure.table(contract.Materials.from_list([{"closures": [row]}]))
+        m = 0
+    else:
+        t, m = tab, NAMES.index(name)
+    rng = np.random.default_rng(4)
+    for _ in range(50):
+        a, b = rng.normal(size=(2, 3))
+        a[2], b[2] = abs(a[2]) + 0.05, abs(b[2]) + 0.05
+        a, b = a / np.linalg.norm(a), b / np.linalg.norm(b)
+        fab = closure.eval_many(t, m, a, b[None], N_UP, N_UP, TANGENT, True)[0, :3] / b[2]
+        fba = closure.eval_many(t, m, b, a[None], N_UP, N_UP, TANGENT, True)[0, :3] / a[2]
+        np.testing.assert_allclose(fab, fba, rtol=1e-9, atol=1e-12)
+
+
+def test_lambert_and_legacy_lobes_unchanged():
+    """Materials without closures (the legacy lobes) evaluate as bsdf.eval_reflection: the
+    old renders map onto the new model."""
+    mats = contract.Materials.from_list([dict(diffuse=(0.5, 0.4, 0.3), specular=(0.2, 0.2, 0.2),
+                                              roughness=0.35)])
+    t = closure.table(mats)
+    rng = np.random.default_rng(6)
+    wo = _wo(30.0)
+    wi = rng.normal(size=(200, 3))
+    wi[:, 2] = np.abs(wi[:, 2])
+    wi /= np.linalg.norm(wi, axis=1, keepdims=True)
+    got = closure.eval_many(t, 0, wo, wi, N_UP, N_UP, TANGENT, True)[:, :3]
+    alpha = 0.35 ** 2
+    ks = bsdf.ggx_brdf(alpha, np.tile(N_UP, (200, 1)), np.tile(wo, (200, 1)), wi)
+    ref = (np.array([0.5, 0.4, 0.3]) / np.pi + 0.2 * ks[:, None]) * wi[:, 2:3]
+    np.testing.assert_allclose(got, ref, rtol=1e-6)  # float32 weights
+
+
+def test_smooth_glass_is_a_delta_with_fresnel_weights():
+    """Roughness 0: delta reflection / refraction, weights F / P and (1 - F) / (1 - P) summing
+    to the unbiased 1 (colour 1), no eval."""
+    t = closure.table(contract.Materials.from_list([{"closures": [dict(
+        kind=cl.CLOSURE_GLASS, params=dict(color=1.0, roughness=0.0, ior=1.5))]}]))
+    u = np.random.default_rng(1).random((20_000, 3))
+    wo = _wo(50.0)
+    s = closure.sample_many(t, 0, wo, N_UP, N_UP, TANGENT, True, u)
+    assert np.all(s[:, 7].astype(int) & closure.LOBE_DELTA)
+    assert np.all(s[:, 6] == 0)
+    refl = (s[:, 7].astype(int) & closure.LOBE_TRANSMIT) == 0
+    np.testing.assert_allclose(s[refl, :3], np.tile([-wo[0], -wo[1], wo[2]], (refl.sum(), 1)),
+                               atol=1e-12)
+    f, _ = bsdf.fresnel(np.cos(np.radians(50.0)), 1.5)
+    assert abs(refl.mean() - f[0]) < 0.01
+    np.testing.assert_allclose(s[:, 3:6].mean(axis=0), 1.0, atol=0.02)
+    # Snell's law for the refracted ones
+    sin_t = np.hypot(s[~refl, 0], s[~refl, 1])
+    np.testing.assert_allclose(sin_t, np.sin(np.radians(50.0)) / 1.5, rtol=1e-9)
+    assert np.all(closure.eval_many(t, 0, wo, s[:, :3], N_UP, N_UP, TANGENT, True) == 0)
+
+
+def test_albedo_splits_diffuse_and_total(tab):
+    """albedo(): the diffuse part is 0 for a metal or glass (no photon stored), the total
+    tracks the sampled directional albedo."""
+    wo = _wo(40.0)
+    for name in NAMES:
+        m = NAMES.index(name)
+        a = closure.albedo_at(tab, m, wo, N_UP)
+        assert np.all(np.isfinite(a)) and np.all(a >= 0)
+        mean, _ = _albedo(tab, name, wo, n=60_000)
+        diffuse_like = name in ("lambert", "oren_nayar", "translucent", "sheen")
+        if name.startswith(("glossy", "metal", "glass", "refraction")) or name == "principled_metal":
+            assert np.all(a[:3] == 0), name
+        if diffuse_like:
+            np.testing.assert_allclose(a[:3], a[3:], rtol=1e-12)
+        if name in ("glossy_aniso", "metal_conductor_aniso"):
+            # the compensation tables are isotropic (sqrt(alpha_x alpha_y)), like Cycles':
+            # an anisotropic multiscatter lobe keeps ~82 % where the estimate says ~1
+            continue
+        np.testing.assert_allclose(a[3:], mean, rtol=0.08, atol=0.02, err_msg=name)
+
+
+def test_texel_colour_multiplies_textured_closures_only():
+    mats = contract.Materials.from_list([{"closures": [
+        dict(kind=cl.CLOSURE_DIFFUSE, params=dict(color=0.5, roughness=0.0), texture=0),
+        dict(kind=cl.CLOSURE_DIFFUSE, params=dict(color=0.5, roughness=0.0))]}])
+    t = closure.table(mats)
+    wo = _wo(0.0)
+    f = closure.eval_bsdf(t, 0, 0.2, 1.0, 0.0, *wo, *wo, *N_UP, *N_UP, *TANGENT, True)
+    np.testing.assert_allclose(f[:3], np.array([0.5 * 0.2 + 0.5, 0.5 + 0.5, 0.5]) / np.pi,
+                               rtol=1e-6)
+
+
+def test_random_materials_give_finite_non_negative_values():
+    """Fuzz: random closures (every slot within Blender's UI ranges, IOR below 1 included),
+    random wo / wi, shading normals bent away from the geometric one: eval, sample and
+    albedo stay finite and non-negative, and the pdf of a sampled rough direction is > 0."""
+    rng = np.random.default_rng(21)
+    rows = []
+    kinds = list(cl.CLOSURE_KIND_NAMES)
+    for _ in range(60):
+        cs = []
+        for _ in range(rng.integers(1, 4)):
+            p = dict(color=rng.random(3), roughness=rng.choice([0.0, rng.random()]),
+                     metallic=rng.random(), ior=rng.choice([1.0, 0.8, 1.0 + 2 * rng.random()]),
+                     specular_level=2 * rng.random(), specular_tint=rng.random(3),
+                     transmission=rng.random(), coat_weight=rng.random(),
+                     coat_roughness=rng.random(), coat_ior=1 + rng.random(),
+                     coat_tint=rng.random(3), sheen_weight=rng.random(),
+                     sheen_roughness=rng.random(), sheen_tint=rng.random(3),
+                     anisotropic=rng.uniform(-1, 1), anisotropic_rotation=rng.random(),
+                     diffuse_roughness=rng.random(), subsurface_weight=rng.random(),
+                     thin_wall=float(rng.integers(0, 2)),
+                     distribution=float(rng.integers(0, 4)),
+                     fresnel_type=float(rng.integers(0, 2)),
+                     metal_n=3 * rng.random(3), metal_k=5 * rng.random(3))
+            cs.append(dict(kind=int(rng.choice(kinds)), weight=rng.random(3), params=p,
+                           texture=int(rng.integers(-1, 1))))
+        rows.append({"closures": cs})
+    t = closure.table(contract.Materials.from_list(rows))
+    for m in range(len(rows)):
+        ng = rng.normal(size=3)
+        ng /= np.linalg.norm(ng)
+        ns = ng + 0.3 * rng.normal(size=3)
+        ns /= np.linalg.norm(ns)
+        wo = rng.normal(size=3)
+        wo *= np.sign(wo @ ng) / np.linalg.norm(wo)
+        tg = rng.normal(size=3)
+        tg /= np.linalg.norm(tg)
+        entering = bool(rng.integers(0, 2))
+        u = rng.random((300, 3))
+        s = closure.sample_many(t, m, wo, ns, ng, tg, entering, u)
+        assert np.all(np.isfinite(s)) and np.all(s[:, 3:7] >= 0), m
+        wi = rng.normal(size=(300, 3))
+        wi /= np.linalg.norm(wi, axis=1, keepdims=True)
+        e = closure.eval_many(t, m, wo, wi, ns, ng, tg, entering)
+        assert np.all(np.isfinite(e)) and np.all(e >= 0), m
+        a = closure.albedo_at(t, m, wo, ns, rng.random(3))
+        assert np.all(np.isfinite(a)) and np.all(a >= 0), m
+        rough = (s[:, 7] > 0) & (s[:, 6] > 0)
+        e2 = closure.eval_many(t, m, wo, s[rough, :3], ns, ng, tg, entering)
+        assert np.all(e2[:, 3] > 0), m
