@@ -12,8 +12,18 @@ asks this module instead of testing ``bpy.app.version`` itself:
   Color", "Transmission" -> "Transmission Weight", "Specular" -> "Specular IOR Level",
   "Subsurface" -> "Subsurface Weight", "Clearcoat" -> "Coat Weight", "Sheen" -> "Sheen
   Weight"); 4.x+ mix and math nodes say "Factor" where 3.x said "Fac". ``input_socket``
-  finds an input by today's name or any older one.
+  finds an input by today's name or any older one. 3.x's Principled (v1) has scalar
+  "Specular Tint" and "Sheen Tint" (a blend from white to the base colour's hue) where 4.0
+  has colours: the node reader turns them into colours (export_nodes.NodeReader.tint);
+  3.x's distributions include "SHARP" (roughness 0, export_shaders).
 - 5.2's Principled BSDF has a boolean "Thin Wall" input (``thin_wall``), absent before.
+  Otherwise the shader nodes' input names are the same from 4.2 to 5.2 (checked input by
+  input in bpy 4.2.23 and 5.2.3); newer inputs and nodes: Principled "Diffuse Roughness"
+  and the Metallic BSDF (4.3), Glass "Thin Film Thickness" / "Thin Film IOR" (after 4.2).
+  ``input_socket`` returns None for an input the running Blender lacks, and the exporter
+  reads it as the closure contract's default. It also returns None for an input Blender
+  hides (5.2: the Metallic BSDF's IOR / Extinction under F82, Base Color / Edge Tint
+  under Physical Conductor), which Cycles does not read either.
 - EEVEE's engine id is "BLENDER_EEVEE_NEXT" in 4.2 to 4.5 (``EEVEE``).
 - The compositor: from 5.0 a ``CompositorNodeTree`` node group in
   ``scene.compositing_node_group`` whose Group Output "Image" is the result; before, the
@@ -72,6 +82,7 @@ SOCKET_ALIASES: dict[str, tuple[str, ...]] = {
     "Specular IOR Level": ("Specular",),
     "Subsurface Weight": ("Subsurface",),
     "Coat Weight": ("Clearcoat",),
+    "Coat Roughness": ("Clearcoat Roughness",),
     "Sheen Weight": ("Sheen",),
     "Factor": ("Fac",),
 }

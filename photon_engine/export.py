@@ -27,7 +27,7 @@ from ..core.scene.contract import Lights, Materials, Mesh, Scene, World
 from .export_camera import export_camera, relative_camera, relative_matrix, render_origin
 from .export_errors import ExportError, NoCameraError  # noqa: F401  (re-exported)
 from .export_lights import light_row
-from .export_materials import ImageTable, default_row, read_material, read_world
+from .export_materials import ImageTable, default_row, read_material, read_world, volume_only
 from .export_warnings import scene_warnings
 
 _VISIBILITY_FLAGS = ("visible_camera", "visible_diffuse", "visible_glossy",
@@ -80,7 +80,7 @@ def export_scene(depsgraph, camera=None, origin=None) -> ExportResult:
             geometry.add(obj, inst.matrix_world, name, materials)
 
     scene = Scene(
-        mesh=geometry.build(origin),
+        mesh=geometry.build(origin, materials.left_out),
         materials=Materials.from_list(materials.rows),
         lights=Lights.from_list(light_rows),
         camera=camera,
@@ -136,6 +136,8 @@ class _MaterialTable:
         self._index: dict = {}
         self._warnings = warnings
         self.images = ImageTable(warnings)
+        self.left_out: set[int] = set()
+        """Indices of volume-only materials: their faces are not exported."""
 
     def index(self, mat) -> int:
         if mat is None:
@@ -144,7 +146,17 @@ class _MaterialTable:
             mat = getattr(mat, "original", mat) or mat
             key = mat.as_pointer()
         if key not in self._index:
-            row = default_row() if mat is None else read_material(mat, self._warnings, self.images)
+            if mat is not None and volume_only(mat):
+                # Cycles renders it as a volume without a surface; an opaque black box
+                # would be wrong everywhere, leaving it out only misses the medium.
+                self._warnings.append(f'Material "{mat.name}" has only a Volume output '
+                                      f"(volumes are not supported yet): the faces using it "
+                                      f"are left out of the render")
+                self.left_out.add(len(self.rows))
+                row = default_row(mat.name)
+            else:
+                row = default_row() if mat is None else read_material(mat, self._warnings,
+                                                                      self.images)
             self._index[key] = len(self.rows)
             self.rows.append(row)
         return self._index[key]
@@ -269,12 +281,15 @@ class _Geometry:
         if not abs(det) > 0:
             self._warnings.append(f"Object '{name}': zero scale on an axis; skipped")
             return
+        slots = materials.slots(obj)
+        if all(s in materials.left_out for s in slots):
+            return  # volume-only (reported once per material)
         self.names.append(name)
-        self._batches.setdefault((key, materials.slots(obj)), []).append((m, len(self.names) - 1))
+        self._batches.setdefault((key, slots), []).append((m, len(self.names) - 1))
 
-    def build(self, origin) -> Mesh:
+    def build(self, origin, left_out=frozenset()) -> Mesh:
         """The mesh in the render frame: world positions - ``origin`` (3,), in float64
-        until the float32 cast."""
+        until the float32 cast; faces of the materials in ``left_out`` are dropped."""
         if not self._batches:
             return Mesh.empty()
         parts = []
@@ -286,6 +301,10 @@ class _Geometry:
             base += part[0].shape[0]
             parts.append(part)
         verts, tris, normals, uvs, mats, objs = (np.concatenate(col) for col in zip(*parts))
+        if left_out:  # faces of volume-only materials on objects with other slots too
+            keep = ~np.isin(mats, list(left_out))
+            tris, normals, uvs = tris[keep], normals[keep], uvs[keep]
+            mats, objs = mats[keep], objs[keep]
         verts -= np.asarray(origin, np.float64)
         f32, i32 = np.float32, np.int32
         return Mesh(vertices=verts.astype(f32), triangles=tris.astype(i32, copy=False),

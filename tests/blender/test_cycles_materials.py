@@ -1,0 +1,88 @@
+"""Photon Map's materials against Cycles (issue 13): a sphere of each material in a uniform
+world plus an area light, and a rough-metal sphere in the Cornell box
+(cycles_material_reference.py: the scenes, Cycles' settings, the cached references and
+the command that re-renders them).
+
+Photon Map renders each scene through the engine with its default settings, twice (seeds
+1 and 2, SAMPLES / 2 each), which gives its own noise. Tolerances of the issue: image
+means per channel within 2 %; 8 x 8 block means within 5 % + 3 sigma (sigma: both
+renderers' noise of that block; blocks darker than 2 % of the image mean are not
+counted, see cycles_reference.compare).
+
+Scenes the core cannot render yet (a lobe it lacks) are expected failures: ``PENDING``
+names the missing piece; they run and print their figures (``-rA -s``) all the same.
+"""
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+from tests.blender import cycles_material_reference as mr  # noqa: E402
+from tests.blender import cycles_reference as ref  # noqa: E402
+from tests.blender import scenes  # noqa: E402
+
+pytestmark = pytest.mark.blender
+
+SAMPLES = 128
+"""Photon Map camera samples per pixel over both seeds."""
+
+_GLOSSY = "camera paths do not continue through glossy lobes yet (issue 13, part 1)"
+_PRINCIPLED = "the core reads the legacy lobes, not the Principled v2 closure (issue 13, part 2)"
+PENDING = {
+    "diffuse_rough": "no Oren-Nayar lobe in the core yet (Diffuse Roughness)",
+    "glossy": _GLOSSY,
+    "metallic": "no Metallic BSDF (F82 tint) lobe in the core yet; " + _GLOSSY,
+    "glass": "no rough dielectric lobe in the core yet",
+    "refraction": "no Refraction lobe in the core yet (rendered as glass)",
+    "translucent": "no Translucent lobe in the core yet (rendered as diffuse)",
+    "sheen": "no Sheen lobe in the core yet",
+    "rough_glass": "no rough dielectric lobe in the core yet",
+    "thin_wall": "no thin-wall dielectric in the core yet",
+    "cornell_rough_metal": _GLOSSY,
+    "mix_diffuse_glossy": _GLOSSY,
+    "add_diffuse_sheen": "no Sheen lobe in the core yet",
+}
+PENDING.update({name: _PRINCIPLED for name in mr.MATERIALS if name.startswith("principled")
+                or name == "coat"})
+
+
+def photon_map_pair(name):
+    """(image (H, W, 3) float32, block sigma (h, w, 3)) of two Photon Map renders of
+    scene ``name`` (seeds 1 and 2, SAMPLES / 2 samples each), averaged."""
+    runs = []
+    for seed in (1, 2):
+        scene = mr.SCENES[name]()
+        scenes.use_photon_map(scene, samples=SAMPLES // 2, seed=seed,
+                              max_specular_depth=mr.BOUNCES, photon_max_bounces=mr.BOUNCES)
+        runs.append(scenes.render_passes(scene)["Combined"][..., :3].astype(np.float64))
+    a, b = runs
+    return ((a + b) / 2).astype(np.float32), ref.block_sigma(a, b)
+
+
+def _case(name):
+    marks = []
+    if name in PENDING:
+        marks.append(pytest.mark.xfail(strict=False, reason=PENDING[name]))
+    if tuple(bpy.app.version[:2]) < mr.needs(name):
+        marks.append(pytest.mark.skip(reason=f"needs Blender {mr.needs(name)}"))
+    return pytest.param(name, marks=marks, id=name)
+
+
+@pytest.mark.parametrize("name", [_case(name) for name in mr.SCENES])
+def test_material_matches_cycles(name):
+    cycles = mr.load_reference(name)
+    image, sigma_pm = photon_map_pair(name)
+    assert np.all(np.isfinite(image)) and image.min() >= 0
+    sigma = np.sqrt(sigma_pm**2 + cycles["block_sigma"].astype(np.float64) ** 2)
+    figures = ref.compare(image, cycles["image"], sigma)
+    bad = np.argwhere(figures["excess"] > 1.0)
+    print(f"\n{name}: channel means PM/Cycles - 1 = {np.round(100 * figures['channel'], 2)} %, "
+          f"worst block {100 * figures['worst_block']:.1f} %, median |block| "
+          f"{100 * np.nanmedian(np.abs(figures['blocks'])):.2f} %, blocks over 5 % + 3 sigma: "
+          f"{len(bad)} of {int(np.sum(np.isfinite(figures['excess'])))}, noise-limited blocks "
+          f"{100 * figures['noisy_blocks']:.0f} %")
+    assert np.all(np.abs(figures["channel"]) < 0.02), figures["channel"]
+    assert bad.size == 0, (f"blocks (row, col, channel) off by more than 5 % + 3 sigma: "
+                           f"{bad.tolist()[:12]}, relative differences "
+                           f"{[round(float(figures['blocks'][tuple(b)]), 3) for b in bad[:12]]}")
