@@ -58,15 +58,20 @@ def intersect(prepared: PreparedScene, seed: int, origins, dirs, tmax, rows, pix
                                        tmax, uniforms)
 
 
-def lights_along(prepared: PreparedScene, first: bool, transmitted, origins, dirs, hits):
-    """Which rays of a batch see a light surface in front of the geometry.
+def lights_along(prepared: PreparedScene, first: bool, transmitted, origins, dirs, hits,
+                 bsdf_pdf=None, light_samples: int = 1):
+    """The light surfaces a batch of rays passes in front of the geometry.
 
     first: the batch is the camera's own rays (lights visible to the camera), else rays
-    after a mirror (lights visible to glossy rays) or glass (``transmitted``: visible to
-    transmission rays). Returns (hit, miss, shown, radiance): hit (N,) bool, a surface
-    is reached (no light in front of it); miss (N,) bool, the ray escapes to the world;
-    shown (N,) bool, the ray sees ``radiance`` (N, 3) W/(m^2 sr) from a light (a light
-    surface, or a sun disc on an escaping ray), or None when no light can be seen.
+    after a mirror or glossy lobe (lights visible to glossy rays) or glass (``transmitted``:
+    visible to transmission rays). Lights are not occluders, as in Cycles: a ray that
+    passes a light goes on to the surface (or the world) behind it.
+    bsdf_pdf (N,) / light_samples: the MIS weighting of ``lights.intersect_lights`` (rays
+    sampled from a non-delta lobe at a vertex where direct light took light_samples).
+    Returns (hit, miss, shown, radiance): hit (N,) bool, a surface is reached; miss (N,)
+    bool, the ray escapes to the world; shown (N,) bool, the ray sees ``radiance`` (N, 3)
+    W/(m^2 sr) from lights (light surfaces, sun discs on escaping rays), or None when no
+    light can be seen.
     """
     ls = prepared.light_set
     hit = hits.prim >= 0
@@ -75,18 +80,16 @@ def lights_along(prepared: PreparedScene, first: bool, transmitted, origins, dir
         return hit, ~hit, None, None
     n = hit.shape[0]
     geo_t = np.where(hit, hits.t.astype(np.float64), np.inf)
-    light_t = np.full(n, np.inf)
+    pdf = np.zeros(n) if bsdf_pdf is None else bsdf_pdf
+    seen = np.zeros(n, bool)
     light_l = np.zeros((n, 3))
     groups = [(slice(None), ls.visible_camera)] if first else [
         (np.flatnonzero(transmitted), ls.visible_transmission),
         (np.flatnonzero(~transmitted), ls.visible_glossy)]
     for sel, vis in groups:
-        light_t[sel], light_l[sel] = lights.intersect_lights(ls, vis, origins[sel], dirs[sel],
-                                                             geo_t[sel])
-    seen = light_t < geo_t
-    miss = ~seen & ~hit
-    # Surfaces in front of the geometry, and sun discs on rays that escape (t = inf).
-    return hit & ~seen, miss, seen | miss, light_l
+        seen[sel], light_l[sel] = lights.intersect_lights(ls, vis, origins[sel], dirs[sel],
+                                                          geo_t[sel], pdf[sel], light_samples)
+    return hit, ~hit, seen, light_l
 
 
 def follow_delta(materials: dict, pos, ngf, nsf, d, front, mat, eps, u_lobe, u_pick, thr):

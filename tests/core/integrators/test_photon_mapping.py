@@ -496,3 +496,21 @@ def test_progressive_settings_are_validated_by_name():
         with pytest.raises(SettingsError, match=f'"{name}"'):
             s.with_values(**{name: bad})
     assert s.with_strings({"integrator": "progressive", "time_budget": "2.5"}).time_budget == 2.5
+
+
+# --- lights are not occluders ---------------------------------------------------------------
+
+def test_area_light_does_not_hide_the_ceiling_behind_it():
+    # Cycles' lights are transparent to rays: a camera looking up at an area light (facing
+    # down, 0.1 below an emissive ceiling) sees the light's radiance plus the ceiling's.
+    ceiling = facing(shapes.quad([0, 0, 2], [3, 0, 0], [0, 3, 0]), [0, 0, -1])
+    mats = Materials.from_list([{"emission": [0.25, 0.5, 1.0]}])
+    light = {"kind": LIGHT_AREA, "position": [0, 0, 1.9], "power": 40.0, "size": [2.0, 2.0],
+             "visible_to_camera": True}
+    cam = ortho_camera([0, 0, 0], [0, 0, 2], 0.5, res=4, up=(0, 1, 0))
+    scene = Scene(shapes.assemble([(ceiling, 0)]), mats, Lights.from_list([light]), cam)
+    out = integrator.render(scene, RenderSettings(samples=1, indirect_mode="off", caustics=False))
+    radiance = 40.0 / (np.pi * 4.0)
+    np.testing.assert_allclose(out.passes["emission"],
+                               np.broadcast_to(radiance + np.array([0.25, 0.5, 1.0]), (4, 4, 3)),
+                               rtol=1e-6)
