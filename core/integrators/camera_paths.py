@@ -33,6 +33,7 @@ from ..photons.importance import VisibleView, prepass_resolution
 from ..prepared import PreparedScene
 from ..scene import camera, geometry
 from ..scene.contract import Camera
+from . import direct
 
 DIM_JITTER = sampling.stream(sampling.PIXEL_JITTER, sampling.PROGRESSIVE)
 """The random dimension of the progressive camera rays' pixel jitter."""
@@ -108,6 +109,110 @@ def follow_delta(materials: dict, pos, ngf, nsf, d, front, mat, eps, u_lobe, u_p
                         u_lobe, u_pick, thr, new_o, new_d, new_thr, new_tr, ok)
     keep = np.flatnonzero(ok)
     return keep, new_o[keep], new_d[keep], new_thr[keep], new_tr[keep]
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def _continue_kernel(tab, pos, ngf, nsf, d, front, mat, eps, texel, thr, u_lobe, u1, u2, u_rr,
+                     new_o, new_d, new_thr, new_pdf, transmitted, delta, ok):
+    """One BSDF sample per hit (``bsdf.sample_bsdf``) and the next ray of the path.
+
+    A delta lobe (mirror, smooth glass) goes on with its weight (pdf 0: nothing weighs the
+    lights it sees against light sampling). A non-delta direction carries only the glossy
+    part of f |cos|: f minus the diffuse part d / pi |cos| (d: ``bsdf.albedo``'s diffuse
+    albedo), whose light the photon maps and the shadow rays at this hit hold; it goes on
+    with probability ``direct.continue_probability`` (Russian roulette on the glossy
+    share), and new_pdf is the sampling pdf times that probability (for MIS)."""
+    for i in prange(pos.shape[0]):
+        ok[i] = False
+        delta[i] = False
+        transmitted[i] = False
+        new_pdf[i] = 0.0
+        m = mat[i]
+        wox, woy, woz = -d[i, 0], -d[i, 1], -d[i, 2]
+        ix, iy, iz, w0, w1, w2, pdf, flags = bsdf.sample_bsdf(
+            tab, m, texel[i, 0], texel[i, 1], texel[i, 2], wox, woy, woz,
+            nsf[i, 0], nsf[i, 1], nsf[i, 2], ngf[i, 0], ngf[i, 1], ngf[i, 2],
+            direct.TANGENT[0], direct.TANGENT[1], direct.TANGENT[2], front[i],
+            u_lobe[i], u1[i], u2[i])
+        if flags == 0:
+            continue
+        if flags & bsdf.LOBE_DELTA:
+            delta[i] = True
+        else:
+            f0, f1, f2 = w0 * pdf, w1 * pdf, w2 * pdf
+            a0, a1, a2, _, _, _ = bsdf.albedo(tab, m, texel[i, 0], texel[i, 1], texel[i, 2],
+                                              wox, woy, woz, nsf[i, 0], nsf[i, 1], nsf[i, 2])
+            cos = max(0.0, nsf[i, 0] * ix + nsf[i, 1] * iy + nsf[i, 2] * iz) / np.pi
+            g0, g1, g2 = max(f0 - a0 * cos, 0.0), max(f1 - a1 * cos, 0.0), max(f2 - a2 * cos, 0.0)
+            q = direct.continue_probability(f0, f1, f2, g0, g1, g2)
+            if not u_rr[i] < q:
+                continue
+            k = 1.0 / (pdf * q)
+            w0, w1, w2 = g0 * k, g1 * k, g2 * k
+            new_pdf[i] = pdf * q
+        t0, t1, t2 = thr[i, 0] * w0, thr[i, 1] * w1, thr[i, 2] * w2
+        if not (t0 > 0.0 or t1 > 0.0 or t2 > 0.0):
+            continue
+        below = ix * ngf[i, 0] + iy * ngf[i, 1] + iz * ngf[i, 2] < 0.0
+        side = -eps[i] if below else eps[i]
+        new_o[i, 0] = pos[i, 0] + side * ngf[i, 0]
+        new_o[i, 1] = pos[i, 1] + side * ngf[i, 1]
+        new_o[i, 2] = pos[i, 2] + side * ngf[i, 2]
+        new_d[i, 0], new_d[i, 1], new_d[i, 2] = ix, iy, iz
+        new_thr[i, 0], new_thr[i, 1], new_thr[i, 2] = t0, t1, t2
+        transmitted[i] = below
+        ok[i] = True
+
+
+def follow_bsdf(prepared: PreparedScene, pos, ngf, nsf, d, front, mat, eps, texel, thr,
+                u_lobe, u1, u2, u_rr):
+    """Continue K paths through one sampled lobe each (``_continue_kernel``): mirrors,
+    glass, and the glossy part of rough lobes, the same sampler photons scatter by.
+
+    Inputs (K, ...) at the hits: pos, ngf, nsf (K, 3), d (K, 3) the arriving directions,
+    front (K,) bool, mat (K,) int32, eps (K,), texel (K, 3), thr (K, 3); u_lobe, u1, u2,
+    u_rr (K,) uniforms (lobe, direction, roulette). Returns (keep, origins, directions,
+    throughput, transmitted, pdf, delta) of the paths that go on: keep (J,) indices into
+    the K, then (J, 3) x 3, (J,) bool, (J,) float64 the solid-angle pdf of the direction
+    for MIS (0 after a delta lobe), (J,) bool a delta lobe was followed.
+    """
+    k = pos.shape[0]
+    new_o, new_d, new_thr = np.empty((k, 3)), np.empty((k, 3)), np.empty((k, 3))
+    new_pdf, new_tr, delta, ok = np.empty(k), np.empty(k, bool), np.empty(k, bool), np.empty(k, bool)
+    _continue_kernel(prepared.closures, pos, ngf, nsf, d, front, mat, eps, texel, thr, u_lobe,
+                     u1, u2, u_rr, new_o, new_d, new_thr, new_pdf, new_tr, delta, ok)
+    keep = np.flatnonzero(ok)
+    return keep, new_o[keep], new_d[keep], new_thr[keep], new_tr[keep], new_pdf[keep], delta[keep]
+
+
+def emission_weight(prepared: PreparedScene, prim, t, d, bsdf_pdf, light_samples: int):
+    """(N,) power-heuristic weight of emission seen on triangles prim (N,) at distance t
+    along unit directions d (N, 3), for rays BSDF-sampled with pdf bsdf_pdf (N,) (1 where
+    0: not weighed), against ``light_samples`` samples of the emissive triangles."""
+    w = np.ones(prim.shape[0])
+    tris = prepared.emissive
+    j = prepared.emissive_index[prim]
+    sel = np.flatnonzero((bsdf_pdf > 0) & (j >= 0))
+    if sel.size:
+        js = j[sel]
+        cos = np.abs(np.einsum("ij,ij->i", d[sel], tris.normal[js]))
+        tt = t[sel].astype(np.float64)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            pl = np.where(cos > 0, tris.probability[js] * tt * tt / (tris.area[js] * cos), 0.0)
+        a = bsdf_pdf[sel]
+        b = light_samples * pl
+        w[sel] = a * a / (a * a + b * b)
+    return w
+
+
+def world_weight(bsdf_pdf, prev_ns, d, light_samples: int):
+    """(N,) power-heuristic weight of the world seen by rays BSDF-sampled with pdf
+    bsdf_pdf (N,) (1 where 0) from points of shading normal prev_ns (N, 3) along d (N, 3),
+    against ``light_samples`` cosine samples of the world (direct.py)."""
+    b = light_samples * np.maximum(np.einsum("ij,ij->i", prev_ns, d), 0.0) / np.pi
+    a = bsdf_pdf
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(a > 0, a * a / (a * a + b * b), 1.0)
 
 
 # --- the progressive integrator's visible points ------------------------------------------
