@@ -12,7 +12,8 @@ render's thread count (numba and Embree) and builds:
   ``texels`` (a SurfaceTextures whose ``albedo`` is the texel colour multiplying the
   closures' COLOR, 1 where untextured), and per material (M,) bool ``has_diffuse``, ``nondelta`` (a lobe that light
   sampling can see: diffuse or rough glossy), ``has_delta`` (a mirror or glass lobe),
-  ``emissive_index`` (T,) int32 each triangle's row in ``emissive`` (-1: not emissive),
+  ``sampled_only`` (a rough glossy lobe and no diffuse one: SPPM's camera paths go on
+  through it by BSDF sampling), ``emissive_index`` (T,) int32 each triangle's row in ``emissive`` (-1: not emissive),
   ``specular_material`` (any glossy, mirror or glass lobe);
 - lights: ``light_set`` (core.lights.LightSet), ``light_shows`` (L,) bool (the light has a
   surface a ray can see), ``emissive`` (the emissive triangles), ``world`` (3,) float64
@@ -58,6 +59,7 @@ class PreparedScene:
     has_diffuse: np.ndarray
     nondelta: np.ndarray
     has_delta: np.ndarray
+    sampled_only: np.ndarray
     specular_material: np.ndarray
     light_set: LightSet
     light_shows: np.ndarray
@@ -137,6 +139,7 @@ def prepare(scene: Scene, threads: int = 0) -> PreparedScene:
         texels=SurfaceTextures(scene, np.ones_like(mats["diffuse"])),
         emissive_index=emissive_index, has_diffuse=has_diffuse,
         nondelta=has_diffuse | (glossy & ~singular), has_delta=transmissive | (glossy & singular),
+        sampled_only=glossy & ~singular & ~has_diffuse,
         specular_material=specular_material, light_set=light_set,
         light_shows=np.any(light_set.radiance > 0, axis=1),
         emissive=emissive,

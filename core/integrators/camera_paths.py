@@ -219,9 +219,14 @@ def world_weight(bsdf_pdf, prev_ns, d, light_samples: int):
 
 @njit(cache=True, parallel=True, error_model="numpy")
 def _path_kernel(pos, d, ng, ns, mat, eps, thr, u_vp, u_lobe, u_pick, albedo, specular, alpha,
-                 transmission, ior, vp, new_o, new_d, new_thr, go_on, transmitted):
+                 transmission, ior, tab, sampled, texel, vp, new_o, new_d, new_thr, go_on,
+                 transmitted):
     """At each hit: stop at the diffuse lobe (vp) or follow one delta lobe (go_on).
-    albedo (N, 3): the (textured) diffuse albedo at each hit.
+    albedo (N, 3): the (textured) diffuse albedo at each hit. Materials with
+    sampled[m] (rough glossy lobes and no diffuse one: no photon is stored there, so no
+    visible point) go on through one lobe of ``bsdf.sample_bsdf`` (tab, texel (N, 3)),
+    weight f |cos| / pdf: the lights, emission and world the path meets count in full
+    (no shadow rays are cast from such a hit).
 
     ng, ns: normals as computed from the winding (flipped here to face the ray). thr is
     divided by the probability of the branch taken; new_thr is the visible point's weight
@@ -235,14 +240,32 @@ def _path_kernel(pos, d, ng, ns, mat, eps, thr, u_vp, u_lobe, u_pick, albedo, sp
         sx, sy, sz = sg * ns[i, 0], sg * ns[i, 1], sg * ns[i, 2]
         ng[i, 0], ng[i, 1], ng[i, 2] = gx, gy, gz
         ns[i, 0], ns[i, 1], ns[i, 2] = sx, sy, sz
+        vp[i] = False
+        go_on[i] = False
+        transmitted[i] = False
+        if sampled[m]:
+            ox, oy, oz, w0, w1, w2, pdf, flags = bsdf.sample_bsdf(
+                tab, m, texel[i, 0], texel[i, 1], texel[i, 2], -dx, -dy, -dz, sx, sy, sz,
+                gx, gy, gz, direct.TANGENT[0], direct.TANGENT[1], direct.TANGENT[2], entering,
+                u_lobe[i], u_pick[i], u_vp[i])
+            t0, t1, t2 = thr[i, 0] * w0, thr[i, 1] * w1, thr[i, 2] * w2
+            if flags == 0 or not (t0 > 0.0 or t1 > 0.0 or t2 > 0.0):
+                continue
+            tr = ox * gx + oy * gy + oz * gz < 0.0
+            side = -eps[i] if tr else eps[i]
+            new_o[i, 0] = pos[i, 0] + gx * side
+            new_o[i, 1] = pos[i, 1] + gy * side
+            new_o[i, 2] = pos[i, 2] + gz * side
+            new_d[i, 0], new_d[i, 1], new_d[i, 2] = ox, oy, oz
+            new_thr[i, 0], new_thr[i, 1], new_thr[i, 2] = t0, t1, t2
+            go_on[i] = True
+            transmitted[i] = tr
+            continue
         kd = (albedo[i, 0] + albedo[i, 1] + albedo[i, 2]) / 3.0
         mirror = alpha[m] * alpha[m] <= bsdf.SINGULAR_ALPHA2
         kdel = (transmission[m, 0] + transmission[m, 1] + transmission[m, 2]) / 3.0
         if mirror:
             kdel += (specular[m, 0] + specular[m, 1] + specular[m, 2]) / 3.0
-        vp[i] = False
-        go_on[i] = False
-        transmitted[i] = False
         if kd + kdel <= 0.0:
             continue
         p = kd / (kd + kdel)
@@ -339,9 +362,11 @@ def visible_points(prepared: PreparedScene, cam: Camera, seed: int, k: int, max_
         ng, ns = sp.geometric_normal.copy(), sp.shading_normal.copy()
         vp, go_on, new_tr = np.empty(m, bool), np.empty(m, bool), np.empty(m, bool)
         new_o, new_d, new_thr = np.empty((m, 3)), np.empty((m, 3)), np.empty((m, 3))
+        texel = prepared.texels.albedo(hits.prim[h], hits.u[h], hits.v[h], sp.material)
         _path_kernel(sp.position, d, ng, ns, sp.material, sp.eps, thr, u_vp, u_lobe, u_pick,
                      albedo, mats["specular"], mats["alpha"], mats["transmission"],
-                     mats["ior"], vp, new_o, new_d, new_thr, go_on, new_tr)
+                     mats["ior"], prepared.closures, prepared.sampled_only, texel, vp, new_o,
+                     new_d, new_thr, go_on, new_tr)
         # Visible points: the first diffuse lobe on the path
         s = np.flatnonzero(vp)
         if s.size:

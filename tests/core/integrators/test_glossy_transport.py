@@ -95,3 +95,18 @@ def test_small_area_light_highlight_is_cleaner_with_mis():
     def rmse(a):
         return float(np.sqrt(np.mean((a - ref) ** 2)))
     assert rmse(mis) < 0.7 * rmse(alone), (rmse(mis), rmse(alone))
+
+
+@pytest.mark.parametrize("roughness, theta", [(0.3, 0.5)])
+def test_progressive_mode_renders_a_rough_metal_in_a_uniform_world(roughness, theta):
+    """SPPM's visible points go on through a rough lobe without a diffuse one (no photon
+    is stored there): the metal reflects the world, converging to its albedo."""
+    from core.integrators import sppm
+    plane = shapes.quad([0, 0, 0], [2, 0, 0], [0, 2, 0])
+    mats = Materials.from_list([{"specular": list(TINT), "roughness": roughness}])
+    scene = Scene(shapes.assemble([(plane, 0)]), mats, Lights.empty(), view(theta, res=8),
+                  World(radiance=np.ones(3, np.float32)))
+    out = sppm.render(scene, RenderSettings(integrator="progressive", progressive_passes=64,
+                                            photons_per_pass=100, threads=2))
+    exp = TINT * ggx_albedo(roughness ** 2, theta)
+    np.testing.assert_allclose(out.passes["combined"].mean(axis=(0, 1)), exp, rtol=0.02)
