@@ -177,7 +177,8 @@ GLOBAL_AFTER_GLOSSY = True
 """At a diffuse hit reached through a rough (glossy) lobe, take the diffuse part's radiance
 from the global map alone (built with direct photons for final gathering) instead of shadow
 rays + caustic map + final gathering: the lobe blurs the map's low-frequency noise, and a
-final gather there costs gather_rays rays per glossy sample (measured: docs/transport.md)."""
+final gather there costs gather_rays rays per glossy sample (measured by
+benchmarks/bench_glossy.py)."""
 
 
 def global_after_glossy(terms) -> bool:
