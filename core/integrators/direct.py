@@ -202,7 +202,7 @@ class ShadingPoints(NamedTuple):
     material (N,) int32; eps (N,) ray offsets (core/scene/geometry.py); throughput (N, 3)
     path weights; albedo (N, 3) the diffuse albedo there (textured); rows (N,) int64 the
     unique rows of the target they add to. texel (N, 3): the texel colour multiplying the
-    closures' COLOR (None: the material's own, 1); diffuse_on (N,) float64, 1 where the
+    closures' COLOR (None: albedo over the material's diffuse weight, 1 where it has none); diffuse_on (N,) float64, 1 where the
     diffuse part's direct light counts here (None: everywhere); mis (N,) bool, the path
     goes on by sampling the BSDF here, so the glossy part is weighted against it (None:
     nowhere)."""
@@ -250,7 +250,11 @@ def shade(ctx: DirectLighting, hit: ShadingPoints, pixel, sample, depth, target)
     k_count = ctx.light_samples
     bits = ctx.sample_bits
     n = hit.position.shape[0]
-    texel = np.ones((n, 3)) if hit.texel is None else hit.texel
+    texel = hit.texel
+    if texel is None:  # the texel behind the textured albedo: albedo / the lobe's weight
+        lobe = ctx.surfaces.diffuse[hit.material]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            texel = np.where(lobe > 0, hit.albedo / np.where(lobe > 0, lobe, 1.0), 1.0)
     diffuse_on = np.ones(n) if hit.diffuse_on is None else hit.diffuse_on
     mis = np.zeros(n, bool) if hit.mis is None else hit.mis
     contrib = np.empty((n, 3))
