@@ -8,8 +8,12 @@ render's thread count (numba and Embree) and builds:
 - triangles: ``tri_vertices`` (T, 3, 3) float32 metres, ``tri_normals`` (T, 3, 3) float32
   corner normals, ``tri_material`` (T,) int32;
 - materials: ``materials`` (``core.materials.bsdf.material_table``: float64 lobe arrays by
-  name), and per material (M,) bool ``has_diffuse``, ``nondelta`` (a lobe that light
+  name), ``closures`` (``closure.table``: the ClosureTable every BSDF evaluation reads),
+  ``texels`` (a SurfaceTextures whose ``albedo`` is the texel colour multiplying the
+  closures' COLOR, 1 where untextured), and per material (M,) bool ``has_diffuse``, ``nondelta`` (a lobe that light
   sampling can see: diffuse or rough glossy), ``has_delta`` (a mirror or glass lobe),
+  ``sampled_only`` (a rough glossy lobe and no diffuse one: SPPM's camera paths go on
+  through it by BSDF sampling), ``emissive_index`` (T,) int32 each triangle's row in ``emissive`` (-1: not emissive),
   ``specular_material`` (any glossy, mirror or glass lobe);
 - lights: ``light_set`` (core.lights.LightSet), ``light_shows`` (L,) bool (the light has a
   surface a ray can see), ``emissive`` (the emissive triangles), ``world`` (3,) float64
@@ -30,7 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .lights.light_set import EmissiveTriangles, LightSet
-from .materials import bsdf
+from .materials import bsdf, closure
 from .materials.textures import SurfaceTextures
 from .scene import geometry
 from .scene.accel import Accelerator, use_threads
@@ -49,9 +53,13 @@ class PreparedScene:
     tri_normals: np.ndarray
     tri_material: np.ndarray
     materials: dict
+    closures: closure.ClosureTable
+    texels: SurfaceTextures
+    emissive_index: np.ndarray
     has_diffuse: np.ndarray
     nondelta: np.ndarray
     has_delta: np.ndarray
+    sampled_only: np.ndarray
     specular_material: np.ndarray
     light_set: LightSet
     light_shows: np.ndarray
@@ -121,14 +129,20 @@ def prepare(scene: Scene, threads: int = 0) -> PreparedScene:
     if mesh.triangle_count:
         specular_objects[np.unique(mesh.object_index[specular_material[mesh.material_index]])] = True
     light_set = LightSet.from_lights(scene.lights)
+    emissive = EmissiveTriangles.from_mesh(mesh, scene.materials)
+    emissive_index = np.full(mesh.triangle_count, -1, np.int32)
+    emissive_index[emissive.triangle] = np.arange(emissive.count, dtype=np.int32)
     return PreparedScene(
         scene=scene, threads=workers, accel=Accelerator(tri_vertices, threads=workers),
         tri_vertices=tri_vertices, tri_normals=np.ascontiguousarray(mesh.normals, np.float32),
-        tri_material=tri_material, materials=mats, has_diffuse=has_diffuse,
+        tri_material=tri_material, materials=mats, closures=closure.table(scene.materials),
+        texels=SurfaceTextures(scene, np.ones_like(mats["diffuse"])),
+        emissive_index=emissive_index, has_diffuse=has_diffuse,
         nondelta=has_diffuse | (glossy & ~singular), has_delta=transmissive | (glossy & singular),
+        sampled_only=glossy & ~singular & ~has_diffuse,
         specular_material=specular_material, light_set=light_set,
         light_shows=np.any(light_set.radiance > 0, axis=1),
-        emissive=EmissiveTriangles.from_mesh(mesh, scene.materials),
+        emissive=emissive,
         world=np.asarray(scene.world.radiance, np.float64).reshape(3),
         surfaces=SurfaceTextures(scene, mats["diffuse"]),
         extent=geometry.scene_extent(lo, hi), centre=centre,

@@ -33,6 +33,7 @@ from ..photons.importance import VisibleView, prepass_resolution
 from ..prepared import PreparedScene
 from ..scene import camera, geometry
 from ..scene.contract import Camera
+from . import direct
 
 DIM_JITTER = sampling.stream(sampling.PIXEL_JITTER, sampling.PROGRESSIVE)
 """The random dimension of the progressive camera rays' pixel jitter."""
@@ -58,15 +59,20 @@ def intersect(prepared: PreparedScene, seed: int, origins, dirs, tmax, rows, pix
                                        tmax, uniforms)
 
 
-def lights_along(prepared: PreparedScene, first: bool, transmitted, origins, dirs, hits):
-    """Which rays of a batch see a light surface in front of the geometry.
+def lights_along(prepared: PreparedScene, first: bool, transmitted, origins, dirs, hits,
+                 bsdf_pdf=None, light_samples: int = 1):
+    """The light surfaces a batch of rays passes in front of the geometry.
 
     first: the batch is the camera's own rays (lights visible to the camera), else rays
-    after a mirror (lights visible to glossy rays) or glass (``transmitted``: visible to
-    transmission rays). Returns (hit, miss, shown, radiance): hit (N,) bool, a surface
-    is reached (no light in front of it); miss (N,) bool, the ray escapes to the world;
-    shown (N,) bool, the ray sees ``radiance`` (N, 3) W/(m^2 sr) from a light (a light
-    surface, or a sun disc on an escaping ray), or None when no light can be seen.
+    after a mirror or glossy lobe (lights visible to glossy rays) or glass (``transmitted``:
+    visible to transmission rays). Lights are not occluders, as in Cycles: a ray that
+    passes a light goes on to the surface (or the world) behind it.
+    bsdf_pdf (N,) / light_samples: the MIS weighting of ``lights.intersect_lights`` (rays
+    sampled from a non-delta lobe at a vertex where direct light took light_samples).
+    Returns (hit, miss, shown, radiance): hit (N,) bool, a surface is reached; miss (N,)
+    bool, the ray escapes to the world; shown (N,) bool, the ray sees ``radiance`` (N, 3)
+    W/(m^2 sr) from lights (light surfaces, sun discs on escaping rays), or None when no
+    light can be seen.
     """
     ls = prepared.light_set
     hit = hits.prim >= 0
@@ -75,18 +81,16 @@ def lights_along(prepared: PreparedScene, first: bool, transmitted, origins, dir
         return hit, ~hit, None, None
     n = hit.shape[0]
     geo_t = np.where(hit, hits.t.astype(np.float64), np.inf)
-    light_t = np.full(n, np.inf)
+    pdf = np.zeros(n) if bsdf_pdf is None else bsdf_pdf
+    seen = np.zeros(n, bool)
     light_l = np.zeros((n, 3))
     groups = [(slice(None), ls.visible_camera)] if first else [
         (np.flatnonzero(transmitted), ls.visible_transmission),
         (np.flatnonzero(~transmitted), ls.visible_glossy)]
     for sel, vis in groups:
-        light_t[sel], light_l[sel] = lights.intersect_lights(ls, vis, origins[sel], dirs[sel],
-                                                             geo_t[sel])
-    seen = light_t < geo_t
-    miss = ~seen & ~hit
-    # Surfaces in front of the geometry, and sun discs on rays that escape (t = inf).
-    return hit & ~seen, miss, seen | miss, light_l
+        seen[sel], light_l[sel] = lights.intersect_lights(ls, vis, origins[sel], dirs[sel],
+                                                          geo_t[sel], pdf[sel], light_samples)
+    return hit, ~hit, seen, light_l
 
 
 def follow_delta(materials: dict, pos, ngf, nsf, d, front, mat, eps, u_lobe, u_pick, thr):
@@ -107,13 +111,122 @@ def follow_delta(materials: dict, pos, ngf, nsf, d, front, mat, eps, u_lobe, u_p
     return keep, new_o[keep], new_d[keep], new_thr[keep], new_tr[keep]
 
 
+@njit(cache=True, parallel=True, error_model="numpy")
+def _continue_kernel(tab, pos, ngf, nsf, d, front, mat, eps, texel, thr, u_lobe, u1, u2, u_rr,
+                     new_o, new_d, new_thr, new_pdf, transmitted, delta, ok):
+    """One BSDF sample per hit (``bsdf.sample_bsdf``) and the next ray of the path.
+
+    A delta lobe (mirror, smooth glass) goes on with its weight (pdf 0: nothing weighs the
+    lights it sees against light sampling). A non-delta direction carries only the glossy
+    part of f |cos|: f minus the diffuse part d / pi |cos| (d: ``bsdf.albedo``'s diffuse
+    albedo), whose light the photon maps and the shadow rays at this hit hold; it goes on
+    with probability ``direct.continue_probability`` (Russian roulette on the glossy
+    share), and new_pdf is the sampling pdf times that probability (for MIS)."""
+    for i in prange(pos.shape[0]):
+        ok[i] = False
+        delta[i] = False
+        transmitted[i] = False
+        new_pdf[i] = 0.0
+        m = mat[i]
+        wox, woy, woz = -d[i, 0], -d[i, 1], -d[i, 2]
+        ix, iy, iz, w0, w1, w2, pdf, flags = bsdf.sample_bsdf(
+            tab, m, texel[i, 0], texel[i, 1], texel[i, 2], wox, woy, woz,
+            nsf[i, 0], nsf[i, 1], nsf[i, 2], ngf[i, 0], ngf[i, 1], ngf[i, 2],
+            direct.TANGENT[0], direct.TANGENT[1], direct.TANGENT[2], front[i],
+            u_lobe[i], u1[i], u2[i])
+        if flags == 0:
+            continue
+        if flags & bsdf.LOBE_DELTA:
+            delta[i] = True
+        else:
+            f0, f1, f2 = w0 * pdf, w1 * pdf, w2 * pdf
+            a0, a1, a2, _, _, _ = bsdf.albedo(tab, m, texel[i, 0], texel[i, 1], texel[i, 2],
+                                              wox, woy, woz, nsf[i, 0], nsf[i, 1], nsf[i, 2])
+            cos = max(0.0, nsf[i, 0] * ix + nsf[i, 1] * iy + nsf[i, 2] * iz) / np.pi
+            g0, g1, g2 = max(f0 - a0 * cos, 0.0), max(f1 - a1 * cos, 0.0), max(f2 - a2 * cos, 0.0)
+            q = direct.continue_probability(f0, f1, f2, g0, g1, g2)
+            if not u_rr[i] < q:
+                continue
+            k = 1.0 / (pdf * q)
+            w0, w1, w2 = g0 * k, g1 * k, g2 * k
+            new_pdf[i] = pdf * q
+        t0, t1, t2 = thr[i, 0] * w0, thr[i, 1] * w1, thr[i, 2] * w2
+        if not (t0 > 0.0 or t1 > 0.0 or t2 > 0.0):
+            continue
+        below = ix * ngf[i, 0] + iy * ngf[i, 1] + iz * ngf[i, 2] < 0.0
+        side = -eps[i] if below else eps[i]
+        new_o[i, 0] = pos[i, 0] + side * ngf[i, 0]
+        new_o[i, 1] = pos[i, 1] + side * ngf[i, 1]
+        new_o[i, 2] = pos[i, 2] + side * ngf[i, 2]
+        new_d[i, 0], new_d[i, 1], new_d[i, 2] = ix, iy, iz
+        new_thr[i, 0], new_thr[i, 1], new_thr[i, 2] = t0, t1, t2
+        transmitted[i] = below
+        ok[i] = True
+
+
+def follow_bsdf(prepared: PreparedScene, pos, ngf, nsf, d, front, mat, eps, texel, thr,
+                u_lobe, u1, u2, u_rr):
+    """Continue K paths through one sampled lobe each (``_continue_kernel``): mirrors,
+    glass, and the glossy part of rough lobes, the same sampler photons scatter by.
+
+    Inputs (K, ...) at the hits: pos, ngf, nsf (K, 3), d (K, 3) the arriving directions,
+    front (K,) bool, mat (K,) int32, eps (K,), texel (K, 3), thr (K, 3); u_lobe, u1, u2,
+    u_rr (K,) uniforms (lobe, direction, roulette). Returns (keep, origins, directions,
+    throughput, transmitted, pdf, delta) of the paths that go on: keep (J,) indices into
+    the K, then (J, 3) x 3, (J,) bool, (J,) float64 the solid-angle pdf of the direction
+    for MIS (0 after a delta lobe), (J,) bool a delta lobe was followed.
+    """
+    k = pos.shape[0]
+    new_o, new_d, new_thr = np.empty((k, 3)), np.empty((k, 3)), np.empty((k, 3))
+    new_pdf, new_tr, delta, ok = np.empty(k), np.empty(k, bool), np.empty(k, bool), np.empty(k, bool)
+    _continue_kernel(prepared.closures, pos, ngf, nsf, d, front, mat, eps, texel, thr, u_lobe,
+                     u1, u2, u_rr, new_o, new_d, new_thr, new_pdf, new_tr, delta, ok)
+    keep = np.flatnonzero(ok)
+    return keep, new_o[keep], new_d[keep], new_thr[keep], new_tr[keep], new_pdf[keep], delta[keep]
+
+
+def emission_weight(prepared: PreparedScene, prim, t, d, bsdf_pdf, light_samples: int):
+    """(N,) power-heuristic weight of emission seen on triangles prim (N,) at distance t
+    along unit directions d (N, 3), for rays BSDF-sampled with pdf bsdf_pdf (N,) (1 where
+    0: not weighed), against ``light_samples`` samples of the emissive triangles."""
+    w = np.ones(prim.shape[0])
+    tris = prepared.emissive
+    j = prepared.emissive_index[prim]
+    sel = np.flatnonzero((bsdf_pdf > 0) & (j >= 0))
+    if sel.size:
+        js = j[sel]
+        cos = np.abs(np.einsum("ij,ij->i", d[sel], tris.normal[js]))
+        tt = t[sel].astype(np.float64)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            pl = np.where(cos > 0, tris.probability[js] * tt * tt / (tris.area[js] * cos), 0.0)
+        a = bsdf_pdf[sel]
+        b = light_samples * pl
+        w[sel] = a * a / (a * a + b * b)
+    return w
+
+
+def world_weight(bsdf_pdf, prev_ns, d, light_samples: int):
+    """(N,) power-heuristic weight of the world seen by rays BSDF-sampled with pdf
+    bsdf_pdf (N,) (1 where 0) from points of shading normal prev_ns (N, 3) along d (N, 3),
+    against ``light_samples`` cosine samples of the world (direct.py)."""
+    b = light_samples * np.maximum(np.einsum("ij,ij->i", prev_ns, d), 0.0) / np.pi
+    a = bsdf_pdf
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(a > 0, a * a / (a * a + b * b), 1.0)
+
+
 # --- the progressive integrator's visible points ------------------------------------------
 
 @njit(cache=True, parallel=True, error_model="numpy")
 def _path_kernel(pos, d, ng, ns, mat, eps, thr, u_vp, u_lobe, u_pick, albedo, specular, alpha,
-                 transmission, ior, vp, new_o, new_d, new_thr, go_on, transmitted):
+                 transmission, ior, tab, sampled, texel, vp, new_o, new_d, new_thr, go_on,
+                 transmitted):
     """At each hit: stop at the diffuse lobe (vp) or follow one delta lobe (go_on).
-    albedo (N, 3): the (textured) diffuse albedo at each hit.
+    albedo (N, 3): the (textured) diffuse albedo at each hit. Materials with
+    sampled[m] (rough glossy lobes and no diffuse one: no photon is stored there, so no
+    visible point) go on through one lobe of ``bsdf.sample_bsdf`` (tab, texel (N, 3)),
+    weight f |cos| / pdf: the lights, emission and world the path meets count in full
+    (no shadow rays are cast from such a hit).
 
     ng, ns: normals as computed from the winding (flipped here to face the ray). thr is
     divided by the probability of the branch taken; new_thr is the visible point's weight
@@ -127,14 +240,32 @@ def _path_kernel(pos, d, ng, ns, mat, eps, thr, u_vp, u_lobe, u_pick, albedo, sp
         sx, sy, sz = sg * ns[i, 0], sg * ns[i, 1], sg * ns[i, 2]
         ng[i, 0], ng[i, 1], ng[i, 2] = gx, gy, gz
         ns[i, 0], ns[i, 1], ns[i, 2] = sx, sy, sz
+        vp[i] = False
+        go_on[i] = False
+        transmitted[i] = False
+        if sampled[m]:
+            ox, oy, oz, w0, w1, w2, pdf, flags = bsdf.sample_bsdf(
+                tab, m, texel[i, 0], texel[i, 1], texel[i, 2], -dx, -dy, -dz, sx, sy, sz,
+                gx, gy, gz, direct.TANGENT[0], direct.TANGENT[1], direct.TANGENT[2], entering,
+                u_lobe[i], u_pick[i], u_vp[i])
+            t0, t1, t2 = thr[i, 0] * w0, thr[i, 1] * w1, thr[i, 2] * w2
+            if flags == 0 or not (t0 > 0.0 or t1 > 0.0 or t2 > 0.0):
+                continue
+            tr = ox * gx + oy * gy + oz * gz < 0.0
+            side = -eps[i] if tr else eps[i]
+            new_o[i, 0] = pos[i, 0] + gx * side
+            new_o[i, 1] = pos[i, 1] + gy * side
+            new_o[i, 2] = pos[i, 2] + gz * side
+            new_d[i, 0], new_d[i, 1], new_d[i, 2] = ox, oy, oz
+            new_thr[i, 0], new_thr[i, 1], new_thr[i, 2] = t0, t1, t2
+            go_on[i] = True
+            transmitted[i] = tr
+            continue
         kd = (albedo[i, 0] + albedo[i, 1] + albedo[i, 2]) / 3.0
         mirror = alpha[m] * alpha[m] <= bsdf.SINGULAR_ALPHA2
         kdel = (transmission[m, 0] + transmission[m, 1] + transmission[m, 2]) / 3.0
         if mirror:
             kdel += (specular[m, 0] + specular[m, 1] + specular[m, 2]) / 3.0
-        vp[i] = False
-        go_on[i] = False
-        transmitted[i] = False
         if kd + kdel <= 0.0:
             continue
         p = kd / (kd + kdel)
@@ -236,9 +367,11 @@ def visible_points(prepared: PreparedScene, cam: Camera, seed: int, k: int, max_
         ng, ns = sp.geometric_normal.copy(), sp.shading_normal.copy()
         vp, go_on, new_tr = np.empty(m, bool), np.empty(m, bool), np.empty(m, bool)
         new_o, new_d, new_thr = np.empty((m, 3)), np.empty((m, 3)), np.empty((m, 3))
+        texel = prepared.texels.albedo(hits.prim[h], hits.u[h], hits.v[h], sp.material)
         _path_kernel(sp.position, d, ng, ns, sp.material, sp.eps, thr, u_vp, u_lobe, u_pick,
                      albedo, mats["specular"], mats["alpha"], mats["transmission"],
-                     mats["ior"], vp, new_o, new_d, new_thr, go_on, new_tr)
+                     mats["ior"], prepared.closures, prepared.sampled_only, texel, vp, new_o,
+                     new_d, new_thr, go_on, new_tr)
         # Visible points: the first diffuse lobe on the path
         s = np.flatnonzero(vp)
         if s.size:

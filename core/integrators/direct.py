@@ -35,17 +35,25 @@ from ..prepared import PreparedScene
 from ..settings import RenderSettings
 
 SOURCE_LIGHT, SOURCE_TRIANGLES, SOURCE_WORLD = 0, 1, 2
+TANGENT = (1.0, 0.0, 0.0)
+"""The tangent given to the BSDF (the mesh carries none yet; closure.DEFAULT_TANGENT)."""
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
 def _shade_kernel(source, q, tris_cdf, tris_prob, tris_v0, tris_e1, tris_e2, tris_n, tris_area,
-                  tris_rad, world, pos, ngf, nsf, d, mat, eps, thr, pixel, sample, seed, dim,
-                  pick_dim, k, k_count, bits, albedo, specular, alpha, use_diffuse,
+                  tris_rad, world, tab, pos, ngf, nsf, d, mat, eps, thr, texel, diffuse_on, mis,
+                  pixel, sample, seed, dim, pick_dim, k, k_count, bits, use_diffuse,
                   use_glossy, extent, contrib, sh_o, sh_d, sh_t, need):
     """One light sample per point: unshadowed contribution f |cos| L / pdf / k_count and
     the shadow ray that decides it (need[i]). Light samples are stratified over the
-    pixel's samples x light samples (index sample * k_count + k). albedo (N, 3): the
-    diffuse albedo at each point (textured, ``textures.SurfaceTextures.albedo``)."""
+    pixel's samples x light samples (index sample * k_count + k).
+
+    f is the material's whole non-delta BSDF (``bsdf.eval_bsdf``), split into the diffuse
+    part d / pi |cos| (d: ``bsdf.albedo``'s diffuse albedo, the part the photon maps
+    continue; times diffuse_on[i]) and the rest, the glossy part, which camera paths also
+    reach by sampling the BSDF where mis[i]: there the glossy part takes the power
+    heuristic's weight of light sampling (k_count samples) against BSDF sampling, whose
+    pdf is eval's pdf times ``continue_probability``."""
     fmax = 3.0e38
     scale = 1.0 / k_count
     for i in prange(pos.shape[0]):
@@ -56,32 +64,48 @@ def _shade_kernel(source, q, tris_cdf, tris_prob, tris_v0, tris_e1, tris_e2, tri
         u1, u2 = sampling.sobol2(sample[i] * k_count + k, bits,
                                  sampling.pattern(seed, pixel[i], dim))
         px, py, pz = pos[i, 0], pos[i, 1], pos[i, 2]
+        pl = 0.0
         if source == SOURCE_LIGHT:
             wx, wy, wz, dist, l0, l1, l2, cl, ok = light_kernels.sample_light(q, px, py, pz, u1, u2)
+            if ok:
+                pl = light_kernels.light_pdf(q, px, py, pz, wx, wy, wz, dist)
         elif source == SOURCE_TRIANGLES:
             u0 = sampling.hash_uniform(seed, pixel[i], sample[i], pick_dim)
             wx, wy, wz, dist, l0, l1, l2, cl, ok = light_kernels.sample_triangles(
                 tris_cdf, tris_prob, tris_v0, tris_e1, tris_e2, tris_n, tris_area, tris_rad,
                 px, py, pz, u0, u1, u2)
+            if ok:
+                j = min(np.searchsorted(tris_cdf, u0, side="right"), tris_cdf.shape[0] - 1)
+                pl = light_kernels.triangle_pdf(tris_prob, tris_area, j, wx, wy, wz,
+                                                tris_n[j, 0], tris_n[j, 1], tris_n[j, 2], dist)
         else:
             wx, wy, wz, dist, l0, l1, l2, cl, ok = light_kernels.sample_world(
                 world[0], world[1], world[2], nsf[i, 0], nsf[i, 1], nsf[i, 2], u1, u2)
+            pl = max(0.0, nsf[i, 0] * wx + nsf[i, 1] * wy + nsf[i, 2] * wz) / np.pi
         if not ok:
             continue
-        # Reflection only: the light must be on the viewer's side of the surface.
-        if ngf[i, 0] * wx + ngf[i, 1] * wy + ngf[i, 2] * wz <= 0.0:
-            continue
         m = mat[i]
-        kd, ks = bsdf.eval_reflection(0.0, 0.0, alpha[m], nsf[i, 0], nsf[i, 1], nsf[i, 2],
-                                      -d[i, 0], -d[i, 1], -d[i, 2], wx, wy, wz)
-        cos = nsf[i, 0] * wx + nsf[i, 1] * wy + nsf[i, 2] * wz
-        if cos <= 0.0:
+        wox, woy, woz = -d[i, 0], -d[i, 1], -d[i, 2]
+        f0, f1, f2, pb = bsdf.eval_bsdf(tab, m, texel[i, 0], texel[i, 1], texel[i, 2],
+                                        wox, woy, woz, wx, wy, wz, nsf[i, 0], nsf[i, 1],
+                                        nsf[i, 2], ngf[i, 0], ngf[i, 1], ngf[i, 2],
+                                        TANGENT[0], TANGENT[1], TANGENT[2])
+        if f0 <= 0.0 and f1 <= 0.0 and f2 <= 0.0:
             continue
-        kd *= use_diffuse * cos * scale
-        ks *= use_glossy * cos * scale
-        c0 = (albedo[i, 0] * kd + specular[m, 0] * ks) * l0 * thr[i, 0]
-        c1 = (albedo[i, 1] * kd + specular[m, 1] * ks) * l1 * thr[i, 1]
-        c2 = (albedo[i, 2] * kd + specular[m, 2] * ks) * l2 * thr[i, 2]
+        a0, a1, a2, _, _, _ = bsdf.albedo(tab, m, texel[i, 0], texel[i, 1], texel[i, 2],
+                                          wox, woy, woz, nsf[i, 0], nsf[i, 1], nsf[i, 2])
+        cos = max(0.0, nsf[i, 0] * wx + nsf[i, 1] * wy + nsf[i, 2] * wz) / np.pi
+        d0, d1, d2 = a0 * cos, a1 * cos, a2 * cos
+        g0, g1, g2 = max(f0 - d0, 0.0), max(f1 - d1, 0.0), max(f2 - d2, 0.0)
+        wl = 1.0
+        if mis[i] and pl > 0.0:
+            pc = pb * continue_probability(f0, f1, f2, g0, g1, g2)
+            wl = light_kernels.power_heuristic(k_count, pl, 1.0, pc)
+        kd = use_diffuse * diffuse_on[i] * scale
+        kg = use_glossy * wl * scale
+        c0 = (d0 * kd + g0 * kg) * l0 * thr[i, 0]
+        c1 = (d1 * kd + g1 * kg) * l1 * thr[i, 1]
+        c2 = (d2 * kd + g2 * kg) * l2 * thr[i, 2]
         if c0 <= 0.0 and c1 <= 0.0 and c2 <= 0.0:
             continue
         contrib[i, 0] = c0
@@ -95,14 +119,27 @@ def _shade_kernel(source, q, tris_cdf, tris_prob, tris_v0, tris_e1, tris_e2, tri
             tf = dist - e - geometry.offset_eps(qx, qy, qz, extent) / max(cl, 1e-3)
             if tf <= 0.0:
                 continue  # the light touches the surface: nothing can come in between
-        sh_o[i, 0] = px + e * ngf[i, 0]
-        sh_o[i, 1] = py + e * ngf[i, 1]
-        sh_o[i, 2] = pz + e * ngf[i, 2]
+        # The shadow ray leaves on the side of the light (transmission lobes: the far side).
+        side = e if ngf[i, 0] * wx + ngf[i, 1] * wy + ngf[i, 2] * wz >= 0.0 else -e
+        sh_o[i, 0] = px + side * ngf[i, 0]
+        sh_o[i, 1] = py + side * ngf[i, 1]
+        sh_o[i, 2] = pz + side * ngf[i, 2]
         sh_d[i, 0] = wx
         sh_d[i, 1] = wy
         sh_d[i, 2] = wz
         sh_t[i] = min(tf, fmax)
         need[i] = True
+
+
+@njit(cache=True, error_model="numpy")
+def continue_probability(f0, f1, f2, g0, g1, g2):
+    """Probability that a camera path goes on along a BSDF-sampled direction: the glossy
+    part's share max(g) / max(f) of the sampled f |cos| (1 for a pure glossy lobe, small
+    where a diffuse lobe gave the direction: its light comes from the photon maps)."""
+    fm = max(f0, max(f1, f2))
+    if fm <= 0.0:
+        return 0.0
+    return min(1.0, max(g0, max(g1, g2)) / fm)
 
 
 @njit(cache=True, error_model="numpy")
@@ -142,8 +179,7 @@ class DirectLighting:
 
     light_set: lights.LightSet
     emissive: lights.EmissiveTriangles
-    specular: np.ndarray          # (M, 3) glossy tints (bsdf.material_table)
-    alpha: np.ndarray             # (M,) glossy roughness
+    closures: tuple               # the ClosureTable (PreparedScene.closures)
     world: np.ndarray             # (3,) background radiance
     extent: float                 # metres, the scene's size (ray offsets)
     accel: Accelerator            # shared with the caller, who closes it
@@ -165,7 +201,11 @@ class ShadingPoints(NamedTuple):
     viewer's side; direction (N, 3) unit, the direction the points were reached along;
     material (N,) int32; eps (N,) ray offsets (core/scene/geometry.py); throughput (N, 3)
     path weights; albedo (N, 3) the diffuse albedo there (textured); rows (N,) int64 the
-    unique rows of the target they add to."""
+    unique rows of the target they add to. texel (N, 3): the texel colour multiplying the
+    closures' COLOR (None: albedo over the material's diffuse weight, 1 where it has none); diffuse_on (N,) float64, 1 where the
+    diffuse part's direct light counts here (None: everywhere); mis (N,) bool, the path
+    goes on by sampling the BSDF here, so the glossy part is weighted against it (None:
+    nowhere)."""
 
     position: np.ndarray
     ng: np.ndarray
@@ -176,6 +216,9 @@ class ShadingPoints(NamedTuple):
     throughput: np.ndarray
     albedo: np.ndarray
     rows: np.ndarray
+    texel: np.ndarray | None = None
+    diffuse_on: np.ndarray | None = None
+    mis: np.ndarray | None = None
 
 
 def prepare(settings: RenderSettings, prepared: PreparedScene, samples: int,
@@ -184,10 +227,9 @@ def prepare(settings: RenderSettings, prepared: PreparedScene, samples: int,
     settings' seed and light_samples; ``samples`` sizes the sample index (the camera
     pass's samples per pixel, SPPM's pass count). ``stats``: the caller's counters to add
     rays_shadow, time_shading and time_shadow to."""
-    mats = prepared.materials
     dl = DirectLighting(
-        light_set=prepared.light_set, emissive=prepared.emissive, specular=mats["specular"],
-        alpha=mats["alpha"], world=prepared.world, extent=float(prepared.extent),
+        light_set=prepared.light_set, emissive=prepared.emissive,
+        closures=prepared.closures, world=prepared.world, extent=float(prepared.extent),
         accel=prepared.accel, surfaces=prepared.surfaces, tri_vertices=prepared.tri_vertices,
         tri_normals=prepared.tri_normals, seed=int(settings.seed),
         light_samples=int(settings.light_samples),
@@ -208,6 +250,13 @@ def shade(ctx: DirectLighting, hit: ShadingPoints, pixel, sample, depth, target)
     k_count = ctx.light_samples
     bits = ctx.sample_bits
     n = hit.position.shape[0]
+    texel = hit.texel
+    if texel is None:  # the texel behind the textured albedo: albedo / the lobe's weight
+        lobe = ctx.surfaces.diffuse[hit.material]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            texel = np.where(lobe > 0, hit.albedo / np.where(lobe > 0, lobe, 1.0), 1.0)
+    diffuse_on = np.ones(n) if hit.diffuse_on is None else hit.diffuse_on
+    mis = np.zeros(n, bool) if hit.mis is None else hit.mis
     contrib = np.empty((n, 3))
     sh_o = np.empty((n, 3), np.float32)
     sh_d = np.empty((n, 3), np.float32)
@@ -229,11 +278,11 @@ def shade(ctx: DirectLighting, hit: ShadingPoints, pixel, sample, depth, target)
         for k in range(k_count):
             t0 = time.perf_counter()
             _shade_kernel(source, q, tris.cdf, tris.probability, tris.v0, tris.e1, tris.e2,
-                          tris.normal, tris.area, tris.radiance, ctx.world, hit.position,
-                          hit.ng, hit.ns, hit.direction, hit.material, hit.eps, hit.throughput,
-                          pixel, sample,
+                          tris.normal, tris.area, tris.radiance, ctx.world, ctx.closures,
+                          hit.position, hit.ng, hit.ns, hit.direction, hit.material, hit.eps,
+                          hit.throughput, texel, diffuse_on, mis, pixel, sample,
                           ctx.seed, dim, sampling.stream(sampling.LIGHT_PICK, depth, k),
-                          k, k_count, bits, hit.albedo, ctx.specular, ctx.alpha, use_d, use_g,
+                          k, k_count, bits, use_d, use_g,
                           ctx.extent, contrib, sh_o, sh_d, sh_t, need)
             t1 = time.perf_counter()
             c = _compact_kernel(need, sh_o, sh_d, sh_t, idx, pk_o, pk_d, pk_t) if shadows else 0

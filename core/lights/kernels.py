@@ -283,3 +283,64 @@ def intersect_light(q, ox, oy, oz, dx, dy, dz):
     else:
         return np.inf, 0.0, 0.0, 0.0
     return t, q[P_RADIANCE] * att, q[P_RADIANCE + 1] * att, q[P_RADIANCE + 2] * att
+
+
+@njit(cache=True, error_model="numpy")
+def light_pdf(q, px, py, pz, dx, dy, dz, t):
+    """Solid-angle pdf (1/sr) with which ``sample_light(q, p, ...)`` produces the unit
+    direction d whose ray from p meets the light's surface at distance t (metres), the
+    hit ``intersect_light`` reports. 0 for the delta lights (radius 0, sun of angle 0),
+    which no ray hits. Used for multiple importance sampling: a BSDF-sampled ray that
+    hits a light weighs its radiance against this pdf."""
+    kind = int(q[P_KIND])
+    if kind == LIGHT_AREA:
+        cl = dx * q[P_AZ] + dy * q[P_AZ + 1] + dz * q[P_AZ + 2]
+        if cl <= 0.0 or q[P_AREA] <= 0.0:
+            return 0.0
+        return t * t / (cl * q[P_AREA])
+    if kind == LIGHT_SUN:
+        omc = q[P_SUN_OMC]
+        return 1.0 / (2.0 * np.pi * omc) if omc > 0.0 else 0.0
+    if kind == LIGHT_POINT or kind == LIGHT_SPOT:
+        radius = q[P_RADIUS]
+        if radius <= 0.0:
+            return 0.0
+        r2 = radius * radius
+        lx, ly, lz = px - q[P_POS], py - q[P_POS + 1], pz - q[P_POS + 2]
+        d2 = lx * lx + ly * ly + lz * lz
+        if q[P_SPHERE] > 0.0:
+            if d2 <= r2:
+                return 1.0 / (4.0 * np.pi)
+            return 1.0 / (2.0 * np.pi * sin_sqr_to_one_minus_cos(r2 / d2))
+        d = np.sqrt(d2)
+        if d == 0.0:
+            return 0.0
+        # The disk faces the shading point: its normal is (p - c) / |p - c|.
+        cl = -(dx * lx + dy * ly + dz * lz) / d
+        if cl <= 0.0:
+            return 0.0
+        return t * t / (cl * np.pi * r2)
+    return 0.0
+
+
+@njit(cache=True, error_model="numpy")
+def triangle_pdf(prob, area, j, dx, dy, dz, nx, ny, nz, t):
+    """Solid-angle pdf (1/sr) with which ``sample_triangles`` produces the direction d
+    towards emissive triangle j (unit normal n, seen at distance t metres): the pick
+    probability over the area, times t^2 / |cos| at the triangle."""
+    cl = abs(dx * nx + dy * ny + dz * nz)
+    if cl <= 0.0 or area[j] <= 0.0:
+        return 0.0
+    return prob[j] * t * t / (area[j] * cl)
+
+
+@njit(cache=True, error_model="numpy")
+def power_heuristic(n_f, pdf_f, n_g, pdf_g):
+    """Veach's power heuristic (beta = 2): the weight of technique f, taking n_f samples of
+    pdf pdf_f, against technique g (n_g samples of pdf_g). 1 where g cannot produce the
+    sample (pdf_g = 0), 0 where f cannot."""
+    a = n_f * pdf_f
+    b = n_g * pdf_g
+    if b <= 0.0:
+        return 1.0 if a > 0.0 else 0.0
+    return a * a / (a * a + b * b)

@@ -258,60 +258,80 @@ def sample_emissive(tris: EmissiveTriangles, points: np.ndarray, u0: np.ndarray,
 # --- rays hitting lights (camera and specular paths) -----------------------------------------
 
 @njit(cache=True, parallel=True, error_model="numpy")
-def _intersect_kernel(q, o, d, tmax, t_out, l_out):
-    """Keep, per ray, the nearest hit of light q closer than tmax (in place)."""
+def _intersect_kernel(q, o, d, tmax, bsdf_pdf, n_light, seen, l_out):
+    """Add light q's radiance to every ray that meets it before tmax (lights are not
+    occluders: a ray passes through every light in front of the geometry), weighted
+    against light sampling by the power heuristic where the ray was BSDF-sampled with
+    solid-angle pdf bsdf_pdf > 0 (n_light light samples per light at that vertex)."""
     for i in prange(o.shape[0]):
         t, l0, l1, l2 = lk.intersect_light(q, o[i, 0], o[i, 1], o[i, 2], d[i, 0], d[i, 1], d[i, 2])
-        if t < tmax[i] and t < t_out[i]:
-            t_out[i] = t
-            l_out[i, 0] = l0
-            l_out[i, 1] = l1
-            l_out[i, 2] = l2
+        if not t < tmax[i]:
+            continue
+        w = 1.0
+        if bsdf_pdf[i] > 0.0:
+            pl = lk.light_pdf(q, o[i, 0], o[i, 1], o[i, 2], d[i, 0], d[i, 1], d[i, 2], t)
+            w = lk.power_heuristic(1.0, bsdf_pdf[i], n_light, pl)
+        seen[i] = True
+        l_out[i, 0] += w * l0
+        l_out[i, 1] += w * l1
+        l_out[i, 2] += w * l2
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
-def _sun_disc_kernel(d, az, one_minus_cos, radiance, acc):
+def _sun_disc_kernel(q, d, escaped, bsdf_pdf, n_light, seen, acc):
+    """The sun disc of light q on the rays that escape the geometry within it."""
+    one_minus_cos = q[lk.P_SUN_OMC]
     for i in prange(d.shape[0]):
+        if not escaped[i]:
+            continue
         # 1 - cos(angle to the sun's direction) <= 1 - cos(half angle), without cancellation.
-        one_minus = 1.0 - (d[i, 0] * az[0] + d[i, 1] * az[1] + d[i, 2] * az[2])
+        one_minus = 1.0 - (d[i, 0] * q[lk.P_AZ] + d[i, 1] * q[lk.P_AZ + 1]
+                           + d[i, 2] * q[lk.P_AZ + 2])
         if one_minus <= one_minus_cos:
-            acc[i, 0] += radiance[0]
-            acc[i, 1] += radiance[1]
-            acc[i, 2] += radiance[2]
+            w = 1.0
+            if bsdf_pdf[i] > 0.0:
+                w = lk.power_heuristic(1.0, bsdf_pdf[i], n_light,
+                                       1.0 / (2.0 * np.pi * one_minus_cos))
+            seen[i] = True
+            acc[i, 0] += w * q[lk.P_RADIANCE]
+            acc[i, 1] += w * q[lk.P_RADIANCE + 1]
+            acc[i, 2] += w * q[lk.P_RADIANCE + 2]
 
 
 def intersect_lights(lights: LightSet, which: np.ndarray, origins: np.ndarray,
-                     directions: np.ndarray, tmax: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Nearest visible light surface along each ray, if nearer than tmax (geometry hit).
+                     directions: np.ndarray, tmax: np.ndarray, bsdf_pdf: np.ndarray | None = None,
+                     light_samples: int = 1) -> tuple[np.ndarray, np.ndarray]:
+    """The light surfaces each ray passes in front of the geometry (tmax) and their
+    radiance: lights are not occluders, as in Cycles (a ray goes on through an area
+    light's quad to the ceiling behind it), so every light in front counts.
 
     which: (L,) bool, the lights this kind of ray may see (camera / glossy / transmission).
-    tmax: (N,) distance to the nearest geometry (inf on a miss). Returns t (N,) (inf where
-    no light is hit) and radiance (N, 3) float64 of the light seen (0 where none).
-    Point and spot lights of radius 0 are never hit. The sun is hit only by rays that
-    escape the scene within its disc.
+    tmax: (N,) distance to the nearest geometry (inf on a miss). bsdf_pdf: (N,) solid-angle
+    pdf with which each ray's direction was BSDF-sampled, 0 (or None) where the ray is not
+    weighed against light sampling (camera rays, delta lobes); where > 0, each light's
+    radiance is weighted by the power heuristic against ``light_samples`` samples of
+    ``lk.light_pdf``. Returns seen (N,) bool and radiance (N, 3) float64 W/(m^2 sr) (0
+    where none is seen). Point and spot lights of radius 0 are never hit; a sun disc only
+    by rays that escape the geometry.
     """
     o = np.ascontiguousarray(origins, np.float64).reshape(-1, 3)
     d = np.ascontiguousarray(directions, np.float64).reshape(-1, 3)
     tm = np.ascontiguousarray(tmax, np.float64)
     n = o.shape[0]
-    t_out = np.full(n, np.inf)
+    seen = np.zeros(n, bool)
     l_out = np.zeros((n, 3))
     if n == 0:
-        return t_out, l_out
-    at_infinity = np.zeros((n, 3))
+        return seen, l_out
+    pdf = np.zeros(n) if bsdf_pdf is None else np.ascontiguousarray(bsdf_pdf, np.float64)
+    escaped = np.isinf(tm)
     for i in range(lights.count):
         if not which[i] or not np.any(lights.radiance[i] > 0):
             continue
-        k = int(lights.kind[i])
-        if k == LIGHT_SUN:
-            _sun_disc_kernel(d, lights.axis_z[i], float(lights.sun_one_minus_cos[i]),
-                             lights.radiance[i], at_infinity)
-            continue
-        _intersect_kernel(lights.params[i], o, d, tm, t_out, l_out)
-    # Sun discs are seen only by rays that escape the geometry and every other light.
-    escaped = np.isinf(tm) & np.isinf(t_out)
-    l_out[escaped] += at_infinity[escaped]
-    return t_out, l_out
+        if int(lights.kind[i]) == LIGHT_SUN:
+            _sun_disc_kernel(lights.params[i], d, escaped, pdf, float(light_samples), seen, l_out)
+        else:
+            _intersect_kernel(lights.params[i], o, d, tm, pdf, float(light_samples), seen, l_out)
+    return seen, l_out
 
 
 # --- world -----------------------------------------------------------------------------------

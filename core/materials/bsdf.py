@@ -25,6 +25,7 @@ import numpy as np
 from numba import njit, prange
 
 from .. import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
+from .. import sampling
 
 # Cycles treats a microfacet lobe as a perfect mirror below this alpha_x * alpha_y.
 SINGULAR_ALPHA2 = 1e-7
@@ -290,3 +291,205 @@ def continue_delta(pos, ngf, nsf, d, front, mat, eps, specular, alpha, transmiss
         new_thr[i, 1] = t1
         new_thr[i, 2] = t2
         transmitted[i] = tr
+
+
+# --- the closure evaluator's interface over the legacy lobes --------------------------------
+# Transitional (issue 13, the transport half): the light transport calls eval_bsdf /
+# sample_bsdf / albedo with closure.py's signatures and semantics, on closure.table()'s
+# ClosureTable, and these serve the closures legacy materials turn into (Diffuse -> Lambert,
+# Glossy -> GGX with visible-normal sampling or a mirror, Glass -> smooth dielectric) until
+# closure.py's own lobes land; the transport then imports closure instead of bsdf. Other
+# kinds are Lambert in COLOR here. The texel colour c multiplies the closures that have a
+# texture. Flags have closure.py's LOBE_* values.
+
+LOBE_DELTA, LOBE_GLOSSY, LOBE_DIFFUSE, LOBE_TRANSMIT = 1, 2, 4, 8
+_DIFFUSE, _GLOSSY, _GLASS, _REFRACTION = 0, 1, 2, 3  # scene.closures.CLOSURE_* (tests check)
+_COLOR, _ROUGHNESS, _IOR = 0, 3, 5                   # scene.closures slots
+
+
+@njit(cache=True, error_model="numpy")
+def ggx_vndf_pdf(alpha, cos_o, cos_h):
+    """Solid-angle pdf of a reflected direction whose half vector h was drawn from GGX's
+    visible normals (Heitz 2018): D(h) G1(wo) / (4 cos_o). Cosines w.r.t. the normal."""
+    if cos_o <= 0.0:
+        return 0.0
+    g1 = 1.0 / (1.0 + ggx_lambda(alpha * alpha, cos_o))
+    return ggx_distribution(alpha, cos_h) * g1 / (4.0 * cos_o)
+
+
+@njit(cache=True, error_model="numpy")
+def ggx_sample_vndf(alpha, vx, vy, vz, u1, u2):
+    """Half vector (local frame, +Z the normal) drawn from GGX's visible normals seen from
+    the local direction v (v.z > 0), isotropic alpha (Heitz 2018, "Sampling the GGX
+    Distribution of Visible Normals")."""
+    hx, hy, hz = alpha * vx, alpha * vy, vz
+    ln = np.sqrt(hx * hx + hy * hy + hz * hz)
+    hx, hy, hz = hx / ln, hy / ln, hz / ln
+    lensq = hx * hx + hy * hy
+    if lensq > 0.0:
+        inv = 1.0 / np.sqrt(lensq)
+        t1x, t1y, t1z = -hy * inv, hx * inv, 0.0
+    else:
+        t1x, t1y, t1z = 1.0, 0.0, 0.0
+    t2x, t2y, t2z = hy * t1z - hz * t1y, hz * t1x - hx * t1z, hx * t1y - hy * t1x
+    r = np.sqrt(u1)
+    phi = 2.0 * np.pi * u2
+    p1 = r * np.cos(phi)
+    p2 = r * np.sin(phi)
+    s = 0.5 * (1.0 + hz)
+    p2 = (1.0 - s) * np.sqrt(max(0.0, 1.0 - p1 * p1)) + s * p2
+    p3 = np.sqrt(max(0.0, 1.0 - p1 * p1 - p2 * p2))
+    nx = p1 * t1x + p2 * t2x + p3 * hx
+    ny = p1 * t1y + p2 * t2y + p3 * hy
+    nz = p1 * t1z + p2 * t2z + p3 * hz
+    ex, ey, ez = alpha * nx, alpha * ny, max(0.0, nz)
+    ln = np.sqrt(ex * ex + ey * ey + ez * ez)
+    return ex / ln, ey / ln, ez / ln
+
+
+@njit(cache=True, error_model="numpy")
+def _colour(tab, c, k, c0, c1, c2):
+    """Closure c's weight x COLOR (x the texel colour where it has a texture)."""
+    t0, t1, t2 = (c0, c1, c2) if tab.texture[c] >= 0 else (1.0, 1.0, 1.0)
+    p = tab.params[c]
+    return (tab.weight[c, 0] * p[_COLOR] * t0, tab.weight[c, 1] * p[_COLOR + 1] * t1,
+            tab.weight[c, 2] * p[_COLOR + 2] * t2)
+
+
+@njit(cache=True, error_model="numpy")
+def _alpha(tab, c):
+    return min(tab.params[c][_ROUGHNESS], 1.0) ** 2
+
+
+@njit(cache=True, error_model="numpy")
+def eval_bsdf(tab, m, c0, c1, c2, wox, woy, woz, wix, wiy, wiz, nsx, nsy, nsz,
+              ngx, ngy, ngz, tx, ty, tz):
+    """closure.eval_bsdf over the legacy lobes: f |cos(ns, wi)| of material m's non-delta
+    lobes (RGB) and the solid-angle pdf sample_bsdf gives wi: (f0, f1, f2, pdf)."""
+    if nsx * ngx + nsy * ngy + nsz * ngz < 0.0:
+        nsx, nsy, nsz = -nsx, -nsy, -nsz
+    ci = nsx * wix + nsy * wiy + nsz * wiz
+    if ci <= 0.0 or ngx * wix + ngy * wiy + ngz * wiz <= 0.0:
+        return 0.0, 0.0, 0.0, 0.0
+    co = nsx * wox + nsy * woy + nsz * woz
+    f0 = 0.0
+    f1 = 0.0
+    f2 = 0.0
+    pdf = 0.0
+    total = 0.0
+    for c in range(tab.first[m], tab.first[m] + tab.count[m]):
+        k = tab.kind[c]
+        sw = (tab.weight[c, 0] + tab.weight[c, 1] + tab.weight[c, 2]) / 3.0
+        total += sw
+        if k == _GLASS or k == _REFRACTION:
+            continue
+        w0, w1, w2 = _colour(tab, c, k, c0, c1, c2)
+        if k == _GLOSSY:
+            a = _alpha(tab, c)
+            if a * a <= SINGULAR_ALPHA2 or co <= 0.0:
+                continue
+            hx, hy, hz = wox + wix, woy + wiy, woz + wiz
+            hl = np.sqrt(hx * hx + hy * hy + hz * hz)
+            if hl <= 0.0:
+                continue
+            ch = (nsx * hx + nsy * hy + nsz * hz) / hl
+            v = ggx_reflection(a, co, ci, ch) * ci
+            pdf += sw * ggx_vndf_pdf(a, co, ch)
+        else:
+            v = ci / np.pi
+            pdf += sw * ci / np.pi
+        f0 += w0 * v
+        f1 += w1 * v
+        f2 += w2 * v
+    if total <= 0.0:
+        return f0, f1, f2, 0.0
+    return f0, f1, f2, pdf / total
+
+
+@njit(cache=True, error_model="numpy")
+def sample_bsdf(tab, m, c0, c1, c2, wox, woy, woz, nsx, nsy, nsz, ngx, ngy, ngz,
+                tx, ty, tz, entering, u_lobe, u1, u2):
+    """closure.sample_bsdf over the legacy lobes: (wix, wiy, wiz, w0, w1, w2, pdf, flags),
+    w = f |cos| / pdf of the whole mixture for non-delta lobes (pdf the mixture's), the
+    delta lobe's weight over its pick probability for mirrors and glass (pdf 0)."""
+    if nsx * ngx + nsy * ngy + nsz * ngz < 0.0:
+        nsx, nsy, nsz = -nsx, -nsy, -nsz
+    total = 0.0
+    for c in range(tab.first[m], tab.first[m] + tab.count[m]):
+        total += (tab.weight[c, 0] + tab.weight[c, 1] + tab.weight[c, 2]) / 3.0
+    if total <= 0.0:
+        return 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0
+    acc = 0.0
+    last = tab.first[m] + tab.count[m] - 1
+    for c in range(tab.first[m], last + 1):
+        sw = (tab.weight[c, 0] + tab.weight[c, 1] + tab.weight[c, 2]) / 3.0
+        if sw <= 0.0:
+            continue
+        if u_lobe * total < acc + sw or c == last:
+            break
+        acc += sw
+    if sw <= 0.0:
+        return 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0
+    u_pick = min(max((u_lobe * total - acc) / sw, 0.0), 1.0)
+    k = tab.kind[c]
+    w0, w1, w2 = _colour(tab, c, k, c0, c1, c2)
+    inv = total / sw
+    dx, dy, dz = -wox, -woy, -woz
+    if k == _GLASS or k == _REFRACTION:
+        ox, oy, oz, g0, g1, g2, tr, ok = sample_delta(
+            0.0, 0.0, 0.0, 1.0, w0, w1, w2, tab.params[c][_IOR], dx, dy, dz,
+            nsx, nsy, nsz, ngx, ngy, ngz, entering, 1.0, u_pick)
+        if not ok:
+            return 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0
+        flags = LOBE_DELTA | (LOBE_TRANSMIT if tr else 0)
+        return ox, oy, oz, g0 * inv, g1 * inv, g2 * inv, 0.0, flags
+    if k == _GLOSSY:
+        a = _alpha(tab, c)
+        if a * a <= SINGULAR_ALPHA2:
+            ox, oy, oz = reflect(dx, dy, dz, nsx, nsy, nsz)
+            if ox * ngx + oy * ngy + oz * ngz <= 0.0:
+                ox, oy, oz = reflect(dx, dy, dz, ngx, ngy, ngz)
+            return ox, oy, oz, w0 * inv, w1 * inv, w2 * inv, 0.0, LOBE_DELTA
+        bx0, by0, bz0, bx1, by1, bz1 = sampling.basis(nsx, nsy, nsz)
+        vx = wox * bx0 + woy * by0 + woz * bz0
+        vy = wox * bx1 + woy * by1 + woz * bz1
+        vz = wox * nsx + woy * nsy + woz * nsz
+        if vz <= 0.0:
+            return 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0
+        hx, hy, hz = ggx_sample_vndf(a, vx, vy, vz, u1, u2)
+        hwx = hx * bx0 + hy * bx1 + hz * nsx
+        hwy = hx * by0 + hy * by1 + hz * nsy
+        hwz = hx * bz0 + hy * bz1 + hz * nsz
+        ix, iy, iz = reflect(dx, dy, dz, hwx, hwy, hwz)
+        flags = LOBE_GLOSSY
+    else:
+        lx, ly, lz = sampling.cosine_hemisphere(u1, u2)
+        ix, iy, iz = sampling.to_world(lx, ly, lz, nsx, nsy, nsz)
+        flags = LOBE_DIFFUSE
+    ln = np.sqrt(ix * ix + iy * iy + iz * iz)
+    ix, iy, iz = ix / ln, iy / ln, iz / ln
+    if ix * ngx + iy * ngy + iz * ngz <= 0.0:
+        return 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0
+    f0, f1, f2, pdf = eval_bsdf(tab, m, c0, c1, c2, wox, woy, woz, ix, iy, iz,
+                                nsx, nsy, nsz, ngx, ngy, ngz, tx, ty, tz)
+    if not pdf > 0.0:
+        return 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0
+    return ix, iy, iz, f0 / pdf, f1 / pdf, f2 / pdf, pdf, flags
+
+
+@njit(cache=True, error_model="numpy")
+def albedo(tab, m, c0, c1, c2, wox, woy, woz, nsx, nsy, nsz):
+    """closure.albedo over the legacy lobes: (d0, d1, d2, a0, a1, a2), the diffuse lobes'
+    albedo and the whole material's (no Fresnel in these lobes: the tints), a <= 1."""
+    d0 = d1 = d2 = a0 = a1 = a2 = 0.0
+    for c in range(tab.first[m], tab.first[m] + tab.count[m]):
+        k = tab.kind[c]
+        w0, w1, w2 = _colour(tab, c, k, c0, c1, c2)
+        if k != _GLOSSY and k != _GLASS and k != _REFRACTION:
+            d0 += w0
+            d1 += w1
+            d2 += w2
+        a0 += w0
+        a1 += w1
+        a2 += w2
+    return d0, d1, d2, min(a0, 1.0), min(a1, 1.0), min(a2, 1.0)

@@ -11,25 +11,22 @@ One numba kernel handles a whole wavefront (all photons of one bounce). Per phot
    that made one or more specular/glossy bounces and no diffuse one (light -> S+ -> D);
    a caustic photon ends where it is stored, and one whose first surface has no specular
    lobe is dropped.
-3. Russian roulette: lobe x (diffuse, specular, transmission) is chosen with probability
-   p_x = max component of its tint (scaled down so that the sum is <= 1), absorption
-   otherwise, and the flux is multiplied by tint_x / p_x per channel: a grey surface of
-   albedo a keeps the photon's flux unchanged and absorbs it with probability 1 - a.
-4. The bounce: Lambert (cosine about the shading normal), mirror (roughness ~ 0), GGX
-   glossy (half vector sampled from D(h) cos(h), weight f cos / pdf
-   = |wo.h| / (cos_o cos_h (1 + Lambda_o + Lambda_i))), smooth dielectric (reflect with
-   probability F, refract otherwise, weight 1: photons carry flux, so no eta^2 factor;
-   total internal reflection reflects).
+3. The bounce: the same sampler as camera paths (``bsdf.sample_bsdf``, one per lobe:
+   Lambert, GGX by visible normals, mirror, smooth dielectric; photons carry flux, so no
+   eta^2 factor), giving a direction and the weight w = f |cos| / pdf.
+4. Russian roulette on the sampled weight: the photon survives with p = min(1, max w)
+   and its flux is multiplied by w / p per channel: a grey surface of albedo a keeps the
+   photon's flux unchanged and absorbs it with probability 1 - a.
 
 Glossy bounces count as specular for the path type, like Jensen's caustic paths.
-Textures: the diffuse lobe's colour is the textured albedo at the hit (roulette and bounce
+Textures: the texel colour multiplies the textured closures' colour (roulette and bounce
 weight); storage depends on the material having a diffuse lobe, not on the texel.
 Cut-outs (opacity a < 1): the photon is stored as usual, then passes straight through
 with probability 1 - a (same flux, same path type, so never a caustic because of it), or
 meets the surface (the roulette above) with probability a.
 A new direction on the wrong side of the geometric normal (bent shading normals) is
-absorbed for diffuse/glossy, and mirrored about the geometric normal for delta lobes,
-like ``bsdf.sample_delta``.
+absorbed for diffuse/glossy, and mirrored about the geometric normal for delta lobes
+(the sampler's rules).
 """
 
 from __future__ import annotations
@@ -43,6 +40,8 @@ from ..scene import geometry
 from .. import sampling
 
 from .store import MODE_CAUSTIC, stores
+TANGENT = (1.0, 0.0, 0.0)
+"""The tangent given to the BSDF (the mesh carries none yet; closure.DEFAULT_TANGENT)."""
 # Photons per parallel task of scatter_kernel.
 _BLOCK = 4096
 
@@ -53,9 +52,8 @@ def _max3(a, b, c):
 
 
 @njit(cache=True, error_model="numpy")
-def _scatter_range(tri_v, tri_n, tri_mat, extent, diffuse, specular, transmission, alpha, ior,
-                   albedo, opacity,
-                   prim, hu, hv, d, flux, pid, n_diff, n_spec, seed, dims, bounce, mode,
+def _scatter_range(tri_v, tri_n, tri_mat, extent, tab, has_diffuse, has_specular, texel,
+                   opacity, prim, hu, hv, d, flux, pid, n_diff, n_spec, seed, dims, bounce, mode,
                    store_rule, last,
                    store, s_pos, s_flux, s_dir, alive, o_new, d_new, f_new, lo, hi):
     """Photons [lo, hi) of scatter_kernel, as a plain serial loop: numba compiles it
@@ -74,16 +72,10 @@ def _scatter_range(tri_v, tri_n, tri_mat, extent, diffuse, specular, transmissio
         gx, gy, gz = sg * gx, sg * gy, sg * gz
         sx, sy, sz = sg * sx, sg * sy, sg * sz
         m = tri_mat[t]
-        # The diffuse lobe's presence (storage) is the material's; its colour (roulette,
-        # bounce weight) is the textured albedo at the hit when there is a texture.
-        kd_lobe = _max3(diffuse[m, 0], diffuse[m, 1], diffuse[m, 2])
-        if albedo.shape[0]:
-            a0, a1, a2 = albedo[i, 0], albedo[i, 1], albedo[i, 2]
+        if texel.shape[0]:
+            c0, c1, c2 = texel[i, 0], texel[i, 1], texel[i, 2]
         else:
-            a0, a1, a2 = diffuse[m, 0], diffuse[m, 1], diffuse[m, 2]
-        kd = _max3(a0, a1, a2)
-        ks = _max3(specular[m, 0], specular[m, 1], specular[m, 2])
-        kt = _max3(transmission[m, 0], transmission[m, 1], transmission[m, 2])
+            c0, c1, c2 = 1.0, 1.0, 1.0
         nd = n_diff[i]
         ns = n_spec[i]
         f0, f1, f2 = flux[i, 0], flux[i, 1], flux[i, 2]
@@ -99,9 +91,9 @@ def _scatter_range(tri_v, tri_n, tri_mat, extent, diffuse, specular, transmissio
                 through = True
             else:
                 u_rr = u_rr / op
-        if mode == MODE_CAUSTIC and ns == 0 and ks <= 0.0 and kt <= 0.0 and not through:
+        if mode == MODE_CAUSTIC and ns == 0 and not has_specular[m] and not through:
             continue  # first surface not specular: not a caustic path
-        store[i] = stores(mode, store_rule, kd_lobe > 0.0, nd, ns)
+        store[i] = stores(mode, store_rule, has_diffuse[m], nd, ns)
         if store[i]:
             s_pos[i, 0], s_pos[i, 1], s_pos[i, 2] = px, py, pz
             s_flux[i, 0], s_flux[i, 1], s_flux[i, 2] = f0, f1, f2
@@ -119,75 +111,31 @@ def _scatter_range(tri_v, tri_n, tri_mat, extent, diffuse, specular, transmissio
             continue
         u1 = sampling.hash_uniform(seed, pid[i], bounce, dims[1])
         u2 = sampling.hash_uniform(seed, pid[i], bounce, dims[2])
-        u3 = sampling.hash_uniform(seed, pid[i], bounce, dims[3])
-        total = kd + ks + kt
-        scale = 1.0 / total if total > 1.0 else 1.0
-        pd, ps, pt = kd * scale, ks * scale, kt * scale
-        ox, oy, oz = 0.0, 0.0, 0.0
-        w0, w1, w2 = 0.0, 0.0, 0.0
-        if u_rr < pd:
+        u_lobe = sampling.hash_uniform(seed, pid[i], bounce, dims[3])
+        # The bounce: the camera paths' sampler (one per lobe), wo towards where the
+        # photon came from.
+        ox, oy, oz, w0, w1, w2, pdf, flags = bsdf.sample_bsdf(
+            tab, m, c0, c1, c2, -dx, -dy, -dz, sx, sy, sz, gx, gy, gz,
+            TANGENT[0], TANGENT[1], TANGENT[2], entering, u_lobe, u1, u2)
+        if flags == 0:
+            continue  # absorbed: no direction
+        if flags & bsdf.LOBE_DIFFUSE:
             if mode == MODE_CAUSTIC:
                 continue  # a diffuse bounce ends the caustic path
-            lx, ly, lz = sampling.cosine_hemisphere(u1, u2)
-            ox, oy, oz = sampling.to_world(lx, ly, lz, sx, sy, sz)
-            if lz <= 0.0 or ox * gx + oy * gy + oz * gz <= 0.0:
-                continue
-            w0, w1, w2 = a0 / pd, a1 / pd, a2 / pd
+        # Russian roulette on the sampled weight: survive with p = min(1, max w), the flux
+        # times w / p (a grey surface of albedo a keeps the flux, absorbs with 1 - a).
+        p = min(1.0, _max3(w0, w1, w2))
+        if not u_rr < p:
+            continue
+        if flags & bsdf.LOBE_DIFFUSE:
             n_diff[i] = nd + 1
-        elif u_rr < pd + ps:
-            a = alpha[m]
-            if a * a <= bsdf.SINGULAR_ALPHA2:
-                ox, oy, oz = bsdf.reflect(dx, dy, dz, sx, sy, sz)
-                if ox * gx + oy * gy + oz * gz <= 0.0:
-                    ox, oy, oz = bsdf.reflect(dx, dy, dz, gx, gy, gz)
-                g = 1.0
-            else:
-                # Half vector from D(h) cos(h): tan^2 = a^2 u / (1 - u).
-                t2 = a * a * u1 / max(1.0 - u1, 1e-300)
-                ch = 1.0 / np.sqrt(1.0 + t2)
-                sh = np.sqrt(max(0.0, 1.0 - ch * ch))
-                phi = 2.0 * np.pi * u2
-                hx, hy, hz = sampling.to_world(sh * np.cos(phi), sh * np.sin(phi), ch, sx, sy, sz)
-                ox, oy, oz = bsdf.reflect(dx, dy, dz, hx, hy, hz)
-                cos_o = -(dx * sx + dy * sy + dz * sz)
-                cos_i = ox * sx + oy * sy + oz * sz
-                if cos_o <= 0.0 or cos_i <= 0.0 or ox * gx + oy * gy + oz * gz <= 0.0:
-                    continue
-                oh = abs(dx * hx + dy * hy + dz * hz)
-                a2 = a * a
-                g = oh / (cos_o * ch * (1.0 + bsdf.ggx_lambda(a2, cos_o) + bsdf.ggx_lambda(a2, cos_i)))
-            w0, w1, w2 = specular[m, 0] * g / ps, specular[m, 1] * g / ps, specular[m, 2] * g / ps
-            n_spec[i] = ns + 1
-        elif u_rr < pd + ps + pt:
-            eta = ior[m] if entering else 1.0 / ior[m]
-            nx, ny, nz = sx, sy, sz
-            cos_i = -(dx * nx + dy * ny + dz * nz)
-            if cos_i <= 0.0:
-                nx, ny, nz = gx, gy, gz
-                cos_i = -(dx * nx + dy * ny + dz * nz)
-            f, cos_t = bsdf.fresnel_dielectric(min(cos_i, 1.0), eta)
-            if u3 < f:
-                ox, oy, oz = bsdf.reflect(dx, dy, dz, nx, ny, nz)
-                if ox * gx + oy * gy + oz * gz <= 0.0:
-                    ox, oy, oz = bsdf.reflect(dx, dy, dz, gx, gy, gz)
-            else:
-                ox, oy, oz = bsdf.refract(dx, dy, dz, nx, ny, nz, eta, cos_i, cos_t)
-                if ox * gx + oy * gy + oz * gz >= 0.0:
-                    cg = -(dx * gx + dy * gy + dz * gz)
-                    fr_g, ct_g = bsdf.fresnel_dielectric(min(cg, 1.0), eta)
-                    if fr_g >= 1.0:
-                        ox, oy, oz = bsdf.reflect(dx, dy, dz, gx, gy, gz)
-                    else:
-                        ox, oy, oz = bsdf.refract(dx, dy, dz, gx, gy, gz, eta, cg, ct_g)
-            w0, w1, w2 = transmission[m, 0] / pt, transmission[m, 1] / pt, transmission[m, 2] / pt
-            n_spec[i] = ns + 1
         else:
-            continue  # absorbed
+            n_spec[i] = ns + 1
         ln = np.sqrt(ox * ox + oy * oy + oz * oz)
         if not ln > 0.0:
             continue
         ox, oy, oz = ox / ln, oy / ln, oz / ln
-        nf0, nf1, nf2 = f0 * w0, f1 * w1, f2 * w2
+        nf0, nf1, nf2 = f0 * w0 / p, f1 * w1 / p, f2 * w2 / p
         if not (nf0 > 0.0 or nf1 > 0.0 or nf2 > 0.0):
             continue
         side = 1.0 if ox * gx + oy * gy + oz * gz >= 0.0 else -1.0
@@ -199,19 +147,21 @@ def _scatter_range(tri_v, tri_n, tri_mat, extent, diffuse, specular, transmissio
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
-def scatter_kernel(tri_v, tri_n, tri_mat, extent, diffuse, specular, transmission, alpha, ior,
-                   albedo, opacity,
-                   prim, hu, hv, d, flux, pid, n_diff, n_spec, seed, dims, bounce, mode,
+def scatter_kernel(tri_v, tri_n, tri_mat, extent, tab, has_diffuse, has_specular, texel,
+                   opacity, prim, hu, hv, d, flux, pid, n_diff, n_spec, seed, dims, bounce, mode,
                    store_rule, last,
                    store, s_pos, s_flux, s_dir, alive, o_new, d_new, f_new):
     """Store and scatter one wavefront of N photons (see the module doc).
 
-    Inputs: albedo (N, 3) float64 textured diffuse albedo per photon, or (0, 3) to read
-    ``diffuse`` (M, 3) by material; opacity (N,) float64 per photon, or (0,) for none
-    (textures.SurfaceTextures.photon_albedo / photon_opacity); prim (N,) int32 (-1 = missed), hu, hv (N,) float32 barycentrics, d (N, 3)
-    float32 unit directions of travel, flux (N, 3) float64 W, pid (N,) int64 photon ids (random
-    counters), n_diff / n_spec (N,) int32 bounces so far (updated in place), dims (4,)
-    int64 random dimensions, bounce: this hit's index (the counter's "sample").
+    Inputs: tab the ClosureTable (``PreparedScene.closures``); has_diffuse / has_specular
+    (M,) bool, the material has a diffuse lobe (photons are stored there) / a mirror,
+    glass or glossy lobe (a caustic path may start there); texel (N, 3) float64 the texel
+    colour per photon, or (0, 3) for none; opacity (N,) float64 per photon, or (0,) for
+    none (textures.SurfaceTextures.photon_albedo / photon_opacity); prim (N,) int32 (-1 =
+    missed), hu, hv (N,) float32 barycentrics, d (N, 3) float32 unit directions of travel,
+    flux (N, 3) float64 W, pid (N,) int64 photon ids (random counters), n_diff / n_spec
+    (N,) int32 bounces so far (updated in place), dims (4,) int64 random dimensions,
+    bounce: this hit's index (the counter's "sample").
     Outputs: store (N,) bool with s_pos (N, 3), s_flux (N, 3) W, s_dir (N, 3) unit
     towards where the photon came from (float32); alive (N,) bool with the new origin
     o_new and direction d_new (float32, what Embree takes) and flux f_new (float64).
@@ -219,8 +169,8 @@ def scatter_kernel(tri_v, tri_n, tri_mat, extent, diffuse, specular, transmissio
     n = prim.shape[0]
     blocks = (n + _BLOCK - 1) // _BLOCK
     for b in prange(blocks):
-        _scatter_range(tri_v, tri_n, tri_mat, extent, diffuse, specular, transmission, alpha,
-                       ior, albedo, opacity, prim, hu, hv, d, flux, pid, n_diff, n_spec, seed, dims, bounce,
+        _scatter_range(tri_v, tri_n, tri_mat, extent, tab, has_diffuse, has_specular, texel,
+                       opacity, prim, hu, hv, d, flux, pid, n_diff, n_spec, seed, dims, bounce,
                        mode, store_rule, last, store, s_pos, s_flux, s_dir, alive, o_new,
                        d_new, f_new, b * _BLOCK, min(n, (b + 1) * _BLOCK))
 

@@ -80,7 +80,6 @@ def _trace_chunk(prepared: PreparedScene, em: emission.Emitted, pid: np.ndarray,
     n_diff = np.zeros(o.shape[0], np.int32)
     n_spec = np.zeros(o.shape[0], np.int32)
     dims = np.array([sampling.stream(sampling.PHOTON, 1 + map_id, k) for k in range(4)], np.int64)
-    m = prepared.materials
     accel = prepared.accel
     for bounce in range(max_bounces + 1):
         n = o.shape[0]
@@ -102,9 +101,9 @@ def _trace_chunk(prepared: PreparedScene, em: emission.Emitted, pid: np.ndarray,
         f2 = np.empty((n, 3))
         surf = prepared.surfaces
         scatter.scatter_kernel(prepared.tri_vertices, prepared.tri_normals, prepared.tri_material,
-                               prepared.extent,
-                               m["diffuse"], m["specular"], m["transmission"], m["alpha"], m["ior"],
-                               surf.photon_albedo(hits.prim, hits.u, hits.v),
+                               prepared.extent, prepared.closures, prepared.has_diffuse,
+                               prepared.specular_material,
+                               prepared.texels.photon_albedo(hits.prim, hits.u, hits.v),
                                surf.photon_opacity(hits.prim, hits.u, hits.v),
                                hits.prim, hits.u, hits.v, d, f, pid, n_diff, n_spec,
                                np.int64(seed), dims, np.int64(bounce), mode,

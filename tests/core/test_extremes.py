@@ -314,16 +314,21 @@ def test_glass_of_ior_1_is_invisible():
     """A transmission-only sphere with ior 1 bends and reflects nothing: the image equals
     the scene without it within noise. The light behind it comes by other paths (seen
     through it: specular; shadow rays stopped by it: caustic photons instead of direct
-    light), so the noise is that of both images, each measured from two seeds."""
+    light), so the noise is that of both images, each measured from three seeds (the
+    largest difference between two of them: one pair alone can be close by chance)."""
     st = RenderSettings(seed=3, **PHOTONS)
     renders = {}
     for glass in (False, True):
         scene = box_scene(glass_ior=1.0, glass=glass)
-        renders[glass] = [integrator.render(scene, st.with_values(seed=s)) for s in (3, 103)]
+        renders[glass] = [integrator.render(scene, st.with_values(seed=s)) for s in (3, 103, 203)]
         for out in renders[glass]:
             finite_nonnegative(out)
     without, with_glass = ([r.passes["combined"] for r in renders[g]] for g in (False, True))
-    n0, n1 = noise_between(*without), noise_between(*with_glass)
+
+    def noise(images):
+        pairs = [noise_between(images[i], images[j]) for i, j in ((0, 1), (0, 2), (1, 2))]
+        return {k: max(p[k] for p in pairs) for k in pairs[0]}
+    n0, n1 = noise(without), noise(with_glass)
     assert renders[True][0].passes["caustics"].max() > 0  # the photons did go through it
     assert_within_noise(with_glass[0], without[0], {k: n0[k] + n1[k] for k in n0})
 

@@ -526,3 +526,21 @@ def test_a_region_is_exactly_those_pixels_of_the_whole_render(integrator_name):
         assert cut.stats["rays_camera"] < full.stats["rays_camera"] / 4
     else:  # visible points of the region's pixels only
         assert max(cut.stats["visible_points"]) <= 32 < min(full.stats["visible_points"])
+
+
+# --- lights are not occluders ---------------------------------------------------------------
+
+def test_area_light_does_not_hide_the_ceiling_behind_it():
+    # Cycles' lights are transparent to rays: a camera looking up at an area light (facing
+    # down, 0.1 below an emissive ceiling) sees the light's radiance plus the ceiling's.
+    ceiling = facing(shapes.quad([0, 0, 2], [3, 0, 0], [0, 3, 0]), [0, 0, -1])
+    mats = Materials.from_list([{"emission": [0.25, 0.5, 1.0]}])
+    light = {"kind": LIGHT_AREA, "position": [0, 0, 1.9], "power": 40.0, "size": [2.0, 2.0],
+             "visible_to_camera": True}
+    cam = ortho_camera([0, 0, 0], [0, 0, 2], 0.5, res=4, up=(0, 1, 0))
+    scene = Scene(shapes.assemble([(ceiling, 0)]), mats, Lights.from_list([light]), cam)
+    out = integrator.render(scene, RenderSettings(samples=1, indirect_mode="off", caustics=False))
+    radiance = 40.0 / (np.pi * 4.0)
+    np.testing.assert_allclose(out.passes["emission"],
+                               np.broadcast_to(radiance + np.array([0.25, 0.5, 1.0]), (4, 4, 3)),
+                               rtol=1e-6)

@@ -11,8 +11,9 @@ import pytest
 
 from core.integrators import photon_mapping as integrator
 from core.scene import shapes
-from core.integrators import sppm
-from core.scene.contract import LIGHT_POINT, Lights, Materials, Scene
+from core.integrators import camera_paths, sppm
+from core.prepared import prepare
+from core.scene.contract import CAMERA_ORTHOGRAPHIC, LIGHT_AREA, LIGHT_POINT, Camera, Lights, Materials, Scene
 from core.settings import RenderSettings, SettingsError
 from tests.core.scenes import caustic_scene
 
@@ -258,3 +259,21 @@ def test_bad_input_raises_errors_naming_the_setting():
         with pytest.raises(SettingsError, match=name):
             sppm.render(s, SETTINGS.with_values(**{"progressive_passes": 2,
                                                    "photons_per_pass": 100, **values}))
+
+
+def test_visible_points_see_through_an_area_light():
+    # The progressive camera pass passes lights too: light radiance + the emitter behind.
+    ceiling = shapes.quad([0, 0, 2], [3, 0, 0], [0, 3, 0])
+    if ceiling.normals[0, 0, 2] > 0:
+        ceiling = shapes.Part(ceiling.corners[:, ::-1], -ceiling.normals)
+    mats = Materials.from_list([{"emission": [0.25, 0.5, 1.0]}])
+    light = {"kind": LIGHT_AREA, "position": [0, 0, 1.9], "power": 40.0, "size": [2.0, 2.0],
+             "visible_to_camera": True}
+    cam = Camera(to_world=shapes.look_at([0, 0, 0], [0, 0, 2], (0, 1, 0)), width=4, height=4,
+                 film_size=np.array([0.5, 0.5]), kind=CAMERA_ORTHOGRAPHIC)
+    scene = Scene(shapes.assemble([(ceiling, 0)]), mats, Lights.from_list([light]), cam)
+    with prepare(scene, 2) as prepared:
+        seen = np.zeros((16, 3))
+        camera_paths.visible_points(prepared, cam, 3, 0, 2, seen)
+    np.testing.assert_allclose(seen, np.broadcast_to(40.0 / (4 * np.pi) + np.array([0.25, 0.5, 1.0]),
+                                                     (16, 3)), rtol=1e-6)

@@ -269,16 +269,18 @@ def test_photons_pass_a_cutout_straight_without_becoming_caustic():
     n = 100_000
     tri_v = np.array([[[-10, -10, 0], [10, -10, 0], [0, 10, 0]]], np.float32)
     tri_n = np.array([[[0, 0, 1]] * 3], np.float32)
-    from core.materials import bsdf
-    m = bsdf.material_table(Materials.from_list([{"diffuse": [0.5] * 3, "alpha": 0.25}]))
+    from core.materials import bsdf, closure
+    mats = Materials.from_list([{"diffuse": [0.5] * 3, "alpha": 0.25}])
+    m = bsdf.material_table(mats)
     d = np.tile(np.array([0.6, 0.0, -0.8], np.float32), (n, 1))
     for mode in (store.MODE_CAUSTIC, store.MODE_GLOBAL):
         out = [np.zeros(n, bool), np.zeros((n, 3), np.float32), np.zeros((n, 3), np.float32),
                np.zeros((n, 3), np.float32), np.zeros(n, bool), np.zeros((n, 3), np.float32),
                np.zeros((n, 3), np.float32), np.zeros((n, 3))]
         n_diff, n_spec = np.zeros(n, np.int32), np.zeros(n, np.int32)
-        scatter.scatter_kernel(tri_v, tri_n, np.zeros(1, np.int32), 20.0, m["diffuse"],
-                               m["specular"], m["transmission"], m["alpha"], m["ior"],
+        scatter.scatter_kernel(tri_v, tri_n, np.zeros(1, np.int32), 20.0, closure.table(mats),
+                               np.any(m["diffuse"] > 0, axis=1),
+                               np.any(m["specular"] > 0, axis=1) | np.any(m["transmission"] > 0, axis=1),
                                np.zeros((0, 3)), np.full(n, 0.25), np.zeros(n, np.int32),
                                np.full(n, 0.3, np.float32), np.full(n, 0.3, np.float32), d,
                                np.ones((n, 3)), np.arange(n, dtype=np.int64), n_diff, n_spec,

@@ -9,7 +9,7 @@ import pytest
 from scipy import stats
 
 from core import sampling
-from core.materials import bsdf
+from core.materials import bsdf, closure
 from core.photons import scatter
 from core.photons.store import (MODE_CAUSTIC, MODE_GLOBAL, STORE_ALL, STORE_BOUNCED,
                                 STORE_NOT_DIRECT, stores)
@@ -44,7 +44,9 @@ def scatter_wavefront(rows, d, *, flux=None, mode=MODE_GLOBAL, store_rule=STORE_
     with material rows[0]; returns the kernel's outputs and inputs as a dict."""
     rng = rng or np.random.default_rng(5)
     n = d.shape[0]
-    m = bsdf.material_table(Materials.from_list(rows))
+    mats = Materials.from_list(rows)
+    m = bsdf.material_table(mats)
+    has_specular = np.any(m["specular"] > 0, axis=1) | np.any(m["transmission"] > 0, axis=1)
     tri_v = PLANE.corners.astype(np.float32)
     tri_n = PLANE.normals.astype(np.float32)
     tri_mat = np.zeros(2, np.int32)
@@ -60,8 +62,8 @@ def scatter_wavefront(rows, d, *, flux=None, mode=MODE_GLOBAL, store_rule=STORE_
                s_flux=np.empty((n, 3), np.float32), s_dir=np.empty((n, 3), np.float32),
                alive=np.empty(n, bool), o_new=np.empty((n, 3), np.float32),
                d_new=np.empty((n, 3), np.float32), f_new=np.empty((n, 3)))
-    scatter.scatter_kernel(tri_v, tri_n, tri_mat, 2.0, m["diffuse"], m["specular"],
-                           m["transmission"], m["alpha"], m["ior"], np.zeros((0, 3)),
+    scatter.scatter_kernel(tri_v, tri_n, tri_mat, 2.0, closure.table(mats),
+                           np.any(m["diffuse"] > 0, axis=1), has_specular, np.zeros((0, 3)),
                            np.zeros(0), prim, b[:, 0].copy(), b[:, 1].copy(), d32, flux,
                            np.arange(n, dtype=np.int64), nd, ns, np.int64(seed), DIMS,
                            np.int64(bounce), mode, np.int64(store_rule), last,
