@@ -29,11 +29,15 @@ from .. import _numba_cache  # noqa: F401  (per-package numba cache, before any 
 from .. import sampling
 from ..lights import light_set as lights
 from ..materials import bsdf
+from ..materials import closure
 from ..photons.importance import VisibleView, prepass_resolution
 from ..prepared import PreparedScene
 from ..scene import camera, geometry
 from ..scene.contract import Camera
 from . import direct
+
+TANGENT = closure.DEFAULT_TANGENT
+"""The unit tangent given to the BSDF (the mesh carries no tangents yet)."""
 
 DIM_JITTER = sampling.stream(sampling.PIXEL_JITTER, sampling.PROGRESSIVE)
 """The random dimension of the progressive camera rays' pixel jitter."""
@@ -114,11 +118,11 @@ def follow_delta(materials: dict, pos, ngf, nsf, d, front, mat, eps, u_lobe, u_p
 @njit(cache=True, parallel=True, error_model="numpy")
 def _continue_kernel(tab, pos, ngf, nsf, d, front, mat, eps, texel, thr, u_lobe, u1, u2, u_rr,
                      new_o, new_d, new_thr, new_pdf, transmitted, delta, ok):
-    """One BSDF sample per hit (``bsdf.sample_bsdf``) and the next ray of the path.
+    """One BSDF sample per hit (``closure.sample_bsdf``) and the next ray of the path.
 
     A delta lobe (mirror, smooth glass) goes on with its weight (pdf 0: nothing weighs the
     lights it sees against light sampling). A non-delta direction carries only the glossy
-    part of f |cos|: f minus the diffuse part d / pi |cos| (d: ``bsdf.albedo``'s diffuse
+    part of f |cos|: f minus the diffuse part d / pi |cos| (d: ``closure.albedo``'s diffuse
     albedo), whose light the photon maps and the shadow rays at this hit hold; it goes on
     with probability ``direct.continue_probability`` (Russian roulette on the glossy
     share), and new_pdf is the sampling pdf times that probability (for MIS)."""
@@ -129,18 +133,18 @@ def _continue_kernel(tab, pos, ngf, nsf, d, front, mat, eps, texel, thr, u_lobe,
         new_pdf[i] = 0.0
         m = mat[i]
         wox, woy, woz = -d[i, 0], -d[i, 1], -d[i, 2]
-        ix, iy, iz, w0, w1, w2, pdf, flags = bsdf.sample_bsdf(
+        ix, iy, iz, w0, w1, w2, pdf, flags = closure.sample_bsdf(
             tab, m, texel[i, 0], texel[i, 1], texel[i, 2], wox, woy, woz,
             nsf[i, 0], nsf[i, 1], nsf[i, 2], ngf[i, 0], ngf[i, 1], ngf[i, 2],
-            direct.TANGENT[0], direct.TANGENT[1], direct.TANGENT[2], front[i],
+            TANGENT[0], TANGENT[1], TANGENT[2], front[i],
             u_lobe[i], u1[i], u2[i])
         if flags == 0:
             continue
-        if flags & bsdf.LOBE_DELTA:
+        if flags & closure.LOBE_DELTA:
             delta[i] = True
         else:
             f0, f1, f2 = w0 * pdf, w1 * pdf, w2 * pdf
-            a0, a1, a2, _, _, _ = bsdf.albedo(tab, m, texel[i, 0], texel[i, 1], texel[i, 2],
+            a0, a1, a2, _, _, _ = closure.albedo(tab, m, texel[i, 0], texel[i, 1], texel[i, 2],
                                               wox, woy, woz, nsf[i, 0], nsf[i, 1], nsf[i, 2])
             cos = max(0.0, nsf[i, 0] * ix + nsf[i, 1] * iy + nsf[i, 2] * iz) / np.pi
             g0, g1, g2 = max(f0 - a0 * cos, 0.0), max(f1 - a1 * cos, 0.0), max(f2 - a2 * cos, 0.0)
@@ -224,7 +228,7 @@ def _path_kernel(pos, d, ng, ns, mat, eps, thr, u_vp, u_lobe, u_pick, albedo, sp
     """At each hit: stop at the diffuse lobe (vp) or follow one delta lobe (go_on).
     albedo (N, 3): the (textured) diffuse albedo at each hit. Materials with
     sampled[m] (rough glossy lobes and no diffuse one: no photon is stored there, so no
-    visible point) go on through one lobe of ``bsdf.sample_bsdf`` (tab, texel (N, 3)),
+    visible point) go on through one lobe of ``closure.sample_bsdf`` (tab, texel (N, 3)),
     weight f |cos| / pdf: the lights, emission and world the path meets count in full
     (no shadow rays are cast from such a hit).
 
@@ -244,9 +248,9 @@ def _path_kernel(pos, d, ng, ns, mat, eps, thr, u_vp, u_lobe, u_pick, albedo, sp
         go_on[i] = False
         transmitted[i] = False
         if sampled[m]:
-            ox, oy, oz, w0, w1, w2, pdf, flags = bsdf.sample_bsdf(
+            ox, oy, oz, w0, w1, w2, pdf, flags = closure.sample_bsdf(
                 tab, m, texel[i, 0], texel[i, 1], texel[i, 2], -dx, -dy, -dz, sx, sy, sz,
-                gx, gy, gz, direct.TANGENT[0], direct.TANGENT[1], direct.TANGENT[2], entering,
+                gx, gy, gz, TANGENT[0], TANGENT[1], TANGENT[2], entering,
                 u_lobe[i], u_pick[i], u_vp[i])
             t0, t1, t2 = thr[i, 0] * w0, thr[i, 1] * w1, thr[i, 2] * w2
             if flags == 0 or not (t0 > 0.0 or t1 > 0.0 or t2 > 0.0):

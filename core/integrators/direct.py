@@ -25,6 +25,7 @@ from numba import njit, prange
 
 from .. import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
 from ..materials import bsdf
+from ..materials import closure
 from ..scene import geometry
 from ..lights import kernels as light_kernels
 from ..lights import light_set as lights
@@ -34,22 +35,23 @@ from ..scene.accel import Accelerator
 from ..prepared import PreparedScene
 from ..settings import RenderSettings
 
+TANGENT = closure.DEFAULT_TANGENT
+"""The unit tangent given to the BSDF (the mesh carries no tangents yet)."""
+
 SOURCE_LIGHT, SOURCE_TRIANGLES, SOURCE_WORLD = 0, 1, 2
-TANGENT = (1.0, 0.0, 0.0)
-"""The tangent given to the BSDF (the mesh carries none yet; closure.DEFAULT_TANGENT)."""
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
 def _shade_kernel(source, q, tris_cdf, tris_prob, tris_v0, tris_e1, tris_e2, tris_n, tris_area,
-                  tris_rad, world, tab, pos, ngf, nsf, d, mat, eps, thr, texel, diffuse_on, mis,
+                  tris_rad, world, tab, pos, ngf, nsf, d, front, mat, eps, thr, texel, diffuse_on, mis,
                   pixel, sample, seed, dim, pick_dim, k, k_count, bits, use_diffuse,
                   use_glossy, extent, contrib, sh_o, sh_d, sh_t, need):
     """One light sample per point: unshadowed contribution f |cos| L / pdf / k_count and
     the shadow ray that decides it (need[i]). Light samples are stratified over the
     pixel's samples x light samples (index sample * k_count + k).
 
-    f is the material's whole non-delta BSDF (``bsdf.eval_bsdf``), split into the diffuse
-    part d / pi |cos| (d: ``bsdf.albedo``'s diffuse albedo, the part the photon maps
+    f is the material's whole non-delta BSDF (``closure.eval_bsdf``), split into the diffuse
+    part d / pi |cos| (d: ``closure.albedo``'s diffuse albedo, the part the photon maps
     continue; times diffuse_on[i]) and the rest, the glossy part, which camera paths also
     reach by sampling the BSDF where mis[i]: there the glossy part takes the power
     heuristic's weight of light sampling (k_count samples) against BSDF sampling, whose
@@ -86,13 +88,13 @@ def _shade_kernel(source, q, tris_cdf, tris_prob, tris_v0, tris_e1, tris_e2, tri
             continue
         m = mat[i]
         wox, woy, woz = -d[i, 0], -d[i, 1], -d[i, 2]
-        f0, f1, f2, pb = bsdf.eval_bsdf(tab, m, texel[i, 0], texel[i, 1], texel[i, 2],
+        f0, f1, f2, pb = closure.eval_bsdf(tab, m, texel[i, 0], texel[i, 1], texel[i, 2],
                                         wox, woy, woz, wx, wy, wz, nsf[i, 0], nsf[i, 1],
                                         nsf[i, 2], ngf[i, 0], ngf[i, 1], ngf[i, 2],
-                                        TANGENT[0], TANGENT[1], TANGENT[2])
+                                        TANGENT[0], TANGENT[1], TANGENT[2], front[i])
         if f0 <= 0.0 and f1 <= 0.0 and f2 <= 0.0:
             continue
-        a0, a1, a2, _, _, _ = bsdf.albedo(tab, m, texel[i, 0], texel[i, 1], texel[i, 2],
+        a0, a1, a2, _, _, _ = closure.albedo(tab, m, texel[i, 0], texel[i, 1], texel[i, 2],
                                           wox, woy, woz, nsf[i, 0], nsf[i, 1], nsf[i, 2])
         cos = max(0.0, nsf[i, 0] * wx + nsf[i, 1] * wy + nsf[i, 2] * wz) / np.pi
         d0, d1, d2 = a0 * cos, a1 * cos, a2 * cos
@@ -205,7 +207,8 @@ class ShadingPoints(NamedTuple):
     closures' COLOR (None: albedo over the material's diffuse weight, 1 where it has none); diffuse_on (N,) float64, 1 where the
     diffuse part's direct light counts here (None: everywhere); mis (N,) bool, the path
     goes on by sampling the BSDF here, so the glossy part is weighted against it (None:
-    nowhere)."""
+    nowhere); front (N,) bool, the point was reached from the front of the mesh's geometric
+    normal (a dielectric's eta for the transmitted light; None: from the front)."""
 
     position: np.ndarray
     ng: np.ndarray
@@ -219,6 +222,7 @@ class ShadingPoints(NamedTuple):
     texel: np.ndarray | None = None
     diffuse_on: np.ndarray | None = None
     mis: np.ndarray | None = None
+    front: np.ndarray | None = None
 
 
 def prepare(settings: RenderSettings, prepared: PreparedScene, samples: int,
@@ -257,6 +261,7 @@ def shade(ctx: DirectLighting, hit: ShadingPoints, pixel, sample, depth, target)
             texel = np.where(lobe > 0, hit.albedo / np.where(lobe > 0, lobe, 1.0), 1.0)
     diffuse_on = np.ones(n) if hit.diffuse_on is None else hit.diffuse_on
     mis = np.zeros(n, bool) if hit.mis is None else hit.mis
+    front = np.ones(n, bool) if hit.front is None else hit.front
     contrib = np.empty((n, 3))
     sh_o = np.empty((n, 3), np.float32)
     sh_d = np.empty((n, 3), np.float32)
@@ -279,7 +284,8 @@ def shade(ctx: DirectLighting, hit: ShadingPoints, pixel, sample, depth, target)
             t0 = time.perf_counter()
             _shade_kernel(source, q, tris.cdf, tris.probability, tris.v0, tris.e1, tris.e2,
                           tris.normal, tris.area, tris.radiance, ctx.world, ctx.closures,
-                          hit.position, hit.ng, hit.ns, hit.direction, hit.material, hit.eps,
+                          hit.position, hit.ng, hit.ns, hit.direction, front, hit.material,
+                          hit.eps,
                           hit.throughput, texel, diffuse_on, mis, pixel, sample,
                           ctx.seed, dim, sampling.stream(sampling.LIGHT_PICK, depth, k),
                           k, k_count, bits, use_d, use_g,

@@ -292,7 +292,7 @@ def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> dict[str, np.ndarray]:
             mis = np.full(r.shape[0], not last)
             points = direct.ShadingPoints(pos[sel], ngf[sel], nsf[sel], d[sel], mat[sel],
                                           eps[sel], thr[sel], albedo[sel], r, texel[sel],
-                                          diffuse_on, mis)
+                                          diffuse_on, mis, front[sel])
             direct.shade(ctx.direct, points, pixel[r], sample[r], depth,
                          acc["direct"] if first else acc["specular"])
 

@@ -11,7 +11,7 @@ One numba kernel handles a whole wavefront (all photons of one bounce). Per phot
    that made one or more specular/glossy bounces and no diffuse one (light -> S+ -> D);
    a caustic photon ends where it is stored, and one whose first surface has no specular
    lobe is dropped.
-3. The bounce: the same sampler as camera paths (``bsdf.sample_bsdf``, one per lobe:
+3. The bounce: the same sampler as camera paths (``closure.sample_bsdf``, one per lobe:
    Lambert, GGX by visible normals, mirror, smooth dielectric; photons carry flux, so no
    eta^2 factor), giving a direction and the weight w = f |cos| / pdf.
 4. Russian roulette on the sampled weight: the photon survives with p = min(1, max w)
@@ -36,12 +36,14 @@ from numba import njit, prange
 
 from .. import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
 from ..materials import bsdf
+from ..materials import closure
 from ..scene import geometry
 from .. import sampling
 
 from .store import MODE_CAUSTIC, stores
-TANGENT = (1.0, 0.0, 0.0)
-"""The tangent given to the BSDF (the mesh carries none yet; closure.DEFAULT_TANGENT)."""
+
+TANGENT = closure.DEFAULT_TANGENT
+"""The unit tangent given to the BSDF (the mesh carries no tangents yet)."""
 # Photons per parallel task of scatter_kernel.
 _BLOCK = 4096
 
@@ -114,12 +116,12 @@ def _scatter_range(tri_v, tri_n, tri_mat, extent, tab, has_diffuse, has_specular
         u_lobe = sampling.hash_uniform(seed, pid[i], bounce, dims[3])
         # The bounce: the camera paths' sampler (one per lobe), wo towards where the
         # photon came from.
-        ox, oy, oz, w0, w1, w2, pdf, flags = bsdf.sample_bsdf(
+        ox, oy, oz, w0, w1, w2, pdf, flags = closure.sample_bsdf(
             tab, m, c0, c1, c2, -dx, -dy, -dz, sx, sy, sz, gx, gy, gz,
             TANGENT[0], TANGENT[1], TANGENT[2], entering, u_lobe, u1, u2)
         if flags == 0:
             continue  # absorbed: no direction
-        if flags & bsdf.LOBE_DIFFUSE:
+        if flags & closure.LOBE_DIFFUSE:
             if mode == MODE_CAUSTIC:
                 continue  # a diffuse bounce ends the caustic path
         # Russian roulette on the sampled weight: survive with p = min(1, max w), the flux
@@ -127,7 +129,7 @@ def _scatter_range(tri_v, tri_n, tri_mat, extent, tab, has_diffuse, has_specular
         p = min(1.0, _max3(w0, w1, w2))
         if not u_rr < p:
             continue
-        if flags & bsdf.LOBE_DIFFUSE:
+        if flags & closure.LOBE_DIFFUSE:
             n_diff[i] = nd + 1
         else:
             n_spec[i] = ns + 1
