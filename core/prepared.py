@@ -92,14 +92,14 @@ class PreparedScene:
 
 
 def diffuse_area(tri_vertices: np.ndarray, tri_material: np.ndarray,
-                 diffuse: np.ndarray) -> float:
+                 has_diffuse: np.ndarray) -> float:
     """Total area (m^2) of the triangles whose material has a diffuse lobe.
 
-    tri_vertices (T, 3, 3) float32 metres; tri_material (T,) int32; diffuse (M, 3).
+    tri_vertices (T, 3, 3) float32 metres; tri_material (T,) int32; has_diffuse (M,) bool.
     """
     if tri_vertices.shape[0] == 0:
         return 0.0
-    has = np.any(diffuse > 0, axis=1)[tri_material]
+    has = has_diffuse[tri_material]
     v = tri_vertices[has].astype(np.float64)
     return float(0.5 * np.linalg.norm(np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]),
                                       axis=1).sum())
@@ -110,10 +110,9 @@ def prepare(scene: Scene, threads: int = 0) -> PreparedScene:
     mesh = scene.mesh
     workers = use_threads(threads)
     mats = bsdf.material_table(scene.materials)
-    singular = mats["alpha"] <= np.sqrt(bsdf.SINGULAR_ALPHA2)
-    glossy = np.any(mats["specular"] > 0, axis=1)
-    transmissive = np.any(mats["transmission"] > 0, axis=1)
-    has_diffuse = np.any(mats["diffuse"] > 0, axis=1)
+    closures = closure.table(scene.materials)
+    lobes = closure.lobe_masks(closures)
+    has_diffuse = lobes["diffuse"]
     tri_vertices = np.ascontiguousarray(mesh.triangle_vertices(), np.float32)
     tri_material = np.ascontiguousarray(mesh.material_index, np.int32)
     lo, hi = scene.bounds()
@@ -124,7 +123,7 @@ def prepare(scene: Scene, threads: int = 0) -> PreparedScene:
         glo = ghi = np.zeros(3)
     centre, radius = bounding_sphere(glo, ghi)
     n_obj = int(mesh.object_index.max()) + 1 if mesh.triangle_count else 0
-    specular_material = glossy | transmissive
+    specular_material = lobes["rough"] | lobes["delta"]
     specular_objects = np.zeros(n_obj, bool)
     if mesh.triangle_count:
         specular_objects[np.unique(mesh.object_index[specular_material[mesh.material_index]])] = True
@@ -135,11 +134,11 @@ def prepare(scene: Scene, threads: int = 0) -> PreparedScene:
     return PreparedScene(
         scene=scene, threads=workers, accel=Accelerator(tri_vertices, threads=workers),
         tri_vertices=tri_vertices, tri_normals=np.ascontiguousarray(mesh.normals, np.float32),
-        tri_material=tri_material, materials=mats, closures=closure.table(scene.materials),
+        tri_material=tri_material, materials=mats, closures=closures,
         texels=SurfaceTextures(scene, np.ones_like(mats["diffuse"])),
         emissive_index=emissive_index, has_diffuse=has_diffuse,
-        nondelta=has_diffuse | (glossy & ~singular), has_delta=transmissive | (glossy & singular),
-        sampled_only=glossy & ~singular & ~has_diffuse,
+        nondelta=has_diffuse | lobes["rough"], has_delta=lobes["delta"],
+        sampled_only=lobes["rough"] & ~has_diffuse,
         specular_material=specular_material, light_set=light_set,
         light_shows=np.any(light_set.radiance > 0, axis=1),
         emissive=emissive,
@@ -149,4 +148,4 @@ def prepare(scene: Scene, threads: int = 0) -> PreparedScene:
         radius=radius * 1.01 if radius > 0 else 0.0,
         objects=object_spheres(tri_vertices, mesh.object_index, n_obj),
         specular_objects=specular_objects,
-        diffuse_area=diffuse_area(tri_vertices, tri_material, mats["diffuse"]))
+        diffuse_area=diffuse_area(tri_vertices, tri_material, has_diffuse))

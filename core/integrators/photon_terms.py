@@ -47,8 +47,7 @@ def run(prepared: PreparedScene, settings: RenderSettings, maps,
     """
     st = settings
     used = prepared.used_materials
-    specular = bool(np.any(used & (prepared.has_delta | (np.any(prepared.materials["specular"] > 0, axis=1)
-                                                         & ~prepared.has_diffuse))))
+    specular = bool(np.any(used & (prepared.has_delta | prepared.sampled_only)))
     diffuse_area = prepared.diffuse_area
     skipped = {}
     if not st.caustics:

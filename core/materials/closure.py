@@ -550,6 +550,42 @@ def _lobes(tab, m, c0, c1, c2, wox, woy, woz, entering):
     return L[:n]
 
 
+
+@njit(cache=True, error_model="numpy")
+def lobe_presence(tab, m):
+    """Which kinds of lobe material m has, seen at normal incidence with texel colour 1:
+    (diffuse, rough, delta, transmits) bools: a diffuse-like lobe (Lambert, Oren-Nayar,
+    translucent, sheen: photons are stored there), a rough microfacet lobe (light sampling
+    sees it), a singular one (mirror, smooth glass: paths follow it) and one that transmits
+    (Glass, Refraction, Translucent, Thin Wall)."""
+    L = _lobes(tab, m, 1.0, 1.0, 1.0, 0.0, 0.0, 1.0, True)
+    diffuse = rough = delta = transmits = False
+    for k in range(L.shape[0]):
+        if max(L[k, W], max(L[k, W + 1], L[k, W + 2])) <= 0.0:
+            continue
+        t = int(L[k, T])
+        if t == L_GGX or t == L_DIELECTRIC or t == L_THIN_T:
+            if microfacet.is_singular(L[k, AX], L[k, AY]):
+                delta = True
+            else:
+                rough = True
+            transmits = transmits or t != L_GGX
+        else:
+            diffuse = True
+            transmits = transmits or t == L_TRANSLUCENT
+    return diffuse, rough, delta, transmits
+
+
+def lobe_masks(tab: ClosureTable) -> dict[str, np.ndarray]:
+    """``lobe_presence`` for every material: (M,) bool arrays ``diffuse``, ``rough``,
+    ``delta``, ``transmits``."""
+    m = tab.first.shape[0]
+    out = {k: np.zeros(m, bool) for k in ("diffuse", "rough", "delta", "transmits")}
+    for i in range(m):
+        for k, v in zip(("diffuse", "rough", "delta", "transmits"), lobe_presence(tab, i)):
+            out[k][i] = v
+    return out
+
 # --- one lobe: f, pdf, sample in its own frame ---------------------------------------------------
 
 @njit(cache=True, error_model="numpy")
