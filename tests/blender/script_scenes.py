@@ -63,8 +63,9 @@ def _set_input(node, names, value):
 
 
 def principled(name, base=(0.8, 0.8, 0.8), metallic=0.0, roughness=0.5,
-               emission=(0.0, 0.0, 0.0), emission_strength=1.0):
-    """A material with one Principled BSDF (colours linear RGB)."""
+               emission=(0.0, 0.0, 0.0), emission_strength=1.0, specular=0.5):
+    """A material with one Principled BSDF (colours linear RGB). specular: Specular IOR
+    Level (3.x: Specular); 0 removes the dielectric specular layer, leaving Lambert."""
     mat = bpy.data.materials.new(name)
     if mat.node_tree is None:  # before 5.0 a new material has no nodes
         mat.use_nodes = True
@@ -78,6 +79,7 @@ def principled(name, base=(0.8, 0.8, 0.8), metallic=0.0, roughness=0.5,
     _set_input(bsdf, ("Roughness",), roughness)
     _set_input(bsdf, ("Emission Color", "Emission"), (*emission, 1.0))
     _set_input(bsdf, ("Emission Strength",), emission_strength)
+    _set_input(bsdf, ("Specular IOR Level", "Specular"), specular)
     return mat
 
 
@@ -104,8 +106,9 @@ def passes_scene():
     scene = s.reset()
     scale, width, height = PASSES_VIEW
     s.set_resolution(width, height)
-    materials = (principled("Diffuse", base=ALBEDO),
-                 principled("Emitter", base=(0.0, 0.0, 0.0), emission=EMISSION,
+    # No specular layer on the diffuse and emissive squares: their Direct pass is analytic.
+    materials = (principled("Diffuse", base=ALBEDO, specular=0.0),
+                 principled("Emitter", base=(0.0, 0.0, 0.0), emission=EMISSION, specular=0.0,
                             emission_strength=EMISSION_STRENGTH),
                  principled("Mirror", base=MIRROR, metallic=1.0, roughness=0.0))
     for x, mat in zip(SQUARE_CENTRES, materials):
