@@ -31,23 +31,18 @@ SAMPLES = 128
 # the note of issue 13 has every figure). The other scenes are plain tests.
 _LEGACY_ALBEDO = ("the photon terms (caustics, indirect, final gathering) still weight a hit by "
                   "the legacy diffuse albedo, not the closure evaluator's diffuse part")
-_PRINCIPLED = (_LEGACY_ALBEDO + ": the dielectric Principled layers are off by up to -37 % "
-               "in blue (principled_r00_m0), coat -33 %")
 PENDING = {
     "diffuse_rough": "Oren-Nayar's light is split and gathered as Lambert (d / pi): +12..+22 %",
-    "glass": "rough glass -17 % (the lobe's white furnace through the renderer: 0.955 at "
-             "roughness 0.3); not found yet",
-    "rough_glass": "rough glass -17 % (as 'glass'); not found yet",
-    "refraction": "rough refraction -3 %, block errors up to 22 % (as 'glass')",
+    "glass": "rough glass: channel means -0.5 %, but 3 of 108 blocks (the highlight) over",
+    "rough_glass": "rough glass: channel means -0.5 %, but 3 of 108 blocks (the highlight) over",
+    "refraction": "rough refraction -3 %, block errors up to 22 %",
     "translucent": _LEGACY_ALBEDO + " (Translucent has none: -100 %)",
-    "sheen": _LEGACY_ALBEDO + " (Sheen has none: -100 %)",
+    "sheen": "the Sheen closure's light is gathered as Lambert: +38 %",
+    "principled_sheen": "the sheen layer's light is gathered as Lambert: +11 % (R, G)",
     "add_diffuse_sheen": _LEGACY_ALBEDO + " (+6 %)",
     "thin_wall": "channel means within 0.4 %, but 3 of 108 highlight blocks off by up to 38 %",
     "cornell_rough_metal": "channel means within 1.9 %, 10 of 144 blocks over 5 % + 3 sigma",
-    "principled_default": _PRINCIPLED + " (default: -0.9 %, 18 of 105 blocks over)",
 }
-PENDING.update({name: _PRINCIPLED for name in ("principled_r00_m0", "principled_r25_m0",
-                                                "principled_r60_m0", "coat", "principled_sheen")})
 
 
 def photon_map_pair(name):
