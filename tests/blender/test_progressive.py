@@ -243,3 +243,21 @@ def test_dask_scheduler_setting_renders_the_same_image_and_esc_stops_it(lit_plan
     assert any("Cancelled" in s and "stopped by Esc" in s for s in stopped.stats), stopped.stats
     image = stopped.final()
     assert np.isfinite(image).all() and image.min() >= 0.0
+
+
+def test_dask_local_2_renders_the_demo_like_this_process():
+    """The demo (Cornell box with a mirror and a glass sphere: caustic and global photons,
+    specular paths) through the Dask Scheduler "local:2": the same Combined bit for bit."""
+    pytest.importorskip("dask.distributed")
+    from tests.blender import cycles_reference as cref
+
+    scene = cref.demo_scene(resolution=(24, 18))
+    progressive(scene, progressive_passes=4, threads=1, seed=3)
+    here = run(FakeEngine(names=("Combined",))).final()
+    scene.photon_map.dask_scheduler = "local:2"
+    try:
+        there = run(FakeEngine(names=("Combined",))).final()
+    finally:
+        scene.photon_map.dask_scheduler = ""
+    assert here.mean() > 0.0
+    np.testing.assert_array_equal(there, here)
