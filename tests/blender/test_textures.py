@@ -83,6 +83,9 @@ def textured_material(name, image, shader='ShaderNodeBsdfPrincipled', socket="Ba
     nodes, links = mat.node_tree.nodes, mat.node_tree.links
     nodes.clear()
     bsdf = nodes.new(shader)
+    if shader == 'ShaderNodeBsdfPrincipled':
+        # No dielectric specular layer: the plane is Lambert, so its light is analytic.
+        bsdf.inputs["Specular IOR Level"].default_value = 0.0
     tex = nodes.new('ShaderNodeTexImage')
     tex.image = image
     tex.interpolation = interpolation
@@ -184,6 +187,7 @@ def test_alpha_quarter_plane_over_a_lit_floor_is_the_blend():
     bsdf = mat.node_tree.nodes.get("Principled BSDF")
     bsdf.inputs["Base Color"].default_value = (0.9, 0.3, 0.1, 1.0)
     bsdf.inputs["Alpha"].default_value = 0.25
+    bsdf.inputs["Specular IOR Level"].default_value = 0.0  # Lambert: the blend is analytic
     scenes.add_plane(size=1.0, location=(0.0, 0.0, 0.5), material=mat, name="Leaf")
     sun = scenes.add_light('SUN', power=2.0)
     sun.data.angle = 0.0
