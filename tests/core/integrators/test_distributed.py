@@ -88,15 +88,21 @@ def test_cancel_keeps_what_was_merged(cluster):
 
 
 def test_cancel_does_not_wait_for_a_running_block(cluster):
-    """Esc while the only block runs: asked between short waits, the render returns
-    cancelled with nothing merged, well before the block could have finished."""
+    """Esc while the only block runs (64 passes of 200k photons: seconds of work): asked
+    between short waits, the render returns cancelled with nothing merged and the block
+    dropped, instead of waiting for it."""
     scene = caustic_scene(1.0, 16, 16)
-    settings = SETTINGS.with_values(photons_per_pass=20_000, progressive_passes=64,
+    settings = SETTINGS.with_values(photons_per_pass=200_000, progressive_passes=64,
                                     progressive_block=64)
-    t0 = time.perf_counter()
-    out = distributed.render(scene, settings, cluster.client,
-                             should_stop=lambda: time.perf_counter() - t0 > 1.0)
-    assert out.cancelled and out.stats["passes"] == 0 and out.stats["tasks"] == 0
+    asked = []
+
+    def should_stop():  # "no" at the first question, "yes" from the second (0.25 s later)
+        asked.append(time.perf_counter())
+        return len(asked) >= 2
+
+    out = distributed.render(scene, settings, cluster.client, should_stop=should_stop)
+    assert out.cancelled and out.stats["passes"] == 0 and out.stats["tasks"] == 0, out.stats
+    assert asked[1] - asked[0] >= 0.9 * distributed.STOP_POLL_SECONDS
     image = out.passes["combined"]
     assert np.isfinite(image).all() and not image.any()
 
