@@ -14,7 +14,7 @@ bpy = pytest.importorskip("bpy")
 from bpy_extras.object_utils import world_to_camera_view  # noqa: E402
 from mathutils import Vector  # noqa: E402
 
-from tests.blender import scenes  # noqa: E402
+from tests.blender import export_probe, scenes  # noqa: E402
 from tests.conftest import load_extension_package  # noqa: E402
 
 pytestmark = [pytest.mark.blender, pytest.mark.api]
@@ -28,33 +28,10 @@ from photon_map.photon_engine.export import ExportError, NoCameraError, export_s
 ORIGIN = np.zeros(3)  # world coordinates, to check against bpy's own (test_render_origin)
 
 
-class ExportProbe(bpy.types.RenderEngine):
-    """Runs the exporter on the render depsgraph, as PhotonMapRenderEngine.render does."""
-
-    bl_idname = "PHOTON_MAP_EXPORT_PROBE"
-    bl_label = "Photon Map export probe"
-    outcome = None
-
-    def render(self, depsgraph):
-        try:
-            type(self).outcome = export_scene(depsgraph, origin=ORIGIN)
-        except Exception as exc:  # handed back to the test, which re-raises it
-            type(self).outcome = exc
-
-
 def export(scene=None):
-    """Export ``scene`` through a real render depsgraph; returns the ExportResult."""
-    if not ExportProbe.is_registered:
-        bpy.utils.register_class(ExportProbe)
-    scene = scene or bpy.context.scene
-    scene.render.engine = ExportProbe.bl_idname
-    ExportProbe.outcome = None
-    bpy.ops.render.render()
-    outcome = ExportProbe.outcome
-    if isinstance(outcome, Exception):
-        raise outcome
-    assert outcome is not None, "the probe engine did not run"
-    return outcome
+    """Export ``scene`` through a real render depsgraph with the world origin (ORIGIN);
+    returns the ExportResult."""
+    return export_probe.export(scene, origin=ORIGIN)
 
 
 def basic_scene(width=32, height=24):

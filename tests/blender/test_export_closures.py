@@ -12,6 +12,7 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from tests.blender import scenes  # noqa: E402
+from tests.blender.export_probe import export  # noqa: E402
 from tests.conftest import load_extension_package  # noqa: E402
 
 pytestmark = [pytest.mark.blender, pytest.mark.api]
@@ -19,37 +20,8 @@ pytestmark = [pytest.mark.blender, pytest.mark.api]
 photon_map = load_extension_package()
 from photon_map.core.scene import closures as cl  # noqa: E402
 from photon_map.photon_engine.compat import ensure_node_tree  # noqa: E402
-from photon_map.photon_engine.export import export_scene  # noqa: E402
 
 VERSION = tuple(bpy.app.version[:2])
-
-
-class ClosureProbe(bpy.types.RenderEngine):
-    """Runs the exporter on the render depsgraph, as PhotonMapRenderEngine.render does."""
-
-    bl_idname = "PHOTON_MAP_CLOSURE_PROBE"
-    bl_label = "Photon Map closure probe"
-    outcome = None
-
-    def render(self, depsgraph):
-        try:
-            type(self).outcome = export_scene(depsgraph)
-        except Exception as exc:  # handed back to the test, which re-raises it
-            type(self).outcome = exc
-
-
-def export():
-    if not ClosureProbe.is_registered:
-        bpy.utils.register_class(ClosureProbe)
-    scene = bpy.context.scene
-    scene.render.engine = ClosureProbe.bl_idname
-    ClosureProbe.outcome = None
-    bpy.ops.render.render()
-    outcome = ClosureProbe.outcome
-    if isinstance(outcome, Exception):
-        raise outcome
-    assert outcome is not None, "the probe engine did not run"
-    return outcome
 
 
 def new_scene():

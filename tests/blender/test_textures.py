@@ -12,46 +12,16 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from tests.blender import scenes  # noqa: E402
+from tests.blender.export_probe import export  # noqa: E402
 from tests.conftest import load_extension_package  # noqa: E402
 
 pytestmark = [pytest.mark.blender, pytest.mark.api]
 
 photon_map = load_extension_package()
-from photon_map.photon_engine.export import export_scene  # noqa: E402
 
 RES = 32
 SUN = 3.0                      # W/m^2
 TILT = math.radians(30.0)      # the sun's angle from the vertical
-
-
-class TextureProbe(bpy.types.RenderEngine):
-    """Runs the exporter on a render depsgraph (like test_export.py's probe)."""
-
-    bl_idname = "PHOTON_MAP_TEXTURE_PROBE"
-    bl_label = "Photon Map texture probe"
-    outcome = None
-
-    def render(self, depsgraph):
-        try:
-            type(self).outcome = export_scene(depsgraph)
-        except Exception as exc:
-            type(self).outcome = exc
-
-
-def export(scene=None):
-    if not TextureProbe.is_registered:
-        bpy.utils.register_class(TextureProbe)
-    scene = scene or bpy.context.scene
-    engine = scene.render.engine
-    scene.render.engine = TextureProbe.bl_idname
-    TextureProbe.outcome = None
-    try:
-        bpy.ops.render.render()
-    finally:
-        scene.render.engine = engine
-    if isinstance(TextureProbe.outcome, Exception):
-        raise TextureProbe.outcome
-    return TextureProbe.outcome
 
 
 def srgb_decode(c):
