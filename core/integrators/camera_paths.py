@@ -122,8 +122,8 @@ def _continue_kernel(tab, pos, ngf, nsf, d, front, mat, eps, texel, thr, u_lobe,
 
     A delta lobe (mirror, smooth glass) goes on with its weight (pdf 0: nothing weighs the
     lights it sees against light sampling). A non-delta direction carries only the glossy
-    part of f |cos|: f minus the diffuse part d / pi |cos| (d: ``closure.albedo``'s diffuse
-    albedo), whose light the photon maps and the shadow rays at this hit hold; it goes on
+    part of f |cos| (``closure.eval_parts``: the rough microfacet lobes), the diffuse-like
+    lobes' light being held by the photon maps and the shadow rays at this hit; it goes on
     with probability ``direct.continue_probability`` (Russian roulette on the glossy
     share), and new_pdf is the sampling pdf times that probability (for MIS)."""
     for i in prange(pos.shape[0]):
@@ -144,10 +144,10 @@ def _continue_kernel(tab, pos, ngf, nsf, d, front, mat, eps, texel, thr, u_lobe,
             delta[i] = True
         else:
             f0, f1, f2 = w0 * pdf, w1 * pdf, w2 * pdf
-            a0, a1, a2, _, _, _ = closure.albedo(tab, m, texel[i, 0], texel[i, 1], texel[i, 2],
-                                              wox, woy, woz, nsf[i, 0], nsf[i, 1], nsf[i, 2])
-            cos = max(0.0, nsf[i, 0] * ix + nsf[i, 1] * iy + nsf[i, 2] * iz) / np.pi
-            g0, g1, g2 = max(f0 - a0 * cos, 0.0), max(f1 - a1 * cos, 0.0), max(f2 - a2 * cos, 0.0)
+            _, _, _, g0, g1, g2, _ = closure.eval_parts(
+                tab, m, texel[i, 0], texel[i, 1], texel[i, 2], wox, woy, woz, ix, iy, iz,
+                nsf[i, 0], nsf[i, 1], nsf[i, 2], ngf[i, 0], ngf[i, 1], ngf[i, 2],
+                TANGENT[0], TANGENT[1], TANGENT[2], front[i], False)
             q = direct.continue_probability(f0, f1, f2, g0, g1, g2)
             if not u_rr[i] < q:
                 continue

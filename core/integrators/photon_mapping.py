@@ -135,9 +135,11 @@ def _add(acc, rows, values):
 
 
 def _photon_terms(ctx: _CameraPass, rows, pos, ngf, nsf, eps, mat, thr, pixel, sample, depth,
-                  caustic_target, indirect_target, albedo, after_glossy):
+                  caustic_target, indirect_target, albedo, after_glossy, d, texel, front):
     """Add T * (caustics) and T * (indirect) at the hits with a diffuse lobe
-    (core/integrators/gather.py). albedo (N, 3): the (textured) diffuse albedo at the hits.
+    (core/integrators/gather.py). albedo (N, 3): the (textured) diffuse albedo at the hits;
+    d (N, 3) the arriving directions, texel (N, 3), front (N,): the BSDF where the
+    diffuse-like lobes are not Lambert (``gather.bsdf_terms``).
     after_glossy (N,) bool: the path reached the hit through a rough lobe; with
     ``global_after_glossy(terms)`` the diffuse part's whole radiance there is the global
     map's estimate (direct and caustic photons included), added to indirect_target."""
@@ -157,6 +159,19 @@ def _photon_terms(ctx: _CameraPass, rows, pos, ngf, nsf, eps, mat, thr, pixel, s
                                                      + time.perf_counter() - t0)
             ctx.stats["hits_global_after_glossy"] = ctx.stats.get("hits_global_after_glossy", 0) + g.size
         sel = sel[~blur]
+        if sel.size == 0:
+            return
+    sel, bs, hb = gather.bsdf_terms(terms, ctx.prepared.closures, sel, mat, texel, d, nsf, front)
+    if hb is not None:
+        r = rows[bs]
+        if terms.caustic_map is not None:
+            _add(caustic_target, r, thr[bs] * gather.caustics(terms, pos[bs], ngf[bs], None, hb))
+        if terms.global_map is not None and terms.mode == "final_gather":
+            _add(indirect_target, r, thr[bs] * gather.final_gather(
+                terms, ctx.prepared, ctx.settings, pos[bs], ngf[bs], nsf[bs], eps[bs],
+                pixel[r], sample[r], depth, hb))
+        elif terms.global_map is not None and terms.mode == "preview":
+            _add(indirect_target, r, thr[bs] * gather.preview(terms, pos[bs], ngf[bs], None, hb))
         if sel.size == 0:
             return
     r = rows[sel]
@@ -300,7 +315,8 @@ def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> dict[str, np.ndarray]:
         if ctx.terms is not None and ctx.terms.active:
             _photon_terms(ctx, rows, pos, ngf, nsf, eps, mat, thr, pixel, sample, depth,
                           acc["caustics"] if first else acc["specular"],
-                          acc["indirect"] if first else acc["specular"], albedo, glossy)
+                          acc["indirect"] if first else acc["specular"], albedo, glossy, d,
+                          texel, front)
 
         # Continue through one sampled lobe: mirrors, glass, the glossy part of rough lobes
         if last:

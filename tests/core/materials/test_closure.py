@@ -376,3 +376,42 @@ def test_random_materials_give_finite_non_negative_values():
         rough = (s[:, 7] > 0) & (s[:, 6] > 0)
         e2 = closure.eval_many(t, m, wo, s[rough, :3], ns, ng, tg, entering)
         assert np.all(e2[:, 3] > 0), m
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_eval_parts_split_the_bsdf_by_lobe_kind(tab, name):
+    """eval_parts: diffuse-like part + glossy part = eval_bsdf, the same pdf; a material of
+    diffuse-like lobes only has no glossy part and a microfacet one no diffuse part (the
+    direct light and the camera paths' continuation read the split, issue 13: Oren-Nayar
+    and sheen used to be split as d / pi, which overshot)."""
+    m = NAMES.index(name)
+    rng = np.random.default_rng(11)
+    wo = _wo(50.0)
+    wi = rng.normal(size=(64, 3))
+    wi /= np.linalg.norm(wi, axis=1, keepdims=True)
+    whole = closure.eval_many(tab, m, wo, wi, N_UP, N_UP, TANGENT, True)
+    for w, (f0, f1, f2, pdf) in zip(wi, whole):
+        d0, d1, d2, g0, g1, g2, p = closure.eval_parts(tab, m, 1.0, 1.0, 1.0, *wo, *w, *N_UP,
+                                                       *N_UP, *TANGENT, True, False)
+        np.testing.assert_allclose([d0 + g0, d1 + g1, d2 + g2, p], [f0, f1, f2, pdf],
+                                   rtol=1e-12, atol=1e-15)
+        if name in ("lambert", "oren_nayar", "translucent", "sheen"):
+            assert g0 == g1 == g2 == 0.0
+        if name.startswith(("glossy", "metal", "glass", "refraction")):
+            assert d0 == d1 == d2 == 0.0
+        # sided: the geometric side decides (here ng = ns): reflection lobes see nothing
+        # below, Translucent nothing above
+        s = closure.eval_parts(tab, m, 1.0, 1.0, 1.0, *wo, *w, *N_UP, *N_UP, *TANGENT, True,
+                               True)
+        np.testing.assert_allclose(s, (d0, d1, d2, g0, g1, g2, p), rtol=1e-12, atol=1e-15)
+
+
+def test_lobe_masks_name_the_non_lambert_diffuse_lobes(tab):
+    """non_lambert: the photon terms evaluate the BSDF per photon there; diffuse_transmits:
+    Translucent (photons and gather rays of the far side count)."""
+    masks = closure.lobe_masks(tab)
+    non_lambert = {n for n, v in zip(NAMES, masks["non_lambert"]) if v}
+    # principled_layers: Diffuse Roughness and sheen; mix: its Diffuse row keeps the
+    # default roughness 0.5 (Oren-Nayar); the thin wall's base is all transmission
+    assert non_lambert == {"oren_nayar", "translucent", "sheen", "principled_layers", "mix"}
+    assert {n for n, v in zip(NAMES, masks["diffuse_transmits"]) if v} == {"translucent"}
