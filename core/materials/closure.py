@@ -738,9 +738,10 @@ def lobes_eval(L, wox, woy, woz, wix, wiy, wiz):
 @njit(cache=True, error_model="numpy")
 def lobes_eval_parts(L, wox, woy, woz, wix, wiy, wiz, cosine):
     """``lobes_eval`` split by lobe kind: (diffuse-like f |cos| RGB, glossy f |cos| RGB,
-    pdf), local frame; without the |cos| factor (f alone, 1/sr) unless ``cosine``. The diffuse-like part (Lambert, Oren-Nayar, translucent, sheen) is
-    what the photon maps and final gathering carry; the glossy part (rough microfacet
-    lobes) is what camera paths reach by sampling the BSDF."""
+    pdf), local frame; without the |cos| factor (f alone, 1/sr) unless ``cosine``. The
+    diffuse-like part (Lambert, Oren-Nayar, translucent, sheen) is what the photon maps and
+    final gathering carry; the glossy part (rough microfacet lobes) is what camera paths
+    reach by sampling the BSDF."""
     d0 = d1 = d2 = g0 = g1 = g2 = 0.0
     pdf = 0.0
     total = 0.0
