@@ -208,7 +208,9 @@ class ShadingPoints(NamedTuple):
     diffuse part's direct light counts here (None: everywhere); mis (N,) bool, the path
     goes on by sampling the BSDF here, so the glossy part is weighted against it (None:
     nowhere); front (N,) bool, the point was reached from the front of the mesh's geometric
-    normal (a dielectric's eta for the transmitted light; None: from the front)."""
+    normal (a dielectric's eta for the transmitted light; None: from the front);
+    closures: the ClosureTable ``material`` indexes (``HitShader.closures_at``'s per-batch
+    table, whose rows past the materials are programmed hits; None: the prepared one)."""
 
     position: np.ndarray
     ng: np.ndarray
@@ -223,6 +225,7 @@ class ShadingPoints(NamedTuple):
     diffuse_on: np.ndarray | None = None
     mis: np.ndarray | None = None
     front: np.ndarray | None = None
+    closures: tuple | None = None
 
 
 def prepare(settings: RenderSettings, prepared: PreparedScene, samples: int,
@@ -283,7 +286,8 @@ def shade(ctx: DirectLighting, hit: ShadingPoints, pixel, sample, depth, target)
         for k in range(k_count):
             t0 = time.perf_counter()
             _shade_kernel(source, q, tris.cdf, tris.probability, tris.v0, tris.e1, tris.e2,
-                          tris.normal, tris.area, tris.radiance, ctx.world, ctx.closures,
+                          tris.normal, tris.area, tris.radiance, ctx.world,
+                          ctx.closures if hit.closures is None else hit.closures,
                           hit.position, hit.ng, hit.ns, hit.direction, front, hit.material,
                           hit.eps,
                           hit.throughput, texel, diffuse_on, mis, pixel, sample,

@@ -348,6 +348,10 @@ def _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sa
                                                   mat[diff])
             else:
                 albedo = mats["diffuse"][mat[diff]]
+            hd = hit[diff]
+            albedo = prepared.hit_shader.albedo_at(prepared.texels, hits.prim[hd], hits.u[hd],
+                                                   hits.v[hd], d[diff], mat[diff], s2[diff],
+                                                   albedo)
             if terms.cache is not None:
                 est = cached_radiance(terms, p2[diff], n2[diff], albedo)
             else:

@@ -272,6 +272,9 @@ def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> dict[str, np.ndarray]:
             hits.v[h], d, pr.extent)
         albedo = pr.surfaces.albedo(prim, hits.u[h], hits.v[h], mat)
         texel = pr.texels.albedo(prim, hits.u[h], hits.v[h], mat)
+        # Shader programs: the closures at each programmed hit (crow: its row in tab).
+        tab, crow = pr.hit_shader.closures_at(prim, hits.u[h], hits.v[h], d, mat)
+        albedo = pr.hit_shader.diffuse_albedo(tab, crow, mat, texel, d, nsf, albedo)
         emission = mats["emission"][mat]
         if pr.emissive.count and np.any(prev_pdf > 0):
             emission = emission * camera_paths.emission_weight(
@@ -290,9 +293,9 @@ def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> dict[str, np.ndarray]:
             r = rows[sel]
             diffuse_on = (~glossy[sel]).astype(np.float64) if blur_global else None
             mis = np.full(r.shape[0], not last)
-            points = direct.ShadingPoints(pos[sel], ngf[sel], nsf[sel], d[sel], mat[sel],
+            points = direct.ShadingPoints(pos[sel], ngf[sel], nsf[sel], d[sel], crow[sel],
                                           eps[sel], thr[sel], albedo[sel], r, texel[sel],
-                                          diffuse_on, mis, front[sel])
+                                          diffuse_on, mis, front[sel], tab)
             direct.shade(ctx.direct, points, pixel[r], sample[r], depth,
                          acc["direct"] if first else acc["specular"])
 
@@ -319,8 +322,8 @@ def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> dict[str, np.ndarray]:
         # The lobe choice takes the Sobol set's second coordinate: its first repeats the
         # order of the pixel jitter's, which correlates a pixel's samples (noisier glass).
         keep, origins, dirs, thr, transmitted, prev_pdf, was_delta = camera_paths.follow_bsdf(
-            pr, pos[sd], ngf[sd], nsf[sd], d[sd], front[sd], mat[sd], eps[sd], texel[sd],
-            thr[sd], u2, u1, u3, u_rr)
+            pr, pos[sd], ngf[sd], nsf[sd], d[sd], front[sd], crow[sd], eps[sd], texel[sd],
+            thr[sd], u2, u1, u3, u_rr, closures=tab)
         prev_ns = nsf[sd][keep]
         glossy = glossy[sd][keep] | ~was_delta
         rows = rs[keep]

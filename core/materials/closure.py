@@ -52,7 +52,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from .. import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
 from .. import sampling
@@ -841,6 +841,28 @@ def albedo(tab, m, c0, c1, c2, wox, woy, woz, nsx, nsy, nsz):
             d1 += v1
             d2 += v2
     return d0, d1, d2, a0, a1, a2
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def _diffuse_albedo_kernel(tab, rows, texel, d, ns, out):
+    for i in prange(rows.shape[0]):
+        a0, a1, a2, _, _, _ = albedo(tab, rows[i], texel[i, 0], texel[i, 1], texel[i, 2],
+                                     -d[i, 0], -d[i, 1], -d[i, 2], ns[i, 0], ns[i, 1], ns[i, 2])
+        out[i, 0], out[i, 1], out[i, 2] = a0, a1, a2
+
+
+def diffuse_albedo(tab: ClosureTable, rows, texel, d, ns) -> np.ndarray:
+    """``albedo``'s diffuse part at N hits: (N, 3) float64 RGB. rows (N,) int32 material
+    rows of ``tab``, texel (N, 3) the texel colours, d (N, 3) the arriving unit
+    directions (wo = -d), ns (N, 3) unit shading normals."""
+    n = rows.shape[0]
+    out = np.empty((n, 3))
+    if n:
+        _diffuse_albedo_kernel(tab, np.ascontiguousarray(rows, np.int32),
+                               np.ascontiguousarray(texel, np.float64),
+                               np.ascontiguousarray(d, np.float64),
+                               np.ascontiguousarray(ns, np.float64), out)
+    return out
 
 
 # --- vectorised wrappers (tests, tools) ----------------------------------------------------------
