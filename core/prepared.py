@@ -24,7 +24,9 @@ render's thread count (numba and Embree) and builds:
   ``objects`` (every object's bounding sphere), ``specular_objects`` (O,) bool,
   ``diffuse_area`` (m^2 of triangles with a diffuse lobe);
 - ``accel``: the Embree accelerator over the triangles. ``close()`` releases it (the
-  prepared scene is a context manager).
+  prepared scene is a context manager);
+- ``hit_shader``: the ``HitShader`` running the materials' shader programs at hits
+  (``closures_at``: a per-batch ClosureTable and each hit's row in it).
 """
 
 from __future__ import annotations
@@ -37,6 +39,8 @@ from .lights.light_set import EmissiveTriangles, LightSet
 from .materials import bsdf, closure
 from .materials.textures import SurfaceTextures
 from .scene import geometry
+from .shading import interpreter
+from .shading.inputs import ShadingInputs
 from .scene.accel import Accelerator, use_threads
 from .scene.bounds import Targets, bounding_sphere, object_spheres
 from .scene.contract import Scene
@@ -72,6 +76,7 @@ class PreparedScene:
     objects: Targets
     specular_objects: np.ndarray
     diffuse_area: float
+    hit_shader: "HitShader"
 
     def close(self) -> None:
         """Release the Embree scene (idempotent)."""
@@ -89,6 +94,159 @@ class PreparedScene:
         used = np.zeros(self.materials["diffuse"].shape[0], bool)
         used[np.unique(self.tri_material)] = True
         return used
+
+
+class HitShader:
+    """The materials' shader programs at batches of hits (docs/shading.md, "At the hits").
+
+    ``closures_at(prim, u, v, d)`` returns ``(tab, rows)``: a ClosureTable and, per hit,
+    its material row in it, what every closure kernel takes as ``(tab, m)``. Rows [0, M)
+    of ``tab.first`` / ``tab.count`` are the materials as prepared; each hit whose
+    material has a program gets a row of its own, M + j, over closures appended after
+    the material closures: copies of its material's closures (kind, weight, texture) with
+    the parameters the program computed there. Without a programmed hit in the batch,
+    ``tab`` is the prepared table itself and ``rows`` the materials (bit for bit what
+    the kernels read without programs). Everything indexed by material (emission, lobe
+    masks, the photon-store rule) keeps reading the original material: the masks are
+    those of the material's constant inputs.
+
+    The per-hit inputs (core.shading.inputs.ShadingInputs): world position (the render
+    frame + ``Mesh.origin``), the shading and geometric normals facing the ray, incoming
+    = -d, backfacing, the first UV map (``Mesh.uvs``), object coordinates and normal,
+    Generated (``Mesh.object_texspace``) and the object's location
+    (``Mesh.object_to_world``). Object random is 0 (not exported yet).
+    """
+
+    def __init__(self, scene: Scene, closures: closure.ClosureTable, tri_vertices,
+                 tri_normals, tri_material, extent: float):
+        mats, mesh = scene.materials, scene.mesh
+        progs = mats.programs if mats.programs is not None else (None,) * mats.count
+        used = np.bincount(mesh.material_index, minlength=mats.count)[:mats.count] > 0
+        self.programs = progs
+        self.programmed = np.array([p is not None for p in progs], bool).reshape(mats.count)
+        self.active = bool(np.any(self.programmed & used))
+        self.table = closures
+        self.tri_vertices, self.tri_normals = tri_vertices, tri_normals
+        self.tri_material, self.extent = tri_material, float(extent)
+        self.tri_uv = mesh.uvs
+        self.tri_object = mesh.object_index
+        n_obj = int(mesh.object_index.max()) + 1 if mesh.triangle_count else 0
+        if mesh.object_to_world is not None:
+            to_world = np.asarray(mesh.object_to_world, np.float64)
+        else:
+            to_world = np.broadcast_to(np.eye(4), (n_obj, 4, 4))
+        self.to_object = np.linalg.inv(to_world) if len(to_world) else to_world
+        self.location = to_world[:, :3, 3] if len(to_world) else np.zeros((0, 3))
+        self.linear = to_world[:, :3, :3]
+        if mesh.object_texspace is not None:
+            self.texspace = np.asarray(mesh.object_texspace, np.float64)
+        else:
+            self.texspace = np.broadcast_to(np.array([[0.0, 0.0, 0.0], [0.5, 0.5, 0.5]]),
+                                            (n_obj, 2, 3))
+        self.origin = (np.zeros(3) if mesh.origin is None
+                       else np.asarray(mesh.origin, np.float64))
+
+    def inputs(self, prim, u, v, d) -> tuple[ShadingInputs, np.ndarray]:
+        """The ShadingInputs of N hits (prim (N,) int32 triangles, Embree barycentrics u, v
+        (N,), d (N, 3) the arriving unit directions) and their materials (N,) int32."""
+        pos, ngf, nsf, mat, _, front = geometry.facing_surface_points(
+            self.tri_vertices, self.tri_normals, self.tri_material, prim, u, v,
+            np.ascontiguousarray(d, np.float64), self.extent)
+        world = pos + self.origin
+        obj = self.tri_object[prim]
+        to_obj = self.to_object[obj]
+        local = np.einsum("nij,nj->ni", to_obj[:, :3, :3], world) + to_obj[:, :3, 3]
+        # Normals to object space: n_obj ~ A^T n_world for a world normal inv(A)^T n_obj.
+        onrm = np.einsum("nji,nj->ni", self.linear[obj], nsf)
+        onrm /= np.maximum(np.linalg.norm(onrm, axis=1), 1e-30)[:, None]
+        loc, size = self.texspace[obj, 0], self.texspace[obj, 1]
+        safe = np.where(size != 0, 2.0 * size, 1.0)
+        generated = np.where(size != 0, (local - loc) / safe + 0.5, 0.5)
+        w = (1.0 - u - v).astype(np.float64)
+        uv = (w[:, None] * self.tri_uv[prim, 0] + u[:, None] * self.tri_uv[prim, 1]
+              + v[:, None] * self.tri_uv[prim, 2])
+        ins = ShadingInputs.build(world, nsf, true_normal=ngf, incoming=-np.asarray(d),
+                                  backfacing=(~front).astype(np.float32),
+                                  generated=generated, object_coords=local,
+                                  object_normal=onrm, object_location=self.location[obj],
+                                  uv=uv[None])
+        return ins, mat
+
+    def closures_at(self, prim, u, v, d, mat) -> tuple[closure.ClosureTable, np.ndarray]:
+        """(tab, rows) for N hits (class doc): prim, u, v, d as for ``inputs``, mat (N,)
+        int32 their materials. rows is ``mat`` itself when no hit has a program."""
+        if not self.active or prim.shape[0] == 0:
+            return self.table, mat
+        hit = np.flatnonzero(self.programmed[mat])
+        if hit.size == 0:
+            return self.table, mat
+        tab = self.table
+        n_mat, n_cl = tab.first.shape[0], tab.kind.shape[0]
+        ins, _ = self.inputs(prim[hit], u[hit], v[hit], np.asarray(d)[hit])
+        rows = np.array(mat, np.int32, copy=True)
+        kinds, weights, params, textures, firsts, counts = [], [], [], [], [], []
+        done = 0
+        next_closure = n_cl
+        for m in np.unique(mat[hit]):
+            sel = np.flatnonzero(mat[hit] == m)
+            f, k = int(tab.first[m]), int(tab.count[m])
+            out = interpreter.closure_params(self.programs[m], _subset(ins, sel),
+                                             tab.params[f:f + k].astype(np.float32))
+            h = sel.size
+            kinds.append(np.tile(tab.kind[f:f + k], h))
+            weights.append(np.tile(tab.weight[f:f + k], (h, 1)))
+            params.append(out["params"].reshape(h * k, -1).astype(np.float64))
+            textures.append(np.tile(tab.texture[f:f + k], h))
+            firsts.append(next_closure + k * np.arange(h, dtype=np.int32))
+            counts.append(np.full(h, k, np.int32))
+            rows[hit[sel]] = n_mat + done + np.arange(h, dtype=np.int32)
+            done += h
+            next_closure += h * k
+        cat = np.concatenate
+        batch = tab._replace(
+            kind=cat([tab.kind, *kinds]).astype(np.int32),
+            weight=np.ascontiguousarray(cat([tab.weight, *weights])),
+            params=np.ascontiguousarray(cat([tab.params, *params])),
+            texture=cat([tab.texture, *textures]).astype(np.int32),
+            first=cat([tab.first, *firsts]).astype(np.int32),
+            count=cat([tab.count, *counts]).astype(np.int32))
+        return batch, rows
+
+
+    def diffuse_albedo(self, tab, rows, mat, texel, d, ns, albedo) -> np.ndarray:
+        """``albedo`` (N, 3) with the programmed hits' (rows != mat) replaced by their
+        closures' diffuse albedo (``closure.diffuse_albedo``: what the photon maps
+        continue there); (tab, rows) from ``closures_at``, texel (N, 3), d (N, 3) the
+        arriving directions, ns (N, 3) the shading normals. ``albedo`` itself when no
+        hit is programmed."""
+        if rows is mat:
+            return albedo
+        shaded = np.flatnonzero(rows != mat)
+        out = np.array(albedo, np.float64, copy=True)
+        out[shaded] = closure.diffuse_albedo(tab, rows[shaded], texel[shaded], d[shaded],
+                                             ns[shaded])
+        return out
+
+    def albedo_at(self, texels, prim, u, v, d, mat, ns, albedo) -> np.ndarray:
+        """``diffuse_albedo`` at N hits given by triangle and barycentrics (prim, u, v),
+        for callers without (tab, rows): texels the SurfaceTextures of the texel colour
+        (``PreparedScene.texels``)."""
+        if not self.active:
+            return albedo
+        tab, rows = self.closures_at(prim, u, v, d, mat)
+        if rows is mat:
+            return albedo
+        return self.diffuse_albedo(tab, rows, mat, texels.albedo(prim, u, v, mat), d, ns,
+                                   albedo)
+
+
+def _subset(ins: ShadingInputs, sel) -> ShadingInputs:
+    """The inputs of points ``sel`` (already validated: no second check)."""
+    pick = {k: getattr(ins, k)[sel] for k in (
+        "position", "normal", "true_normal", "incoming", "backfacing", "generated",
+        "object_coords", "object_normal", "object_location", "object_random")}
+    return ShadingInputs(**pick, uv=np.ascontiguousarray(ins.uv[:, sel]),
+                         attributes=np.ascontiguousarray(ins.attributes[:, sel]))
 
 
 def diffuse_area(tri_vertices: np.ndarray, tri_material: np.ndarray,
@@ -115,6 +273,7 @@ def prepare(scene: Scene, threads: int = 0) -> PreparedScene:
     has_diffuse = lobes["diffuse"]
     tri_vertices = np.ascontiguousarray(mesh.triangle_vertices(), np.float32)
     tri_material = np.ascontiguousarray(mesh.material_index, np.int32)
+    tri_normals = np.ascontiguousarray(mesh.normals, np.float32)
     lo, hi = scene.bounds()
     if mesh.vertices.size:
         glo = mesh.vertices.min(axis=0).astype(np.float64)
@@ -133,7 +292,7 @@ def prepare(scene: Scene, threads: int = 0) -> PreparedScene:
     emissive_index[emissive.triangle] = np.arange(emissive.count, dtype=np.int32)
     return PreparedScene(
         scene=scene, threads=workers, accel=Accelerator(tri_vertices, threads=workers),
-        tri_vertices=tri_vertices, tri_normals=np.ascontiguousarray(mesh.normals, np.float32),
+        tri_vertices=tri_vertices, tri_normals=tri_normals,
         tri_material=tri_material, materials=mats, closures=closures,
         texels=SurfaceTextures(scene, np.ones_like(mats["diffuse"])),
         emissive_index=emissive_index, has_diffuse=has_diffuse,
@@ -148,4 +307,6 @@ def prepare(scene: Scene, threads: int = 0) -> PreparedScene:
         radius=radius * 1.01 if radius > 0 else 0.0,
         objects=object_spheres(tri_vertices, mesh.object_index, n_obj),
         specular_objects=specular_objects,
-        diffuse_area=diffuse_area(tri_vertices, tri_material, has_diffuse))
+        diffuse_area=diffuse_area(tri_vertices, tri_material, has_diffuse),
+        hit_shader=HitShader(scene, closures, tri_vertices, tri_normals, tri_material,
+                             geometry.scene_extent(lo, hi)))

@@ -266,6 +266,8 @@ class _Geometry:
         self._meshes: dict[int, _LocalMesh | None] = {}
         self._batches: dict[tuple, list] = {}
         self.names: list[str] = []
+        self.matrices: list[np.ndarray] = []   # per object: matrix_world (shader programs)
+        self.texspaces: list[np.ndarray] = []  # per object: texture space location, size
 
     def add(self, obj, matrix, name, materials: _MaterialTable) -> None:
         m = np.array(matrix, np.float64)
@@ -285,6 +287,11 @@ class _Geometry:
         if all(s in materials.left_out for s in slots):
             return  # volume-only (reported once per material)
         self.names.append(name)
+        self.matrices.append(m)
+        me = obj.data
+        self.texspaces.append(np.array([tuple(getattr(me, "texspace_location", (0, 0, 0))),
+                                        tuple(getattr(me, "texspace_size", (1, 1, 1)))],
+                                       np.float64))
         self._batches.setdefault((key, slots), []).append((m, len(self.names) - 1))
 
     def build(self, origin, left_out=frozenset()) -> Mesh:
@@ -310,7 +317,10 @@ class _Geometry:
         return Mesh(vertices=verts.astype(f32), triangles=tris.astype(i32, copy=False),
                     normals=normals.astype(f32, copy=False), uvs=uvs.astype(f32, copy=False),
                     material_index=mats.astype(i32, copy=False),
-                    object_index=objs.astype(i32, copy=False), object_names=tuple(self.names))
+                    object_index=objs.astype(i32, copy=False), object_names=tuple(self.names),
+                    object_to_world=np.stack(self.matrices).astype(np.float64),
+                    object_texspace=np.stack(self.texspaces),
+                    origin=np.asarray(origin, np.float64).reshape(3))
 
 
 def _transform(local: _LocalMesh, matrices, object_ids, slots, base):

@@ -31,6 +31,9 @@ from . import compat
 from .export_images import DEFAULT_GREY, ImageTable  # noqa: F401  (ImageTable re-exported)
 from .export_nodes import Closure, NodeReader, UnreadableTree, diffuse_closure, follow_reroutes
 from .export_shaders import HANDLERS as BSDF_HANDLERS
+from .export_shader import compile_sockets
+from ..core.scene import closures as cl
+from ..core.shading import program as pg
 
 
 def default_row(name="(default grey)") -> dict:
@@ -54,7 +57,10 @@ class TreeReader(NodeReader):
             raise UnreadableTree(f"unsupported node '{node.name}' ({node.bl_idname})")
         if getattr(node, "mute", False):
             raise UnreadableTree(f"muted node '{node.name}'")
-        return handler(self, node)
+        c = handler(self, node)
+        for b in c.bsdfs:  # which node's inputs a closure row holds (shader programs)
+            b.setdefault("node", node)
+        return c
 
     def transparent(self, node) -> Closure:
         """Transparent BSDF: a straight pass-through (cut-out) weighted by its colour's mean."""
@@ -155,12 +161,14 @@ def read_material(mat, warnings: list[str], images: "ImageTable | None" = None) 
         return diffuse_closure(np.clip(np.asarray(mat.diffuse_color[:3], np.float64),
                                        0.0, 1.0)).as_row(name)
     reader = TreeReader(images, name)
+    reader.linked = []
     try:
         closure, _ = read_surface(tree, ("ShaderNodeOutputMaterial",), reader)
     except UnreadableTree as exc:
         warnings.append(f'Material "{name}": cannot read its node tree ({exc}); '
                         f"rendering it as grey diffuse")
         return default_row(name)
+    program = _program(mat, closure, reader, warnings)
     for node_name, (idname, uses) in reader.unsupported.items():
         warnings.append(f'Material "{name}": node "{node_name}" ({idname}) is not supported; '
                         f"using the socket value of " + ", ".join(uses))
@@ -180,7 +188,68 @@ def read_material(mat, warnings: list[str], images: "ImageTable | None" = None) 
     row = closure.as_row(name)
     for lobe in ("diffuse", "specular", "transmission"):
         row[lobe] = np.minimum(row[lobe], 1.0)  # the opacity division must not create energy
+    row["program"] = program
     return row
+
+
+def _slot(node, sock):
+    """The closure parameter slot of a BSDF node's input socket, or None."""
+    if node.bl_idname == "ShaderNodeBsdfMetallic":
+        special = {"IOR": cl.METAL_N, "Extinction": cl.METAL_K}
+        if sock.name in special:
+            return special[sock.name]
+    if node.bl_idname == "ShaderNodeBsdfSheen" and sock.name == "Roughness":
+        return cl.ROUGHNESS
+    return PROGRAM_SLOTS.get(sock.name)
+
+
+PROGRAM_SLOTS = {
+    "Base Color": cl.COLOR, "Color": cl.COLOR, "Roughness": cl.ROUGHNESS,
+    "Metallic": cl.METALLIC, "IOR": cl.IOR, "Specular IOR Level": cl.SPECULAR_LEVEL,
+    "Specular Tint": cl.SPECULAR_TINT, "Edge Tint": cl.SPECULAR_TINT,
+    "Transmission Weight": cl.TRANSMISSION, "Coat Weight": cl.COAT_WEIGHT,
+    "Coat Roughness": cl.COAT_ROUGHNESS, "Coat IOR": cl.COAT_IOR, "Coat Tint": cl.COAT_TINT,
+    "Sheen Weight": cl.SHEEN_WEIGHT, "Sheen Roughness": cl.SHEEN_ROUGHNESS,
+    "Sheen Tint": cl.SHEEN_TINT, "Anisotropic": cl.ANISOTROPIC, "Anisotropy": cl.ANISOTROPIC,
+    "Anisotropic Rotation": cl.ANISOTROPIC_ROTATION, "Rotation": cl.ANISOTROPIC_ROTATION,
+    "Diffuse Roughness": cl.DIFFUSE_ROUGHNESS,
+}
+"""BSDF input socket name -> the closure slot a shader program writes (``_program``)."""
+
+
+def _program(mat, closure: Closure, reader: TreeReader, warnings: list[str]):
+    """The ShaderProgram of the BSDF inputs fed by node graphs (``reader.linked``), or
+    None. Each input becomes a TARGET_CLOSURE output for the closure row its node made (the
+    row's index among the rows ``Closure.as_row`` keeps); a graph that folds to a
+    constant is written into the row instead. Linked inputs with no slot (a Mix factor,
+    emission, alpha) are reported as before: their socket value is used."""
+    kept = [b for b in closure.bsdfs if np.any(np.asarray(b["weight"]) > 0)]
+    index = {}
+    for i, b in enumerate(kept):
+        if "node" in b:
+            index.setdefault(b["node"].as_pointer(), []).append(i)
+    targets, rows, seen = [], [], set()
+    for node, sock in reader.linked:
+        key = (node.as_pointer(), sock.as_pointer())
+        slot = _slot(node, sock)
+        if key in seen:
+            continue
+        seen.add(key)
+        if slot is None or node.as_pointer() not in index:
+            linked = follow_reroutes(sock)
+            reader.unsupported_node(linked.node, f'input "{sock.name}" of node "{node.name}"')
+            continue
+        for i in index[node.as_pointer()]:
+            targets.append((sock, pg.TARGET_CLOSURE, i, slot))
+            rows.append(kept[i])
+    if not targets:
+        return None
+    compiled = compile_sockets(mat, targets)
+    warnings.extend(compiled.warnings)
+    for (sock, _, _, slot), b, value in zip(targets, rows, compiled.constant):
+        if value is not None:  # folded: the constant is the closure's own parameter
+            b["params"][slot:slot + len(value)] = value
+    return compiled.program
 
 
 def read_world(world, warnings: list[str]) -> np.ndarray:

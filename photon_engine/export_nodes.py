@@ -151,6 +151,9 @@ class NodeReader:
         self.notes: list[str] = []
         self.images = images
         self.material = material
+        self.linked: list | None = None
+        """None: a linked input is reported; a list: (node, socket) of each linked input
+        read as its socket value, for the shader compiler (export_materials)."""
 
     @property
     def approximated(self) -> list[str]:
@@ -190,7 +193,9 @@ class NodeReader:
             linked = follow_reroutes(sock)
             if linked is not None and linked.node.bl_idname in ("ShaderNodeRGB", "ShaderNodeValue"):
                 return linked.default_value  # a constant RGB / Value node
-            if linked is not None:
+            if linked is not None and self.linked is not None:
+                self.linked.append((node, sock))
+            elif linked is not None:
                 self.unsupported_node(linked.node, f'input "{sock.name}" of node "{node.name}"')
         return getattr(sock, "default_value", default)
 

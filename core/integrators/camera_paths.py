@@ -122,8 +122,8 @@ def _continue_kernel(tab, pos, ngf, nsf, d, front, mat, eps, texel, thr, u_lobe,
 
     A delta lobe (mirror, smooth glass) goes on with its weight (pdf 0: nothing weighs the
     lights it sees against light sampling). A non-delta direction carries only the glossy
-    part of f |cos|: f minus the diffuse part d / pi |cos| (d: ``closure.albedo``'s diffuse
-    albedo), whose light the photon maps and the shadow rays at this hit hold; it goes on
+    part of f |cos| (``closure.eval_parts``: the rough microfacet lobes), the diffuse-like
+    lobes' light being held by the photon maps and the shadow rays at this hit; it goes on
     with probability ``direct.continue_probability`` (Russian roulette on the glossy
     share), and new_pdf is the sampling pdf times that probability (for MIS)."""
     for i in prange(pos.shape[0]):
@@ -144,10 +144,10 @@ def _continue_kernel(tab, pos, ngf, nsf, d, front, mat, eps, texel, thr, u_lobe,
             delta[i] = True
         else:
             f0, f1, f2 = w0 * pdf, w1 * pdf, w2 * pdf
-            a0, a1, a2, _, _, _ = closure.albedo(tab, m, texel[i, 0], texel[i, 1], texel[i, 2],
-                                              wox, woy, woz, nsf[i, 0], nsf[i, 1], nsf[i, 2])
-            cos = max(0.0, nsf[i, 0] * ix + nsf[i, 1] * iy + nsf[i, 2] * iz) / np.pi
-            g0, g1, g2 = max(f0 - a0 * cos, 0.0), max(f1 - a1 * cos, 0.0), max(f2 - a2 * cos, 0.0)
+            _, _, _, g0, g1, g2, _ = closure.eval_parts(
+                tab, m, texel[i, 0], texel[i, 1], texel[i, 2], wox, woy, woz, ix, iy, iz,
+                nsf[i, 0], nsf[i, 1], nsf[i, 2], ngf[i, 0], ngf[i, 1], ngf[i, 2],
+                TANGENT[0], TANGENT[1], TANGENT[2], front[i], False)
             q = direct.continue_probability(f0, f1, f2, g0, g1, g2)
             if not u_rr[i] < q:
                 continue
@@ -169,7 +169,7 @@ def _continue_kernel(tab, pos, ngf, nsf, d, front, mat, eps, texel, thr, u_lobe,
 
 
 def follow_bsdf(prepared: PreparedScene, pos, ngf, nsf, d, front, mat, eps, texel, thr,
-                u_lobe, u1, u2, u_rr):
+                u_lobe, u1, u2, u_rr, closures=None):
     """Continue K paths through one sampled lobe each (``_continue_kernel``): mirrors,
     glass, and the glossy part of rough lobes, the same sampler photons scatter by.
 
@@ -178,12 +178,14 @@ def follow_bsdf(prepared: PreparedScene, pos, ngf, nsf, d, front, mat, eps, texe
     u_rr (K,) uniforms (lobe, direction, roulette). Returns (keep, origins, directions,
     throughput, transmitted, pdf, delta) of the paths that go on: keep (J,) indices into
     the K, then (J, 3) x 3, (J,) bool, (J,) float64 the solid-angle pdf of the direction
-    for MIS (0 after a delta lobe), (J,) bool a delta lobe was followed.
+    for MIS (0 after a delta lobe), (J,) bool a delta lobe was followed. closures: the
+    ClosureTable ``mat`` indexes (None: the prepared one; ``HitShader.closures_at``).
     """
     k = pos.shape[0]
     new_o, new_d, new_thr = np.empty((k, 3)), np.empty((k, 3)), np.empty((k, 3))
     new_pdf, new_tr, delta, ok = np.empty(k), np.empty(k, bool), np.empty(k, bool), np.empty(k, bool)
-    _continue_kernel(prepared.closures, pos, ngf, nsf, d, front, mat, eps, texel, thr, u_lobe,
+    tab = prepared.closures if closures is None else closures
+    _continue_kernel(tab, pos, ngf, nsf, d, front, mat, eps, texel, thr, u_lobe,
                      u1, u2, u_rr, new_o, new_d, new_thr, new_pdf, new_tr, delta, ok)
     keep = np.flatnonzero(ok)
     return keep, new_o[keep], new_d[keep], new_thr[keep], new_tr[keep], new_pdf[keep], delta[keep]
@@ -301,7 +303,9 @@ class VisiblePoints:
     """One pass's visible points (V of them), float64: pixel (V,) int64, position (V, 3)
     metres, ng / ns (V, 3) unit normals facing the viewer, wo (V, 3) unit towards the
     viewer, material (V,) int32, weight (V, 3) path throughput, albedo (V, 3) the
-    diffuse albedo there (textured), eps (V,) metres, the ray offset there."""
+    diffuse albedo there (textured), eps (V,) metres, the ray offset there; texel (V, 3)
+    the texel colour (``PreparedScene.texels``), prim (V,) int32, u, v (V,) float32 the
+    triangle and barycentrics (``HitShader.closures_at`` at the points)."""
 
     pixel: np.ndarray
     position: np.ndarray
@@ -312,6 +316,10 @@ class VisiblePoints:
     weight: np.ndarray
     albedo: np.ndarray
     eps: np.ndarray
+    texel: np.ndarray
+    prim: np.ndarray
+    u: np.ndarray
+    v: np.ndarray
 
 
 def visible_points(prepared: PreparedScene, cam: Camera, seed: int, k: int, max_depth: int,
@@ -364,6 +372,11 @@ def visible_points(prepared: PreparedScene, cam: Camera, seed: int, k: int, max_
         # Emission seen (two-sided, like Cycles' emission closure)
         direct[pixel[rows]] += thr * mats["emission"][sp.material]
         albedo = prepared.surfaces.albedo(hits.prim[h], hits.u[h], hits.v[h], sp.material)
+        # Shader programs: the visible point's diffuse albedo (its direct light and lobe
+        # choice still read the material's constant closures).
+        albedo = prepared.hit_shader.albedo_at(
+            prepared.texels, hits.prim[h], hits.u[h], hits.v[h], d, sp.material,
+            sp.shading_normal, albedo)
         m = len(rows)
         pix, smp = pixel[rows], sample[rows]
         u_vp = sampling.uniform(seed, pix, smp, dim_lobe(depth))
@@ -380,7 +393,8 @@ def visible_points(prepared: PreparedScene, cam: Camera, seed: int, k: int, max_
         s = np.flatnonzero(vp)
         if s.size:
             out.append((pixel[rows[s]], sp.position[s], ng[s], ns[s], -d[s], sp.material[s], new_thr[s],
-                        albedo[s], sp.eps[s]))
+                        albedo[s], sp.eps[s], texel[s], hits.prim[h][s], hits.u[h][s],
+                        hits.v[h][s]))
         if depth == max_depth:
             break
         g = np.flatnonzero(go_on)
@@ -389,7 +403,8 @@ def visible_points(prepared: PreparedScene, cam: Camera, seed: int, k: int, max_
     if not out:
         z3 = np.zeros((0, 3))
         return VisiblePoints(np.zeros(0, np.int64), z3, z3, z3, z3, np.zeros(0, np.int32), z3, z3,
-                             np.zeros(0))
+                             np.zeros(0), z3, np.zeros(0, np.int32), np.zeros(0, np.float32),
+                             np.zeros(0, np.float32))
     cols = [np.concatenate(c) for c in zip(*out)]
     return VisiblePoints(*[np.ascontiguousarray(c) for c in cols])
 

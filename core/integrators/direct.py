@@ -50,9 +50,9 @@ def _shade_kernel(source, q, tris_cdf, tris_prob, tris_v0, tris_e1, tris_e2, tri
     the shadow ray that decides it (need[i]). Light samples are stratified over the
     pixel's samples x light samples (index sample * k_count + k).
 
-    f is the material's whole non-delta BSDF (``closure.eval_bsdf``), split into the diffuse
-    part d / pi |cos| (d: ``closure.albedo``'s diffuse albedo, the part the photon maps
-    continue; times diffuse_on[i]) and the rest, the glossy part, which camera paths also
+    f is the material's whole non-delta BSDF, split by ``closure.eval_parts`` into the
+    diffuse-like lobes' part (Lambert, Oren-Nayar, translucent, sheen: the part the photon
+    maps continue; times diffuse_on[i]) and the glossy lobes' part, which camera paths also
     reach by sampling the BSDF where mis[i]: there the glossy part takes the power
     heuristic's weight of light sampling (k_count samples) against BSDF sampling, whose
     pdf is eval's pdf times ``continue_probability``."""
@@ -88,17 +88,13 @@ def _shade_kernel(source, q, tris_cdf, tris_prob, tris_v0, tris_e1, tris_e2, tri
             continue
         m = mat[i]
         wox, woy, woz = -d[i, 0], -d[i, 1], -d[i, 2]
-        f0, f1, f2, pb = closure.eval_bsdf(tab, m, texel[i, 0], texel[i, 1], texel[i, 2],
-                                        wox, woy, woz, wx, wy, wz, nsf[i, 0], nsf[i, 1],
-                                        nsf[i, 2], ngf[i, 0], ngf[i, 1], ngf[i, 2],
-                                        TANGENT[0], TANGENT[1], TANGENT[2], front[i])
+        d0, d1, d2, g0, g1, g2, pb = closure.eval_parts(
+            tab, m, texel[i, 0], texel[i, 1], texel[i, 2], wox, woy, woz, wx, wy, wz,
+            nsf[i, 0], nsf[i, 1], nsf[i, 2], ngf[i, 0], ngf[i, 1], ngf[i, 2],
+            TANGENT[0], TANGENT[1], TANGENT[2], front[i], False)
+        f0, f1, f2 = d0 + g0, d1 + g1, d2 + g2
         if f0 <= 0.0 and f1 <= 0.0 and f2 <= 0.0:
             continue
-        a0, a1, a2, _, _, _ = closure.albedo(tab, m, texel[i, 0], texel[i, 1], texel[i, 2],
-                                          wox, woy, woz, nsf[i, 0], nsf[i, 1], nsf[i, 2])
-        cos = max(0.0, nsf[i, 0] * wx + nsf[i, 1] * wy + nsf[i, 2] * wz) / np.pi
-        d0, d1, d2 = a0 * cos, a1 * cos, a2 * cos
-        g0, g1, g2 = max(f0 - d0, 0.0), max(f1 - d1, 0.0), max(f2 - d2, 0.0)
         wl = 1.0
         if mis[i] and pl > 0.0:
             pc = pb * continue_probability(f0, f1, f2, g0, g1, g2)
@@ -208,7 +204,9 @@ class ShadingPoints(NamedTuple):
     diffuse part's direct light counts here (None: everywhere); mis (N,) bool, the path
     goes on by sampling the BSDF here, so the glossy part is weighted against it (None:
     nowhere); front (N,) bool, the point was reached from the front of the mesh's geometric
-    normal (a dielectric's eta for the transmitted light; None: from the front)."""
+    normal (a dielectric's eta for the transmitted light; None: from the front);
+    closures: the ClosureTable ``material`` indexes (``HitShader.closures_at``'s per-batch
+    table, whose rows past the materials are programmed hits; None: the prepared one)."""
 
     position: np.ndarray
     ng: np.ndarray
@@ -223,6 +221,7 @@ class ShadingPoints(NamedTuple):
     diffuse_on: np.ndarray | None = None
     mis: np.ndarray | None = None
     front: np.ndarray | None = None
+    closures: tuple | None = None
 
 
 def prepare(settings: RenderSettings, prepared: PreparedScene, samples: int,
@@ -283,7 +282,8 @@ def shade(ctx: DirectLighting, hit: ShadingPoints, pixel, sample, depth, target)
         for k in range(k_count):
             t0 = time.perf_counter()
             _shade_kernel(source, q, tris.cdf, tris.probability, tris.v0, tris.e1, tris.e2,
-                          tris.normal, tris.area, tris.radiance, ctx.world, ctx.closures,
+                          tris.normal, tris.area, tris.radiance, ctx.world,
+                          ctx.closures if hit.closures is None else hit.closures,
                           hit.position, hit.ng, hit.ns, hit.direction, front, hit.material,
                           hit.eps,
                           hit.throughput, texel, diffuse_on, mis, pixel, sample,

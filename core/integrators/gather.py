@@ -15,6 +15,15 @@ At a diffuse hit x (a material with a diffuse lobe) seen with path throughput T:
 Glossy (rough) lobes get direct light only; photon terms use the diffuse albedo, the
 textured one at each hit (core/materials/textures.py). Gather rays pass cut-outs like camera rays.
 
+Diffuse-like lobes that are not Lambert (``PhotonTerms.bsdf_materials``: Oren-Nayar,
+sheen, translucent) are not rho / pi: there the terms evaluate the closure evaluator's
+diffuse-like part f_d (``closure.parts_at``). Caustics and the preview estimate weight each
+photon by f_d(wo, w_p), photons of both sides counting (``estimate.BsdfHits``); final
+gathering weights each gather ray by f_d |cos| / pdf, the rays cosine-distributed on the
+far side too with probability BACK_SHARE where a lobe transmits (Translucent); at gather
+hits of such materials L(y_j) is the BSDF estimate toward x (the radiance cache, which
+holds rho / pi E, is not read there).
+
 Radiance estimates: core/photons/estimate.py's ``radiance_estimate`` (the k nearest
 photons within the maximum radius, front-side only, the filter, Jensen's flattened disc),
 and its automatic radius ``auto_radius``.
@@ -39,8 +48,12 @@ from ..prepared import PreparedScene
 from ..scene import geometry
 from ..settings import RenderSettings
 from . import camera_paths
-from ..photons.estimate import radiance_estimate, radiance_estimate_sides
+from ..materials import closure
+from ..photons.estimate import BsdfHits, radiance_estimate, radiance_estimate_sides
 from ..photons.photon_map import PhotonMap
+
+TANGENT = closure.DEFAULT_TANGENT
+"""The unit tangent given to the BSDF (the mesh carries no tangents yet)."""
 
 CACHE_FRACTION = 0.25
 """Most radiance-cache points per stored global photon (Christensen's precomputation)."""
@@ -225,6 +238,8 @@ class PhotonTerms:
     cache_dirs: np.ndarray | None = None      # (C, 3) float64 decoded cache normals
     cache_radiance: np.ndarray | None = None  # (C, 3) float64 decoded cache radiance
     cache_unit_albedo: bool = False           # the cache holds E / pi (textured scenes)
+    bsdf_materials: np.ndarray | None = None  # (M,) bool diffuse-like lobes not Lambert
+    back_share: np.ndarray | None = None      # (M,) float64 gather rays on the far side
     stats: dict = field(default_factory=lambda: {"rays_gather": 0, "gather_queries": 0,
                                                  "caustic_queries": 0, "time_gather": 0.0,
                                                  "time_caustics": 0.0})
@@ -241,6 +256,17 @@ class PhotonTerms:
                                                 and self.mode != "off")
 
 
+@njit(cache=True, inline="always")
+def _gather_ray(o, d, r, pos, ngf, i, e, wx, wy, wz):
+    """Gather ray r: from point i offset by e along its geometric normal, along w."""
+    o[r, 0] = pos[i, 0] + e * ngf[i, 0]
+    o[r, 1] = pos[i, 1] + e * ngf[i, 1]
+    o[r, 2] = pos[i, 2] + e * ngf[i, 2]
+    d[r, 0] = wx
+    d[r, 1] = wy
+    d[r, 2] = wz
+
+
 @njit(cache=True, parallel=True, error_model="numpy")
 def _gather_rays_kernel(pos, ngf, nsf, eps, owner, u1, u2, o, d, ok):
     """Cosine-distributed directions about the shading normal of point owner[r]; rays
@@ -250,33 +276,84 @@ def _gather_rays_kernel(pos, ngf, nsf, eps, owner, u1, u2, o, d, ok):
         lx, ly, lz = sampling.cosine_hemisphere(u1[r], u2[r])
         wx, wy, wz = sampling.to_world(lx, ly, lz, nsf[i, 0], nsf[i, 1], nsf[i, 2])
         ok[r] = wx * ngf[i, 0] + wy * ngf[i, 1] + wz * ngf[i, 2] > 0.0
-        e = eps[i]
-        o[r, 0] = pos[i, 0] + e * ngf[i, 0]
-        o[r, 1] = pos[i, 1] + e * ngf[i, 1]
-        o[r, 2] = pos[i, 2] + e * ngf[i, 2]
-        d[r, 0] = wx
-        d[r, 1] = wy
-        d[r, 2] = wz
+        _gather_ray(o, d, r, pos, ngf, i, eps[i], wx, wy, wz)
 
 
-def caustics(terms: PhotonTerms, pos, ngf, albedo) -> np.ndarray:
-    """(N, 3) caustic radiance at diffuse hits (before the path throughput)."""
+BACK_SHARE = 0.5
+"""Share of a point's gather rays sent to the far side where a diffuse-like lobe transmits."""
+
+
+def bsdf_terms(terms: PhotonTerms, closures, rows, mat, texel, d, nsf, front):
+    """Split the diffuse hits ``rows`` (indices into mat (N,), texel (N, 3), d (N, 3) the
+    arriving directions, nsf (N, 3), front (N,)) into those with Lambert diffuse lobes
+    (the albedo path) and the others: (lambert rows, BSDF rows, BsdfHits of the BSDF rows
+    or None when there are none)."""
+    if terms.bsdf_materials is None:
+        return rows, rows[:0], None
+    b = terms.bsdf_materials[mat[rows]]
+    if not b.any():
+        return rows, rows[:0], None
+    br = rows[b]
+    hits = BsdfHits(closures, mat[br].astype(np.int32), texel[br], -d[br], nsf[br], front[br])
+    return rows[~b], br, hits
+
+
+def caustics(terms: PhotonTerms, pos, ngf, albedo, bsdf: BsdfHits | None = None) -> np.ndarray:
+    """(N, 3) caustic radiance at diffuse hits (before the path throughput); with ``bsdf``
+    the BSDF estimate (albedo not read)."""
     t0 = time.perf_counter()
     out = radiance_estimate(terms.caustic_map, pos, ngf, albedo, terms.caustic_k,
-                            terms.caustic_radius, terms.filter)
+                            terms.caustic_radius, terms.filter, bsdf=bsdf)
     terms.stats["caustic_queries"] += pos.shape[0]
     terms.stats["time_caustics"] += time.perf_counter() - t0
     return out
 
 
-def preview(terms: PhotonTerms, pos, ngf, albedo) -> np.ndarray:
-    """(N, 3) indirect radiance seen directly in the global map (the preview mode)."""
+def preview(terms: PhotonTerms, pos, ngf, albedo, bsdf: BsdfHits | None = None) -> np.ndarray:
+    """(N, 3) indirect radiance seen directly in the global map (the preview mode); with
+    ``bsdf`` the BSDF estimate (albedo not read)."""
     t0 = time.perf_counter()
     out = radiance_estimate(terms.global_map, pos, ngf, albedo, terms.global_k,
-                            terms.global_radius, terms.filter)
+                            terms.global_radius, terms.filter, bsdf=bsdf)
     terms.stats["gather_queries"] += pos.shape[0]
     terms.stats["time_gather"] += time.perf_counter() - t0
     return out
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def _bsdf_gather_rays_kernel(tab, mat, texel, wo, front, pos, ngf, nsf, eps, back, g, u1, u2,
+                             o, d, weight, ok):
+    """g gather rays per point i (rays i g .. i g + g - 1), cosine-distributed about the
+    shading normal, about its opposite with probability back[i]; weight (RGB) f_d |cos| /
+    pdf of the diffuse-like lobes (``closure.parts_at``); ok False where it is 0 or the
+    ray's geometric side disagrees with its hemisphere."""
+    for i in prange(pos.shape[0]):
+        L, F = closure.hit_lobes(tab, mat[i], texel[i, 0], texel[i, 1], texel[i, 2],
+                                 wo[i, 0], wo[i, 1], wo[i, 2], nsf[i, 0], nsf[i, 1], nsf[i, 2],
+                                 ngf[i, 0], ngf[i, 1], ngf[i, 2], TANGENT[0], TANGENT[1],
+                                 TANGENT[2], front[i])
+        pb = back[i]
+        for j in range(g):
+            r = i * g + j
+            a = u1[r]
+            side = 1.0
+            if a < pb:
+                side, a, share = -1.0, a / pb, pb
+            else:
+                a, share = (a - pb) / (1.0 - pb), 1.0 - pb
+            lx, ly, lz = sampling.cosine_hemisphere(min(a, 1.0 - 1e-12), u2[r])
+            wx, wy, wz = sampling.to_world(lx, ly, lz, side * nsf[i, 0], side * nsf[i, 1],
+                                           side * nsf[i, 2])
+            f0, f1, f2, _, _, _, _ = closure.parts_at(L, F, wx, wy, wz, ngf[i, 0], ngf[i, 1],
+                                                      ngf[i, 2], True, True)
+            pdf = share * lz / np.pi
+            below = wx * ngf[i, 0] + wy * ngf[i, 1] + wz * ngf[i, 2] < 0.0
+            ok[r] = below == (side < 0.0) and pdf > 0.0 and (f0 > 0.0 or f1 > 0.0 or f2 > 0.0)
+            if ok[r]:
+                weight[r, 0], weight[r, 1], weight[r, 2] = f0 / pdf, f1 / pdf, f2 / pdf
+            else:
+                weight[r, 0], weight[r, 1], weight[r, 2] = 0.0, 0.0, 0.0
+            _gather_ray(o, d, r, pos, ngf, i, side * eps[i], wx, wy, wz)
 
 
 GATHER_BATCH = 1 << 20
@@ -284,30 +361,33 @@ GATHER_BATCH = 1 << 20
 
 
 def final_gather(terms: PhotonTerms, prepared: PreparedScene, settings: RenderSettings, pos,
-                 ngf, nsf, eps, pixel, sample, depth) -> np.ndarray:
+                 ngf, nsf, eps, pixel, sample, depth, bsdf: BsdfHits | None = None) -> np.ndarray:
     """(N, 3) mean radiance L(y_j) over the gather rays of each diffuse hit (module doc).
 
     settings: seed, samples, max_specular_depth. pos, ngf, nsf (N, 3) float64, eps (N,),
     pixel and sample (N,) int64 of the
     camera sample, depth: the camera path's bounce (a random stream index).
-    The caller multiplies by rho_x and the path throughput. Points are gathered in
-    batches of GATHER_BATCH rays; each point's value depends on its own rays only.
+    The caller multiplies by rho_x and the path throughput; with ``bsdf`` (the hits'
+    BsdfHits) the mean is of f_d |cos| / pdf L(y_j) and the caller multiplies by the
+    throughput only. Points are gathered in batches of GATHER_BATCH rays; each point's
+    value depends on its own rays only.
     """
     n = pos.shape[0]
     step = max(1, GATHER_BATCH // terms.gather_rays)
     if n <= step:
         return _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sample,
-                                   depth)
+                                   depth, bsdf)
     out = np.empty((n, 3))
     for lo in range(0, n, step):
         sl = slice(lo, min(n, lo + step))
         out[sl] = _final_gather_batch(terms, prepared, settings, pos[sl], ngf[sl], nsf[sl],
-                                      eps[sl], pixel[sl], sample[sl], depth)
+                                      eps[sl], pixel[sl], sample[sl], depth,
+                                      None if bsdf is None else bsdf.take(sl))
     return out
 
 
 def _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sample,
-                        depth) -> np.ndarray:
+                        depth, bsdf=None) -> np.ndarray:
     t_start = time.perf_counter()
     st = settings
     n = pos.shape[0]
@@ -320,11 +400,18 @@ def _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sa
     index_of = index
     m = owner.shape[0]
     o, d, ok = np.empty((m, 3)), np.empty((m, 3)), np.empty(m, bool)
-    _gather_rays_kernel(pos, ngf, nsf, eps, owner, u1, u2, o, d, ok)
+    if bsdf is None:
+        _gather_rays_kernel(pos, ngf, nsf, eps, owner, u1, u2, o, d, ok)
+    else:
+        weight = np.empty((m, 3))
+        back = terms.back_share[bsdf.material]
+        _bsdf_gather_rays_kernel(bsdf.closures, bsdf.material, np.ascontiguousarray(bsdf.texel),
+                                 np.ascontiguousarray(bsdf.outgoing), bsdf.front, pos, ngf, nsf,
+                                 eps, back, g, u1, u2, o, d, weight, ok)
     radiance = np.zeros((m, 3))
     rows = np.flatnonzero(ok)
     o, d = o[rows], d[rows]
-    thr = np.ones((rows.shape[0], 3))
+    thr = np.ones((rows.shape[0], 3)) if bsdf is None else weight[rows]
     mats = prepared.materials
     for bounce in range(st.max_specular_depth + 1):
         if rows.shape[0] == 0:
@@ -341,6 +428,18 @@ def _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sa
             prepared.tri_vertices, prepared.tri_normals, prepared.tri_material, hits.prim[hit],
             hits.u[hit], hits.v[hit], d, prepared.extent)
         diff = np.flatnonzero(prepared.has_diffuse[mat])
+        if diff.size and terms.bsdf_materials is not None:
+            b = terms.bsdf_materials[mat[diff]]
+            if b.any():  # L(y_j) toward x by the BSDF estimate (the cache holds rho / pi E)
+                bd, diff = diff[b], diff[~b]
+                hd = hit[bd]
+                texel = prepared.texels.albedo(hits.prim[hd], hits.u[hd], hits.v[hd], mat[bd])
+                hb = BsdfHits(prepared.closures, mat[bd].astype(np.int32), texel, -d[bd],
+                              s2[bd], front[bd])
+                est = radiance_estimate(terms.global_map, p2[bd], n2[bd], None, terms.global_k,
+                                        terms.global_radius, terms.filter, bsdf=hb)
+                radiance[rows[bd]] += thr[bd] * est
+                terms.stats["gather_queries"] += bd.size
         if diff.size:
             if prepared.surfaces.textured:
                 hd = hit[diff]
@@ -348,6 +447,10 @@ def _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sa
                                                   mat[diff])
             else:
                 albedo = mats["diffuse"][mat[diff]]
+            hd = hit[diff]
+            albedo = prepared.hit_shader.albedo_at(prepared.texels, hits.prim[hd], hits.u[hd],
+                                                   hits.v[hd], d[diff], mat[diff], s2[diff],
+                                                   albedo)
             if terms.cache is not None:
                 est = cached_radiance(terms, p2[diff], n2[diff], albedo)
             else:

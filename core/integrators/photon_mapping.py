@@ -135,9 +135,11 @@ def _add(acc, rows, values):
 
 
 def _photon_terms(ctx: _CameraPass, rows, pos, ngf, nsf, eps, mat, thr, pixel, sample, depth,
-                  caustic_target, indirect_target, albedo, after_glossy):
+                  caustic_target, indirect_target, albedo, after_glossy, d, texel, front):
     """Add T * (caustics) and T * (indirect) at the hits with a diffuse lobe
-    (core/integrators/gather.py). albedo (N, 3): the (textured) diffuse albedo at the hits.
+    (core/integrators/gather.py). albedo (N, 3): the (textured) diffuse albedo at the hits;
+    d (N, 3) the arriving directions, texel (N, 3), front (N,): the BSDF where the
+    diffuse-like lobes are not Lambert (``gather.bsdf_terms``).
     after_glossy (N,) bool: the path reached the hit through a rough lobe; with
     ``global_after_glossy(terms)`` the diffuse part's whole radiance there is the global
     map's estimate (direct and caustic photons included), added to indirect_target."""
@@ -157,6 +159,19 @@ def _photon_terms(ctx: _CameraPass, rows, pos, ngf, nsf, eps, mat, thr, pixel, s
                                                      + time.perf_counter() - t0)
             ctx.stats["hits_global_after_glossy"] = ctx.stats.get("hits_global_after_glossy", 0) + g.size
         sel = sel[~blur]
+        if sel.size == 0:
+            return
+    sel, bs, hb = gather.bsdf_terms(terms, ctx.prepared.closures, sel, mat, texel, d, nsf, front)
+    if hb is not None:
+        r = rows[bs]
+        if terms.caustic_map is not None:
+            _add(caustic_target, r, thr[bs] * gather.caustics(terms, pos[bs], ngf[bs], None, hb))
+        if terms.global_map is not None and terms.mode == "final_gather":
+            _add(indirect_target, r, thr[bs] * gather.final_gather(
+                terms, ctx.prepared, ctx.settings, pos[bs], ngf[bs], nsf[bs], eps[bs],
+                pixel[r], sample[r], depth, hb))
+        elif terms.global_map is not None and terms.mode == "preview":
+            _add(indirect_target, r, thr[bs] * gather.preview(terms, pos[bs], ngf[bs], None, hb))
         if sel.size == 0:
             return
     r = rows[sel]
@@ -272,6 +287,9 @@ def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> dict[str, np.ndarray]:
             hits.v[h], d, pr.extent)
         albedo = pr.surfaces.albedo(prim, hits.u[h], hits.v[h], mat)
         texel = pr.texels.albedo(prim, hits.u[h], hits.v[h], mat)
+        # Shader programs: the closures at each programmed hit (crow: its row in tab).
+        tab, crow = pr.hit_shader.closures_at(prim, hits.u[h], hits.v[h], d, mat)
+        albedo = pr.hit_shader.diffuse_albedo(tab, crow, mat, texel, d, nsf, albedo)
         emission = mats["emission"][mat]
         if pr.emissive.count and np.any(prev_pdf > 0):
             emission = emission * camera_paths.emission_weight(
@@ -290,9 +308,9 @@ def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> dict[str, np.ndarray]:
             r = rows[sel]
             diffuse_on = (~glossy[sel]).astype(np.float64) if blur_global else None
             mis = np.full(r.shape[0], not last)
-            points = direct.ShadingPoints(pos[sel], ngf[sel], nsf[sel], d[sel], mat[sel],
+            points = direct.ShadingPoints(pos[sel], ngf[sel], nsf[sel], d[sel], crow[sel],
                                           eps[sel], thr[sel], albedo[sel], r, texel[sel],
-                                          diffuse_on, mis, front[sel])
+                                          diffuse_on, mis, front[sel], tab)
             direct.shade(ctx.direct, points, pixel[r], sample[r], depth,
                          acc["direct"] if first else acc["specular"])
 
@@ -300,7 +318,8 @@ def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> dict[str, np.ndarray]:
         if ctx.terms is not None and ctx.terms.active:
             _photon_terms(ctx, rows, pos, ngf, nsf, eps, mat, thr, pixel, sample, depth,
                           acc["caustics"] if first else acc["specular"],
-                          acc["indirect"] if first else acc["specular"], albedo, glossy)
+                          acc["indirect"] if first else acc["specular"], albedo, glossy, d,
+                          texel, front)
 
         # Continue through one sampled lobe: mirrors, glass, the glossy part of rough lobes
         if last:
@@ -319,8 +338,8 @@ def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> dict[str, np.ndarray]:
         # The lobe choice takes the Sobol set's second coordinate: its first repeats the
         # order of the pixel jitter's, which correlates a pixel's samples (noisier glass).
         keep, origins, dirs, thr, transmitted, prev_pdf, was_delta = camera_paths.follow_bsdf(
-            pr, pos[sd], ngf[sd], nsf[sd], d[sd], front[sd], mat[sd], eps[sd], texel[sd],
-            thr[sd], u2, u1, u3, u_rr)
+            pr, pos[sd], ngf[sd], nsf[sd], d[sd], front[sd], crow[sd], eps[sd], texel[sd],
+            thr[sd], u2, u1, u3, u_rr, closures=tab)
         prev_ns = nsf[sd][keep]
         glossy = glossy[sd][keep] | ~was_delta
         rows = rs[keep]

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..materials import closure
 from ..passes import ProgressFn, StopFn
 from ..photons import estimate, tracing
 from ..prepared import PreparedScene
@@ -109,6 +110,11 @@ def run(prepared: PreparedScene, settings: RenderSettings, maps,
         caustic_map=caustic_map, global_map=global_map, caustic_k=st.caustic_k,
         global_k=st.global_k, caustic_radius=r_c, global_radius=r_g, filter=st.filter,
         mode=st.indirect_mode, gather_rays=max(1, st.final_gather_rays // st.samples))
+    # Diffuse-like lobes that are not Lambert: the terms evaluate the BSDF there (gather.py)
+    lobes = closure.lobe_masks(prepared.closures)
+    if np.any(lobes["non_lambert"] & used):
+        terms.bsdf_materials = lobes["non_lambert"]
+        terms.back_share = np.where(lobes["diffuse_transmits"], gather.BACK_SHARE, 0.0)
     if global_map is not None and st.indirect_mode == "final_gather" and not cancelled:
         if on_progress is not None:
             points = 2 * gather.cache_point_count(n_g, diffuse_area, r_g)

@@ -325,9 +325,15 @@ class PassRenderer:
             vps = camera_paths.visible_points(prepared, scene.camera, seed, k,
                                               int(settings.max_specular_depth), image)
             if vps.pixel.size and self.shadow_rays is not None:
+                tab, rows = prepared.hit_shader.closures_at(vps.prim, vps.u, vps.v, -vps.wo,
+                                                            vps.material)
+                # With programmed points, their own closures and the texel colour; else
+                # the material's and shade's texel from the albedo (as before programs).
+                programmed = rows is not vps.material
                 points = direct_light.ShadingPoints(
-                    vps.position, vps.ng, vps.ns, -vps.wo, vps.material, vps.eps, vps.weight,
-                    vps.albedo, vps.pixel)
+                    vps.position, vps.ng, vps.ns, -vps.wo, rows, vps.eps, vps.weight,
+                    vps.albedo, vps.pixel, texel=vps.texel if programmed else None,
+                    closures=tab)
                 before = int(self.shadow_rays.stats.get("rays_shadow", 0))
                 direct_light.shade(self.shadow_rays, points, vps.pixel,
                                    np.full(vps.pixel.size, k, np.int64), 0, image)

@@ -52,7 +52,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from .. import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
 from .. import sampling
@@ -554,12 +554,15 @@ def _lobes(tab, m, c0, c1, c2, wox, woy, woz, entering):
 @njit(cache=True, error_model="numpy")
 def lobe_presence(tab, m):
     """Which kinds of lobe material m has, seen at normal incidence with texel colour 1:
-    (diffuse, rough, delta, transmits) bools: a diffuse-like lobe (Lambert, Oren-Nayar,
-    translucent, sheen: photons are stored there), a rough microfacet lobe (light sampling
-    sees it), a singular one (mirror, smooth glass: paths follow it) and one that transmits
-    (Glass, Refraction, Translucent, Thin Wall)."""
+    (diffuse, rough, delta, transmits, non_lambert, diffuse_transmits) bools: a
+    diffuse-like lobe (Lambert, Oren-Nayar, translucent, sheen: photons are stored there),
+    a rough microfacet lobe (light sampling sees it), a singular one (mirror, smooth glass:
+    paths follow it), one that transmits (Glass, Refraction, Translucent, Thin Wall), a
+    diffuse-like lobe that is not Lambert (its reflected photon light is not d / pi E: the
+    photon terms evaluate the BSDF per photon there) and a diffuse-like lobe that
+    transmits (Translucent: photons and gather rays of the far side count)."""
     L = _lobes(tab, m, 1.0, 1.0, 1.0, 0.0, 0.0, 1.0, True)
-    diffuse = rough = delta = transmits = False
+    diffuse = rough = delta = transmits = non_lambert = diffuse_transmits = False
     for k in range(L.shape[0]):
         if max(L[k, W], max(L[k, W + 1], L[k, W + 2])) <= 0.0:
             continue
@@ -573,16 +576,21 @@ def lobe_presence(tab, m):
         else:
             diffuse = True
             transmits = transmits or t == L_TRANSLUCENT
-    return diffuse, rough, delta, transmits
+            non_lambert = non_lambert or t != L_LAMBERT
+            diffuse_transmits = diffuse_transmits or t == L_TRANSLUCENT
+    return diffuse, rough, delta, transmits, non_lambert, diffuse_transmits
+
+
+LOBE_MASKS = ("diffuse", "rough", "delta", "transmits", "non_lambert", "diffuse_transmits")
+"""The keys of ``lobe_masks``, in ``lobe_presence``'s order."""
 
 
 def lobe_masks(tab: ClosureTable) -> dict[str, np.ndarray]:
-    """``lobe_presence`` for every material: (M,) bool arrays ``diffuse``, ``rough``,
-    ``delta``, ``transmits``."""
+    """``lobe_presence`` for every material: (M,) bool arrays named by LOBE_MASKS."""
     m = tab.first.shape[0]
-    out = {k: np.zeros(m, bool) for k in ("diffuse", "rough", "delta", "transmits")}
+    out = {k: np.zeros(m, bool) for k in LOBE_MASKS}
     for i in range(m):
-        for k, v in zip(("diffuse", "rough", "delta", "transmits"), lobe_presence(tab, i)):
+        for k, v in zip(LOBE_MASKS, lobe_presence(tab, i)):
             out[k][i] = v
     return out
 
@@ -727,6 +735,36 @@ def lobes_eval(L, wox, woy, woz, wix, wiy, wiz):
     return f0, f1, f2, pdf
 
 
+@njit(cache=True, error_model="numpy")
+def lobes_eval_parts(L, wox, woy, woz, wix, wiy, wiz, cosine):
+    """``lobes_eval`` split by lobe kind: (diffuse-like f |cos| RGB, glossy f |cos| RGB,
+    pdf), local frame; without the |cos| factor (f alone, 1/sr) unless ``cosine``. The
+    diffuse-like part (Lambert, Oren-Nayar, translucent, sheen) is what the photon maps and
+    final gathering carry; the glossy part (rough microfacet lobes) is what camera paths
+    reach by sampling the BSDF."""
+    d0 = d1 = d2 = g0 = g1 = g2 = 0.0
+    pdf = 0.0
+    total = 0.0
+    for k in range(L.shape[0]):
+        total += L[k, SW]
+    if total <= 0.0:
+        return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    ac = abs(wiz) if cosine else 1.0
+    for k in range(L.shape[0]):
+        v0, v1, v2, pk = lobe_eval(L, k, wox, woy, woz, wix, wiy, wiz)
+        v0, v1, v2 = L[k, W] * v0 * ac, L[k, W + 1] * v1 * ac, L[k, W + 2] * v2 * ac
+        if _lobe_flags(L, k) == LOBE_DIFFUSE:
+            d0 += v0
+            d1 += v1
+            d2 += v2
+        else:
+            g0 += v0
+            g1 += v1
+            g2 += v2
+        pdf += L[k, SW] / total * pk
+    return d0, d1, d2, g0, g1, g2, pdf
+
+
 # --- the public kernels ------------------------------------------------------------------------
 
 @njit(cache=True, error_model="numpy")
@@ -756,6 +794,51 @@ def eval_bsdf(tab, m, c0, c1, c2, wox, woy, woz, wix, wiy, wiz, nsx, nsy, nsz,
         return 0.0, 0.0, 0.0, 0.0
     L = _lobes(tab, m, c0, c1, c2, lox, loy, loz, entering)
     return lobes_eval(L, lox, loy, loz, lix, liy, liz)
+
+
+@njit(cache=True, error_model="numpy")
+def hit_lobes(tab, m, c0, c1, c2, wox, woy, woz, nsx, nsy, nsz, ngx, ngy, ngz, tx, ty, tz,
+              entering):
+    """Material m's lobe rows at one hit and its shading frame, to evaluate many wi at the
+    same wo (``parts_at``; photon gathering): (L (n, NL) float64, F (12,) float64: t, b, n
+    and wo in the local frame). No rows where wo is below the surface."""
+    ux, uy, uz, bx, by, bz, nx, ny, nz = _local(nsx, nsy, nsz, ngx, ngy, ngz, tx, ty, tz,
+                                                wox, woy, woz)
+    F = np.empty(12)
+    F[0], F[1], F[2], F[3], F[4], F[5], F[6], F[7], F[8] = ux, uy, uz, bx, by, bz, nx, ny, nz
+    F[9] = wox * ux + woy * uy + woz * uz
+    F[10] = wox * bx + woy * by + woz * bz
+    F[11] = wox * nx + woy * ny + woz * nz
+    if F[11] <= 0.0:
+        return np.empty((1, NL))[:0], F
+    return _lobes(tab, m, c0, c1, c2, F[9], F[10], F[11], entering), F
+
+
+@njit(cache=True, error_model="numpy")
+def parts_at(L, F, wix, wiy, wiz, ngx, ngy, ngz, sided, cosine):
+    """``lobes_eval_parts`` of ``hit_lobes``' (L, F) at the world direction wi: (d0, d1,
+    d2, g0, g1, g2, pdf). With ``sided`` a wi whose geometric side (wi . ng < 0:
+    transmitted) disagrees with its shading side gives 0, as ``sample_bsdf`` refuses such a
+    sample (photons gathered from both sides: only transmitting lobes see the far side)."""
+    if L.shape[0] == 0:
+        return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    lix = wix * F[0] + wiy * F[1] + wiz * F[2]
+    liy = wix * F[3] + wiy * F[4] + wiz * F[5]
+    liz = wix * F[6] + wiy * F[7] + wiz * F[8]
+    if sided and (wix * ngx + wiy * ngy + wiz * ngz < 0.0) != (liz < 0.0):
+        return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    return lobes_eval_parts(L, F[9], F[10], F[11], lix, liy, liz, cosine)
+
+
+@njit(cache=True, error_model="numpy")
+def eval_parts(tab, m, c0, c1, c2, wox, woy, woz, wix, wiy, wiz, nsx, nsy, nsz,
+               ngx, ngy, ngz, tx, ty, tz, entering, sided):
+    """``eval_bsdf`` split into material m's diffuse-like part and glossy part:
+    (d0, d1, d2, g0, g1, g2, pdf), f |cos(ns, wi)| RGB (1/sr) and the pdf ``sample_bsdf``
+    gives wi; ``sided`` as ``parts_at``."""
+    L, F = hit_lobes(tab, m, c0, c1, c2, wox, woy, woz, nsx, nsy, nsz, ngx, ngy, ngz,
+                     tx, ty, tz, entering)
+    return parts_at(L, F, wix, wiy, wiz, ngx, ngy, ngz, sided, True)
 
 
 @njit(cache=True, error_model="numpy")
@@ -841,6 +924,28 @@ def albedo(tab, m, c0, c1, c2, wox, woy, woz, nsx, nsy, nsz):
             d1 += v1
             d2 += v2
     return d0, d1, d2, a0, a1, a2
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def _diffuse_albedo_kernel(tab, rows, texel, d, ns, out):
+    for i in prange(rows.shape[0]):
+        a0, a1, a2, _, _, _ = albedo(tab, rows[i], texel[i, 0], texel[i, 1], texel[i, 2],
+                                     -d[i, 0], -d[i, 1], -d[i, 2], ns[i, 0], ns[i, 1], ns[i, 2])
+        out[i, 0], out[i, 1], out[i, 2] = a0, a1, a2
+
+
+def diffuse_albedo(tab: ClosureTable, rows, texel, d, ns) -> np.ndarray:
+    """``albedo``'s diffuse part at N hits: (N, 3) float64 RGB. rows (N,) int32 material
+    rows of ``tab``, texel (N, 3) the texel colours, d (N, 3) the arriving unit
+    directions (wo = -d), ns (N, 3) unit shading normals."""
+    n = rows.shape[0]
+    out = np.empty((n, 3))
+    if n:
+        _diffuse_albedo_kernel(tab, np.ascontiguousarray(rows, np.int32),
+                               np.ascontiguousarray(texel, np.float64),
+                               np.ascontiguousarray(d, np.float64),
+                               np.ascontiguousarray(ns, np.float64), out)
+    return out
 
 
 # --- vectorised wrappers (tests, tools) ----------------------------------------------------------

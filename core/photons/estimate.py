@@ -33,6 +33,14 @@ index) from ``PhotonMap.nearest`` and are summed in that order, so a query's val
 not depend on the other queries of its batch. A BRDF callback (``radiance(brdf=...)``)
 needs the gathered photons as arrays, so that path materialises (M, k) arrays.
 
+The BSDF estimate (``radiance_estimate(..., bsdf=BsdfHits)``, ``_bsdf_estimate_kernel``):
+where a material's diffuse-like lobes are not Lambert (Oren-Nayar, sheen, translucent;
+``closure.lobe_masks``' ``non_lambert``) the reflected light is sum_p f_d(wo, w_p) w_p Phi_p
+/ (pi r^2), f_d the diffuse-like lobes of the closure evaluator (``closure.parts_at``,
+without the cosine, which the photon flux already holds) at each photon's direction, and
+photons from BOTH sides count: f_d is 0 on the far side unless a lobe transmits
+(Translucent). The Lambert case f_d = albedo / pi is the fused albedo path above.
+
 Automatic radius (``auto_radius``, setting 0): the radius of a disc that holds k photons
 on average when the stored photons cover the diffuse surfaces uniformly, times
 RADIUS_FACTOR: r = RADIUS_FACTOR * sqrt(A_diffuse * k / (pi * N_stored)). It scales with
@@ -42,10 +50,13 @@ the scene (A ~ s^2, r ~ s), so a scene in millimetres or kilometres gives the sa
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit, prange
 
+from .. import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
+from ..materials import closure
 from . import encoding
 from .photon_map import PhotonMap, check_k, check_points, squared_radius
 
@@ -270,6 +281,14 @@ def auto_radius(area: float, k: int, stored: int) -> float:
     return RADIUS_FACTOR * math.sqrt(area * k / (math.pi * stored))
 
 
+@njit(cache=True, nogil=True, inline="always")
+def unit_row(v, i):
+    """Row i of v (N, 3) normalised (float64); it must be non-zero."""
+    n0, n1, n2 = v[i, 0], v[i, 1], v[i, 2]
+    inv = 1.0 / math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+    return n0 * inv, n1 * inv, n2 * inv
+
+
 @njit(cache=True, parallel=True, error_model="numpy")
 def _estimate_kernel(tree, flux_codes, inv_scale, direction_codes, idx, dist2, points,
                      normals, albedo, max_r2, kind, k_cone, plane_fraction, out):
@@ -287,11 +306,7 @@ def _estimate_kernel(tree, flux_codes, inv_scale, direction_codes, idx, dist2, p
         if r2 == 0.0:
             degenerate += 1
             continue
-        n0, n1, n2 = normals[i, 0], normals[i, 1], normals[i, 2]
-        inv = 1.0 / math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
-        n0 *= inv
-        n1 *= inv
-        n2 *= inv
+        n0, n1, n2 = unit_row(normals, i)
         px, py, pz = np.float32(points[i, 0]), np.float32(points[i, 1]), np.float32(points[i, 2])
         ex = 0.0
         ey = 0.0
@@ -311,18 +326,120 @@ def _estimate_kernel(tree, flux_codes, inv_scale, direction_codes, idx, dist2, p
     return degenerate
 
 
+class BsdfHits(NamedTuple):
+    """The BSDF at the query points of a ``radiance_estimate(..., bsdf=)``.
+
+    closures: the ClosureTable (core/materials/closure.py); material (M,) int32; texel
+    (M, 3) float64 the texel colour multiplying the closures' COLOR (1 untextured);
+    outgoing (M, 3) float64 unit, toward the viewer; shading_normal (M, 3) float64 unit;
+    front (M,) bool, the viewer is on the front of the mesh's geometric normal.
+    """
+
+    closures: closure.ClosureTable
+    material: np.ndarray
+    texel: np.ndarray
+    outgoing: np.ndarray
+    shading_normal: np.ndarray
+    front: np.ndarray
+
+    def take(self, rows) -> "BsdfHits":
+        """The hits ``rows`` (an index array or slice)."""
+        return BsdfHits(self.closures, self.material[rows], self.texel[rows],
+                        self.outgoing[rows], self.shading_normal[rows], self.front[rows])
+
+
+TANGENT = closure.DEFAULT_TANGENT
+"""The unit tangent given to the BSDF (the mesh carries no tangents yet)."""
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def _bsdf_estimate_kernel(tree, flux_codes, inv_scale, direction_codes, idx, dist2, points,
+                          normals, tab, mat, texel, wo, ns, front, max_r2, kind, k_cone,
+                          plane_fraction, out):
+    """out[i] = sum_p f_d(wo_i, w_p) w_p Phi_p (W/(m^2 sr)) over the gathered photons of
+    both sides of normals[i] (the geometric normal facing the viewer), in the order of the
+    sorted neighbours; returns the number of zero-area discs holding photons."""
+    k = idx.shape[1]
+    degenerate = 0
+    for i in prange(idx.shape[0]):
+        out[i, 0] = 0.0
+        out[i, 1] = 0.0
+        out[i, 2] = 0.0
+        c, r2 = gathered_disc(idx, dist2, i, k, max_r2)
+        if c == 0:
+            continue
+        if r2 == 0.0:
+            degenerate += 1
+            continue
+        n0, n1, n2 = unit_row(normals, i)
+        L, F = closure.hit_lobes(tab, mat[i], texel[i, 0], texel[i, 1], texel[i, 2],
+                                 wo[i, 0], wo[i, 1], wo[i, 2], ns[i, 0], ns[i, 1], ns[i, 2],
+                                 n0, n1, n2, TANGENT[0], TANGENT[1], TANGENT[2], front[i])
+        if L.shape[0] == 0:
+            continue
+        px, py, pz = np.float32(points[i, 0]), np.float32(points[i, 1]), np.float32(points[i, 2])
+        ex = 0.0
+        ey = 0.0
+        ez = 0.0
+        for s in range(c):
+            j = idx[i, s]
+            wx, wy, wz = encoding.oct_decode(direction_codes[j, 0], direction_codes[j, 1])
+            # photon_weight keeps the photons of its normal's side: give it the side the
+            # photon came from (the BSDF decides whether that side's light is seen).
+            sg = 1.0 if wx * n0 + wy * n1 + wz * n2 > 0.0 else -1.0
+            w = photon_weight(direction_codes, tree, j, np.float64(dist2[i, s]), r2, px, py, pz,
+                              sg * n0, sg * n1, sg * n2, kind, k_cone, plane_fraction)
+            if w == 0.0:
+                continue
+            f0, f1, f2, _, _, _, _ = closure.parts_at(L, F, wx, wy, wz, n0, n1, n2, True, False)
+            ex += w * f0 * encoding.half_to_float(flux_codes[j, 0])
+            ey += w * f1 * encoding.half_to_float(flux_codes[j, 1])
+            ez += w * f2 * encoding.half_to_float(flux_codes[j, 2])
+        out[i, 0] = ex * inv_scale
+        out[i, 1] = ey * inv_scale
+        out[i, 2] = ez * inv_scale
+    return degenerate
+
+
 def radiance_estimate(photon_map: PhotonMap, points: np.ndarray, normals: np.ndarray,
                       albedo: np.ndarray, k: int, max_radius: float, filter: str = "cone",
-                      plane_fraction: float = PLANE_FRACTION) -> np.ndarray:
+                      plane_fraction: float = PLANE_FRACTION,
+                      bsdf: BsdfHits | None = None) -> np.ndarray:
     """Diffuse reflected radiance albedo / pi * E (W/(m^2 sr)) at surface points.
 
-    points (M, 3) metres; normals (M, 3) non-zero, facing the viewer (only photons
-    arriving on that side count); albedo (M, 3) >= 0; k >= 1; max_radius > 0 metres
-    (inf allowed). Returns (M, 3) float64. Raises ValueError when k photons sit exactly
-    on a query point (zero-area disc).
+    points (M, 3) metres; normals (M, 3) non-zero geometric normals, facing the viewer
+    (only photons arriving on that side count); albedo (M, 3) >= 0; k >= 1; max_radius > 0
+    metres (inf allowed). With ``bsdf`` (a BsdfHits of the M points) albedo is not read:
+    the radiance is the BSDF estimate of the module docstring (photons of both sides,
+    each weighted by the diffuse-like lobes' f at its direction). Returns (M, 3) float64.
+    Raises ValueError when k photons sit exactly on a query point (zero-area disc).
     """
-    return radiance_estimate_sides(photon_map, points, [normals], albedo, k, max_radius,
-                                   filter, plane_fraction)[0]
+    if bsdf is None:
+        return radiance_estimate_sides(photon_map, points, [normals], albedo, k, max_radius,
+                                       filter, plane_fraction)[0]
+    m = points.shape[0]
+    out = np.zeros((m, 3))
+    if m == 0 or len(photon_map) == 0:
+        return out
+    tree, _, _, flux_codes, scale, direction_codes = photon_map.kernel_arrays()
+    k = min(int(k), len(photon_map))
+    r2 = squared_radius(max_radius)
+    points32 = np.ascontiguousarray(points, np.float32)
+    arrays = [np.ascontiguousarray(a, np.float64) for a in
+              (normals, bsdf.texel, bsdf.outgoing, bsdf.shading_normal)]
+    mat = np.ascontiguousarray(bsdf.material, np.int32)
+    front = np.ascontiguousarray(bsdf.front, np.bool_)
+    bad = 0
+    for lo in range(0, m, QUERY_CHUNK):
+        hi = min(m, lo + QUERY_CHUNK)
+        idx, dist2 = photon_map.nearest(points32[lo:hi], k, max_radius)
+        nrm, texel, wo, ns = (a[lo:hi] for a in arrays)
+        bad += _bsdf_estimate_kernel(tree, flux_codes, 1.0 / scale, direction_codes, idx, dist2,
+                                     points32[lo:hi], nrm, bsdf.closures, mat[lo:hi], texel,
+                                     wo, ns, front[lo:hi], r2, FILTERS[filter], CONE_K,
+                                     float(plane_fraction), out[lo:hi])
+    _raise_degenerate(bad)
+    return out
 
 
 def radiance_estimate_sides(photon_map: PhotonMap, points, normals_list, albedo, k,

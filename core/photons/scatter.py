@@ -54,7 +54,7 @@ def _max3(a, b, c):
 
 
 @njit(cache=True, error_model="numpy")
-def _scatter_range(tri_v, tri_n, tri_mat, extent, tab, has_diffuse, has_specular, texel,
+def _scatter_range(tri_v, tri_n, tri_mat, extent, tab, has_diffuse, has_specular, texel, rows,
                    opacity, prim, hu, hv, d, flux, pid, n_diff, n_spec, seed, dims, bounce, mode,
                    store_rule, last,
                    store, s_pos, s_flux, s_dir, alive, o_new, d_new, f_new, lo, hi):
@@ -117,7 +117,8 @@ def _scatter_range(tri_v, tri_n, tri_mat, extent, tab, has_diffuse, has_specular
         # The bounce: the camera paths' sampler (one per lobe), wo towards where the
         # photon came from.
         ox, oy, oz, w0, w1, w2, pdf, flags = closure.sample_bsdf(
-            tab, m, c0, c1, c2, -dx, -dy, -dz, sx, sy, sz, gx, gy, gz,
+            tab, rows[i] if rows.shape[0] else m, c0, c1, c2, -dx, -dy, -dz, sx, sy, sz,
+            gx, gy, gz,
             TANGENT[0], TANGENT[1], TANGENT[2], entering, u_lobe, u1, u2)
         if flags == 0:
             continue  # absorbed: no direction
@@ -149,7 +150,7 @@ def _scatter_range(tri_v, tri_n, tri_mat, extent, tab, has_diffuse, has_specular
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
-def scatter_kernel(tri_v, tri_n, tri_mat, extent, tab, has_diffuse, has_specular, texel,
+def scatter_kernel(tri_v, tri_n, tri_mat, extent, tab, has_diffuse, has_specular, texel, rows,
                    opacity, prim, hu, hv, d, flux, pid, n_diff, n_spec, seed, dims, bounce, mode,
                    store_rule, last,
                    store, s_pos, s_flux, s_dir, alive, o_new, d_new, f_new):
@@ -159,7 +160,9 @@ def scatter_kernel(tri_v, tri_n, tri_mat, extent, tab, has_diffuse, has_specular
     (M,) bool, the material has a diffuse lobe (photons are stored there) / a mirror,
     glass or glossy lobe (a caustic path may start there); texel (N, 3) float64 the texel
     colour per photon, or (0, 3) for none; opacity (N,) float64 per photon, or (0,) for
-    none (textures.SurfaceTextures.photon_albedo / photon_opacity); prim (N,) int32 (-1 =
+    none (textures.SurfaceTextures.photon_albedo / photon_opacity); rows (N,) int32 each
+    photon's material row in tab (``HitShader.closures_at``: programmed hits), or (0,)
+    for the triangles' materials; prim (N,) int32 (-1 =
     missed), hu, hv (N,) float32 barycentrics, d (N, 3) float32 unit directions of travel,
     flux (N, 3) float64 W, pid (N,) int64 photon ids (random counters), n_diff / n_spec
     (N,) int32 bounces so far (updated in place), dims (4,) int64 random dimensions,
@@ -171,7 +174,7 @@ def scatter_kernel(tri_v, tri_n, tri_mat, extent, tab, has_diffuse, has_specular
     n = prim.shape[0]
     blocks = (n + _BLOCK - 1) // _BLOCK
     for b in prange(blocks):
-        _scatter_range(tri_v, tri_n, tri_mat, extent, tab, has_diffuse, has_specular, texel,
+        _scatter_range(tri_v, tri_n, tri_mat, extent, tab, has_diffuse, has_specular, texel, rows,
                        opacity, prim, hu, hv, d, flux, pid, n_diff, n_spec, seed, dims, bounce,
                        mode, store_rule, last, store, s_pos, s_flux, s_dir, alive, o_new,
                        d_new, f_new, b * _BLOCK, min(n, (b + 1) * _BLOCK))

@@ -100,10 +100,11 @@ def _trace_chunk(prepared: PreparedScene, em: emission.Emitted, pid: np.ndarray,
         d2 = np.empty((n, 3), np.float32)
         f2 = np.empty((n, 3))
         surf = prepared.surfaces
+        tab, rows = photon_closures(prepared, hits, d)
         scatter.scatter_kernel(prepared.tri_vertices, prepared.tri_normals, prepared.tri_material,
-                               prepared.extent, prepared.closures, prepared.has_diffuse,
+                               prepared.extent, tab, prepared.has_diffuse,
                                prepared.specular_material,
-                               prepared.texels.photon_albedo(hits.prim, hits.u, hits.v),
+                               prepared.texels.photon_albedo(hits.prim, hits.u, hits.v), rows,
                                surf.photon_opacity(hits.prim, hits.u, hits.v),
                                hits.prim, hits.u, hits.v, d, f, pid, n_diff, n_spec,
                                np.int64(seed), dims, np.int64(bounce), mode,
@@ -112,6 +113,23 @@ def _trace_chunk(prepared: PreparedScene, em: emission.Emitted, pid: np.ndarray,
         store.add(*compact_stored(s_flag, s_pos, s_flux, s_dir))
         o, d, f, pid, n_diff, n_spec = scatter.compact_alive(alive, o2, d2, f2, pid, n_diff, n_spec)
         counters["time_scatter"] += time.perf_counter() - t1
+
+
+def photon_closures(prepared, hits, d):
+    """(tab, rows) for a photon wavefront (``HitShader.closures_at`` at the hits that are
+    not misses): rows (N,) int32, -1 on misses, or (0,) with the prepared table when no
+    photon met a programmed material (the kernel then reads the triangles' materials)."""
+    shader = prepared.hit_shader
+    if not shader.active:
+        return prepared.closures, np.zeros(0, np.int32)
+    got = np.flatnonzero(hits.prim >= 0)
+    mat = prepared.tri_material[hits.prim[got]]
+    tab, r = shader.closures_at(hits.prim[got], hits.u[got], hits.v[got], d[got], mat)
+    if r is mat:
+        return tab, np.zeros(0, np.int32)
+    rows = np.full(hits.prim.shape[0], -1, np.int32)
+    rows[got] = r
+    return tab, rows
 
 
 def _trace_map(prepared, sources, counts, targets_per_source, mode, store_rule, seed: int,

@@ -56,6 +56,16 @@ class Mesh:
     material_index: (T,) int32, index into ``Materials``.
     object_index: (T,) int32, index into ``object_names`` (for error messages and debug).
     object_names: tuple of str, one per exported object instance.
+
+    Optional, what shader programs read per object (None: identity transforms, texture
+    space = the render frame's unit box, no origin shift):
+    object_to_world: (O, 4, 4) float64, each object instance's world matrix (Blender's
+        ``matrix_world``, true world coordinates, not the render frame).
+    object_texspace: (O, 2, 3) float64, the mesh's texture space (Blender's
+        ``texspace_location``, ``texspace_size``) in object space: Generated =
+        (object position - location) / (2 size) + 0.5.
+    origin: (3,) float64 metres, the render frame's origin in world coordinates
+        (vertices = world positions - origin): programs read world positions.
     """
 
     vertices: np.ndarray
@@ -65,6 +75,9 @@ class Mesh:
     material_index: np.ndarray
     object_index: np.ndarray
     object_names: tuple = ()
+    object_to_world: np.ndarray | None = None
+    object_texspace: np.ndarray | None = None
+    origin: np.ndarray | None = None
 
     @property
     def triangle_count(self) -> int:
@@ -122,6 +135,11 @@ class Materials:
     closure_texture: (C,) int32, texture whose texel colour MULTIPLIES the COLOR slot (the
         exporter stores COLOR with the image factored out, usually 1); -1 = none.
     closure_first, closure_count: (M,) int32.
+
+    programs: None, or a tuple of M ``core.shading.program.ShaderProgram`` or None: the
+    material's compiled node graph (docs/shading.md), whose outputs replace closure
+    parameters per hit (TARGET_CLOSURE: closure index within the material, slot). A
+    material without links has None and costs nothing.
     """
 
     diffuse: np.ndarray
@@ -140,6 +158,7 @@ class Materials:
     closure_texture: np.ndarray | None = None
     closure_first: np.ndarray | None = None
     closure_count: np.ndarray | None = None
+    programs: tuple | None = None
 
     @property
     def count(self) -> int:
@@ -214,6 +233,8 @@ class Materials:
         ``weight`` (3,) (default 1), ``params`` (a (PARAM_COUNT,) row or a dict for
         ``closures.params``) and ``texture`` (default -1). When any row does, the closure
         table is stored, rows without ``closures`` contributing their lobes as closures.
+        A row's ``program`` (a ShaderProgram, default None) is its entry of ``programs``
+        (None when no row has one).
         """
         m = len(rows)
 
@@ -238,6 +259,8 @@ class Materials:
             alpha_texture=(np.array([r.get("alpha_texture", -1) for r in rows], np.int32)
                            .reshape(m) if any("alpha_texture" in r for r in rows) else None),
         )
+        if any(r.get("program") is not None for r in rows):
+            lobes = replace(lobes, programs=tuple(r.get("program") for r in rows))
         if not any("closures" in r for r in rows):
             return lobes
         derived = lobes.closure_table()
@@ -614,6 +637,21 @@ def _validate_mesh(mesh: Mesh, materials: Materials) -> None:
         if mesh.material_index.min() < 0 or mesh.material_index.max() >= materials.count:
             raise SceneError(f"mesh.material_index out of range [0, {materials.count}): "
                              f"{mesh.material_index.min()}..{mesh.material_index.max()}")
+    n_obj = int(mesh.object_index.max()) + 1 if t else 0
+    names = mesh.object_names if len(mesh.object_names) >= n_obj else None
+    if mesh.object_to_world is not None:
+        _check_array("mesh.object_to_world", mesh.object_to_world, (None, 4, 4),
+                     dtype=np.float64, labels=names)
+    if mesh.object_texspace is not None:
+        _check_array("mesh.object_texspace", mesh.object_texspace, (None, 2, 3),
+                     dtype=np.float64, labels=names)
+    for key in ("object_to_world", "object_texspace"):
+        a = getattr(mesh, key)
+        if a is not None and a.shape[0] < n_obj:
+            raise SceneError(f"mesh.{key} has {a.shape[0]} rows, fewer than the "
+                             f"{n_obj} objects of mesh.object_index")
+    if mesh.origin is not None:
+        _check_array("mesh.origin", mesh.origin, (3,), dtype=np.float64)
 
 
 def _validate_textures(tx: Textures) -> None:
@@ -646,6 +684,8 @@ def _validate_materials(m: Materials, texture_count: int = 0) -> None:
                              f"an index into the scene's {texture_count} textures")
     if m.closure_kind is not None:
         _validate_closures(m, texture_count, names)
+    if m.programs is not None:
+        _validate_programs(m, names)
     if m.alpha is not None:
         _check_array("materials.alpha", m.alpha, (n,), dtype=np.float32, nonnegative=True,
                      labels=names, at_most=1.0)
@@ -689,6 +729,27 @@ def _validate_closures(m: Materials, texture_count: int, names) -> None:
         i = int(np.argmax((t["first"] < 0) | (t["count"] < 0) | (end > c)))
         raise SceneError(f"materials.closure_first/count{_label(names, i)}: closures "
                          f"[{t['first'][i]}, {end[i]}) outside the table of {c}")
+
+
+def _validate_programs(m: Materials, names) -> None:
+    """Each program valid (its own validate()) and writing only closures its material has."""
+    if len(m.programs) != m.count:
+        raise SceneError(f"materials.programs has {len(m.programs)} entries, not one per "
+                         f"material ({m.count})")
+    count = m.closure_table()["count"]
+    for i, prog in enumerate(m.programs):
+        if prog is None:
+            continue
+        try:
+            prog.validate()
+        except ValueError as exc:
+            raise SceneError(f"materials.programs{_label(names, i)}: {exc}") from None
+        for row in np.asarray(prog.outputs).reshape(-1, 4):
+            # row[1] == 0: core.shading.program.TARGET_CLOSURE (rank 2, not importable here)
+            if int(row[1]) == 0 and not 0 <= int(row[2]) < int(count[i]):
+                raise SceneError(f"materials.programs{_label(names, i)}: an output writes "
+                                 f"closure {int(row[2])}, but the material has "
+                                 f"{int(count[i])} closures")
 
 
 def _validate_lights(li: Lights) -> None:

@@ -10,7 +10,9 @@ light (glass and the thin wall also refract the world through the sphere).
 issue 13 (Diffuse with and without roughness, Glossy, Metallic, Glass, Refraction,
 Translucent, Sheen) and the Principled BSDF (default; roughness 0 / 0.25 / 0.6 x metallic
 0 / 1; coat; sheen; rough glass; thin wall, Blender 5.2's input), a Mix Shader of Diffuse
-and Glossy and an Add Shader of Diffuse and Sheen.
+and Glossy and an Add Shader of Diffuse and Sheen; two Principled BSDFs driven by node
+graphs (issue 14's shader programs: Noise into Base Color and a ColorRamp into Roughness,
+Mapping + Checker into Base Color).
 
 The Cornell box: the demo's box (examples/cornell_box.py) without its spheres and with one
 rough-metal sphere (Principled metallic 1, roughness 0.3) where the mirror sphere was, so
@@ -104,6 +106,43 @@ def combined(name, how, fac=0.3):
     return mat
 
 
+def textured(name, which):
+    """Principled BSDFs whose inputs are node graphs (issue 14, shader programs at every
+    hit): "noise" a Noise Texture (Generated coordinates, scale 5, detail 2) colour into
+    Base Color and its factor through a ColorRamp (0.15 grey at 0.3, 0.7 at 0.7) into
+    Roughness; "checker" a Checker (RED / 0.9 grey, scale 4) of the Generated coordinates
+    through a Mapping (30 degrees about Z, scale 2 x 1 x 1) into Base Color."""
+    import math
+
+    mat = principled(name)
+    nodes, links = mat.node_tree.nodes, mat.node_tree.links
+    bsdf = next(n for n in nodes if n.bl_idname == 'ShaderNodeBsdfPrincipled')
+    if which == "noise":
+        noise = nodes.new('ShaderNodeTexNoise')
+        noise.inputs["Scale"].default_value = 5.0
+        noise.inputs["Detail"].default_value = 2.0
+        ramp = nodes.new('ShaderNodeValToRGB')
+        stops = ramp.color_ramp.elements
+        stops[0].position, stops[0].color = 0.3, (0.15, 0.15, 0.15, 1.0)
+        stops[1].position, stops[1].color = 0.7, (0.7, 0.7, 0.7, 1.0)
+        links.new(noise.outputs[1], bsdf.inputs["Base Color"])  # Color (by index: 4.2 / 5.x)
+        links.new(noise.outputs[0], ramp.inputs[0])             # Fac / Factor
+        links.new(ramp.outputs[0], bsdf.inputs["Roughness"])
+    else:
+        coords = nodes.new('ShaderNodeTexCoord')
+        mapping = nodes.new('ShaderNodeMapping')
+        mapping.inputs["Rotation"].default_value = (0.0, 0.0, math.radians(30.0))
+        mapping.inputs["Scale"].default_value = (2.0, 1.0, 1.0)
+        checker = nodes.new('ShaderNodeTexChecker')
+        checker.inputs["Color1"].default_value = RED
+        checker.inputs["Color2"].default_value = (0.9, 0.9, 0.9, 1.0)
+        checker.inputs["Scale"].default_value = 4.0
+        links.new(coords.outputs["Generated"], mapping.inputs["Vector"])
+        links.new(mapping.outputs["Vector"], checker.inputs["Vector"])
+        links.new(checker.outputs["Color"], bsdf.inputs["Base Color"])
+    return mat
+
+
 GOLD = (1.0, 0.71, 0.29, 1.0)
 RED = (0.8, 0.15, 0.1, 1.0)
 
@@ -139,6 +178,8 @@ MATERIALS = {
         "Base Color": (1.0, 1.0, 1.0, 1.0), "Transmission Weight": 1.0, "Thin Wall": True}),
     "mix_diffuse_glossy": lambda: combined("MixDiffuseGlossy", "MIX"),
     "add_diffuse_sheen": lambda: combined("AddDiffuseSheen", "ADD"),
+    "noise_roughness": lambda: textured("NoiseRoughness", "noise"),
+    "mapping_checker": lambda: textured("MappingChecker", "checker"),
 }
 """Scene name -> a function making the sphere's material (in a fresh scene)."""
 
@@ -220,6 +261,8 @@ def fingerprint(name) -> str:
                   repr(RESOLUTION)]
         if name.startswith(("mix_", "add_")):
             parts.append(inspect.getsource(combined))
+        if name in ("noise_roughness", "mapping_checker"):
+            parts.append(inspect.getsource(textured))
     return hashlib.sha256("\n".join(parts).encode()).hexdigest()[:16]
 
 

@@ -28,18 +28,12 @@ SAMPLES = 128
 """Photon Map camera samples per pixel over both seeds."""
 
 # What still differs from Cycles, as measured on this core (channel means PM / Cycles - 1;
-# the note of issue 13 has every figure). The other scenes are plain tests.
-_LEGACY_ALBEDO = ("the photon terms (caustics, indirect, final gathering) still weight a hit by "
-                  "the legacy diffuse albedo, not the closure evaluator's diffuse part")
+# the note of issue 13 has every figure). The other scenes are plain tests. Strict: a case
+# that starts passing must leave this list.
 PENDING = {
-    "diffuse_rough": "Oren-Nayar's light is split and gathered as Lambert (d / pi): +12..+22 %",
     "glass": "rough glass: channel means -0.5 %, but 3 of 108 blocks (the highlight) over",
     "rough_glass": "rough glass: channel means -0.5 %, but 3 of 108 blocks (the highlight) over",
     "refraction": "rough refraction -3 %, block errors up to 22 %",
-    "translucent": _LEGACY_ALBEDO + " (Translucent has none: -100 %)",
-    "sheen": "the Sheen closure's light is gathered as Lambert: +38 %",
-    "principled_sheen": "the sheen layer's light is gathered as Lambert: +11 % (R, G)",
-    "add_diffuse_sheen": _LEGACY_ALBEDO + " (+6 %)",
     "thin_wall": "channel means within 0.4 %, but 3 of 108 highlight blocks off by up to 38 %",
     "cornell_rough_metal": "channel means within 1.9 %, 10 of 144 blocks over 5 % + 3 sigma",
 }
@@ -61,7 +55,7 @@ def photon_map_pair(name):
 def _case(name):
     marks = []
     if name in PENDING:
-        marks.append(pytest.mark.xfail(strict=False, reason=PENDING[name]))
+        marks.append(pytest.mark.xfail(strict=True, reason=PENDING[name]))
     if tuple(bpy.app.version[:2]) < mr.needs(name):
         marks.append(pytest.mark.skip(reason=f"needs Blender {mr.needs(name)}"))
     return pytest.param(name, marks=marks, id=name)

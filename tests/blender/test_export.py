@@ -20,6 +20,7 @@ from tests.conftest import load_extension_package  # noqa: E402
 pytestmark = [pytest.mark.blender, pytest.mark.api]
 
 photon_map = load_extension_package()
+from photon_map.core.scene import closures as cl  # noqa: E402
 from photon_map.core.scene import contract as core_scene  # noqa: E402
 from photon_map.photon_engine.compat import ensure_node_tree  # noqa: E402
 from photon_map.photon_engine.export import ExportError, NoCameraError, export_scene  # noqa: E402
@@ -270,9 +271,13 @@ def export_materials(*mats):
     for i in range(len(mats)):
         idx = mesh.material_index[mesh.object_index == mesh.object_names.index(f"P{i}")]
         assert np.all(idx == idx[0])
+        t = m.closure_table()
+        first, count = t["first"][idx[0]], t["count"][idx[0]]
         rows.append({k: getattr(m, k)[idx[0]] for k in
                      ("diffuse", "specular", "transmission", "emission", "roughness", "ior")}
-                    | {"name": m.names[idx[0]]})
+                    | {"name": m.names[idx[0]],
+                       "program": None if m.programs is None else m.programs[idx[0]],
+                       "closures": [{"params": p} for p in t["params"][first:first + count]]})
     return rows, result.warnings
 
 
@@ -346,14 +351,33 @@ def test_unreadable_tree_gives_one_warning_and_grey():
     assert not row["specular"].any() and not row["emission"].any()
 
 
-def test_linked_input_uses_socket_value_with_a_warning():
+def test_linked_input_becomes_a_shader_program():
+    # A Checker into Color: the closure's COLOR comes from the material's program at each
+    # hit (issue 14); the row keeps the socket value as its constant.
     basic_scene()
     mat, bsdf = node_material("Textured", 'ShaderNodeBsdfDiffuse', Color=(0.2, 0.4, 0.6, 1.0))
     tex = mat.node_tree.nodes.new('ShaderNodeTexChecker')
     mat.node_tree.links.new(tex.outputs["Color"], bsdf.inputs["Color"])
     (row,), warnings = export_materials(mat)
-    assert len(warnings) == 1 and "Textured" in warnings[0] and "Color" in warnings[0]
+    assert warnings == []
     np.testing.assert_allclose(row["diffuse"], [0.2, 0.4, 0.6], rtol=1e-6)
+    prog = row["program"]
+    assert prog is not None
+    assert sorted(prog.outputs[:, 3].tolist()) == [0, 1, 2]  # the COLOR slots of closure 0
+    assert set(prog.outputs[:, 1].tolist()) == {0} and set(prog.outputs[:, 2].tolist()) == {0}
+
+
+def test_linked_input_from_an_unsupported_node_takes_its_output_default_with_a_warning():
+    # docs/shading.md: an unsupported node is reported by material and node name and its
+    # output takes the socket's default value (Wireframe's Fac: 0), folded into the closure.
+    basic_scene()
+    mat, bsdf = node_material("Wired", 'ShaderNodeBsdfDiffuse', Color=(0.2, 0.4, 0.6, 1.0))
+    wire = mat.node_tree.nodes.new('ShaderNodeWireframe')
+    mat.node_tree.links.new(wire.outputs[0], bsdf.inputs["Color"])
+    (row,), warnings = export_materials(mat)
+    assert len(warnings) == 1 and "Wired" in warnings[0] and "Wireframe" in warnings[0]
+    assert row["program"] is None
+    np.testing.assert_array_equal(row["closures"][0]["params"][cl.COLOR:cl.COLOR + 3], 0.0)
 
 
 def test_empty_slot_and_slot_indices():

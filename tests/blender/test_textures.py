@@ -212,10 +212,11 @@ def test_exporter_reports_unsupported_nodes_missing_images_and_reads_images_once
     b = textured_material("Moss", shared, shader='ShaderNodeBsdfDiffuse', socket="Color")
     leaf = bpy.data.materials.new("Leaf")
     scenes.ensure_node_tree(leaf)
-    noise = leaf.node_tree.nodes.new('ShaderNodeTexNoise')
+    noise = leaf.node_tree.nodes.new('ShaderNodeTexNoise')  # supported: a shader program
+    wire = leaf.node_tree.nodes.new('ShaderNodeWireframe')  # not supported: reported
     principled = leaf.node_tree.nodes.get("Principled BSDF")
-    leaf.node_tree.links.new(noise.outputs["Color"], principled.inputs["Base Color"])
-    leaf.node_tree.links.new(noise.outputs["Fac"], principled.inputs["Roughness"])
+    leaf.node_tree.links.new(noise.outputs[1], principled.inputs["Base Color"])
+    leaf.node_tree.links.new(wire.outputs[0], principled.inputs["Roughness"])
     missing = textured_material("Ghost", None)
     lost = bpy.data.images.new("Lost", 4, 4)
     lost.source, lost.filepath = 'FILE', "//no/such/lost.png"
@@ -231,11 +232,12 @@ def test_exporter_reports_unsupported_nodes_missing_images_and_reads_images_once
     assert m.diffuse_texture[names.index("Moss")] == 0
     assert m.diffuse_texture[names.index("Ghost")] == -1
     np.testing.assert_allclose(m.diffuse[names.index("Ghost")], 0.8, rtol=1e-6)
-    noise_msgs = [w for w in result.warnings if "Noise Texture" in w]
-    assert len(noise_msgs) == 1, result.warnings
-    assert noise_msgs[0].startswith('Material "Leaf": node "Noise Texture" (ShaderNodeTexNoise) '
-                                    'is not supported')
-    assert "Base Color" in noise_msgs[0] and "Roughness" in noise_msgs[0]
+    assert m.programs[names.index("Leaf")] is not None
+    assert not any("Noise" in w for w in result.warnings), result.warnings
+    wire_msgs = [w for w in result.warnings if "Wireframe" in w]
+    assert len(wire_msgs) == 1, result.warnings
+    assert wire_msgs[0].startswith("Material 'Leaf': node 'Wireframe' (ShaderNodeWireframe) "
+                                   "is not supported")
     ghost = [w for w in result.warnings if "Ghost" in w]
     assert len(ghost) == 1 and 'node "Image Texture"' in ghost[0] and "no image" in ghost[0]
     assert not any("Bark" in w or "Moss" in w for w in result.warnings), result.warnings

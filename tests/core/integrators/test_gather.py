@@ -384,3 +384,44 @@ def test_radiance_cache_matches_the_full_estimate(k, monkeypatch):
     np.testing.assert_allclose(a.mean(axis=(0, 1)), b.mean(axis=(0, 1)), rtol=0.015)
     blocks = lambda img: img.reshape(4, 4, 4, 4, 3).mean(axis=(1, 3))
     np.testing.assert_allclose(blocks(a), blocks(b), rtol=0.06)
+
+
+@pytest.mark.parametrize("kind, back", [("lambert", 0.0), ("translucent", 0.5),
+                                        ("sheen", 0.0), ("oren_nayar", 0.0)])
+def test_bsdf_gather_ray_weights_average_to_the_diffuse_albedo(kind, back):
+    """Final gathering at a non-Lambert diffuse lobe weights each ray by f_d |cos| / pdf:
+    a Lambert lobe's weight is its albedo exactly, and for every lobe the mean weight is
+    the lobe's directional albedo (against the mean of f |cos| over uniformly distributed
+    directions, another estimator of it); Translucent's rays go to the far side."""
+    from core.materials import closure
+    from core.scene import closures as cl
+    rows = {"lambert": dict(kind=cl.CLOSURE_DIFFUSE, params=dict(color=(0.8, 0.5, 0.2),
+                                                                 roughness=0.0)),
+            "translucent": dict(kind=cl.CLOSURE_TRANSLUCENT, params=dict(color=(0.8, 0.5, 0.2))),
+            "sheen": dict(kind=cl.CLOSURE_SHEEN, params=dict(color=1.0, roughness=0.5)),
+            "oren_nayar": dict(kind=cl.CLOSURE_DIFFUSE, params=dict(color=0.9, roughness=1.0))}
+    tab = closure.table(Materials.from_list([{"closures": [rows[kind]]}]))
+    g = 40_000
+    rng = np.random.default_rng(5)
+    wo = np.array([[0.5, 0.0, np.sqrt(0.75)]])
+    up = np.array([[0.0, 0.0, 1.0]])
+    o, d, weight, ok = np.empty((g, 3)), np.empty((g, 3)), np.empty((g, 3)), np.empty(g, bool)
+    gather._bsdf_gather_rays_kernel(tab, np.zeros(1, np.int32), np.ones((1, 3)), wo,
+                                    np.ones(1, bool), np.zeros((1, 3)), up, up, np.full(1, 1e-4),
+                                    np.full(1, back), g, rng.random(g), rng.random(g), o, d,
+                                    weight, ok)
+    assert np.isfinite(weight).all() and (weight >= 0).all()
+    below = d[:, 2] < 0
+    if kind == "translucent":
+        assert not ok[~below].any() and ok[below].all()
+        assert (o[below, 2] < 0).all()
+    else:
+        assert not below.any()
+    if kind == "lambert":
+        np.testing.assert_allclose(weight[ok], np.tile([0.8, 0.5, 0.2], (ok.sum(), 1)),
+                                   rtol=1e-6)  # the colour is stored as float32
+    uniform = rng.normal(size=(200_000, 3))
+    uniform /= np.linalg.norm(uniform, axis=1, keepdims=True)
+    want = 4.0 * np.pi * closure.eval_many(tab, 0, wo[0], uniform, up[0], up[0],
+                                           (1.0, 0.0, 0.0), True)[:, :3].mean(axis=0)
+    np.testing.assert_allclose(weight.mean(axis=0), want, rtol=0.02)

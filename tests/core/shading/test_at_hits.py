@@ -1,0 +1,133 @@
+"""Shader programs at the hits (core/prepared.py ``HitShader``): a program's closure
+parameters reach the camera pass, the photons, final gathering and SPPM; a constant
+program renders exactly like the material without one; a UV-driven base colour gives the
+analytic Lambert radiance per pixel."""
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from core.integrators import photon_mapping, sppm
+from core.prepared import prepare
+from core.scene import closures, shapes
+from core.scene.contract import CAMERA_ORTHOGRAPHIC, LIGHT_SUN, Camera, Lights, Materials, \
+    Scene, SceneError
+from core.settings import RenderSettings
+from core.shading import program as pg
+from core.shading.converters import MATH_OPS
+
+W = pg.INSTRUCTION_WIDTH
+RES = 8
+
+
+def ins(op, ints, regs):
+    row = [op] + list(ints) + [0] * (4 - len(ints)) + list(regs)
+    return row + [-1] * (W - len(row))
+
+
+def colour_outputs(reg):
+    return [[reg, pg.TARGET_CLOSURE, 0, closures.COLOR + c] for c in range(3)]
+
+
+def constant_program(value_sqrt):
+    """COLOR = value_sqrt * value_sqrt, computed at every point (one Math MULTIPLY)."""
+    code = [ins(pg.OP_MATH, [MATH_OPS["MULTIPLY"], 0], [0, 0, 0, 1])]
+    return pg.ShaderProgram.build(code, [value_sqrt], colour_outputs(1), 2, name="constant")
+
+
+def uv_program():
+    """COLOR = (U, U, U) of the first UV map."""
+    code = [ins(pg.OP_INPUT, [pg.SOURCE_UV, 0], [0])]
+    return pg.ShaderProgram.build(code, [], colour_outputs(0), 3, name="uv")
+
+
+def sun(strength):
+    m = shapes.look_at([0, 0, 1], [0, 0, 0])
+    m[:3, 3] = 0.0
+    return {"kind": LIGHT_SUN, "to_world": m, "power": strength, "angle": 0.0}
+
+
+def scene(program, colour=0.25, walls=True):
+    """A 2 m floor (UV (0, 0) to (1, 1) over x, y in [-1, 1]) seen from above, a sun
+    straight down, and (walls) four white walls 2.5 m high around it for indirect light."""
+    floor = shapes.quad([0, 0, 0], [1, 0, 0], [0, 1, 0])
+    parts = [(floor, 0)]
+    if walls:
+        for c, u in (([0, 1.5, 1.25], [1.5, 0, 0]), ([0, -1.5, 1.25], [1.5, 0, 0]),
+                     ([1.5, 0, 1.25], [0, 1.5, 0]), ([-1.5, 0, 1.25], [0, 1.5, 0])):
+            parts.append((shapes.quad(c, u, [0, 0, 1.25]), 1))
+    mesh = shapes.assemble(parts)
+    corners = mesh.vertices[mesh.triangles[mesh.material_index == 0]]
+    uvs = np.array(mesh.uvs, copy=True)
+    uvs[mesh.material_index == 0] = (corners[..., :2] + 1.0) / 2.0
+    mesh = replace(mesh, uvs=uvs.astype(np.float32))
+    # The legacy diffuse lobe as the exporter writes it: the photon terms of hits
+    # without a program still read it (prepared.surfaces).
+    floor_row = {"closures": [{"kind": closures.CLOSURE_DIFFUSE,
+                               "params": {"color": colour}}], "program": program,
+                 "diffuse": [colour] * 3}
+    mats = Materials.from_list([floor_row, {"diffuse": [0.8, 0.8, 0.8]}])
+    cam = Camera(to_world=shapes.look_at([0, 0, 3], [0, 0, 0], (0, 1, 0)), width=RES,
+                 height=RES, film_size=np.array([2.0, 2.0]), kind=CAMERA_ORTHOGRAPHIC)
+    return Scene(mesh, mats, Lights.from_list([sun(3.0)]), cam)
+
+
+SETTINGS = RenderSettings(samples=2, global_photons=3000, caustic_photons=1000,
+                          final_gather_rays=4, threads=2)
+
+
+@pytest.mark.parametrize("mode", ["final_gather", "preview"])
+def test_a_constant_program_renders_exactly_like_the_material(mode):
+    st = SETTINGS.with_values(indirect_mode=mode)
+    plain = photon_mapping.render(scene(None, 0.25), st).passes
+    programmed = photon_mapping.render(scene(constant_program(0.5), 0.9), st).passes
+    assert plain["indirect"].max() > 0 and plain["direct"].max() > 0
+    for name, image in plain.items():
+        np.testing.assert_array_equal(programmed[name], image, err_msg=name)
+
+
+def test_a_constant_program_in_sppm_equals_the_material():
+    st = SETTINGS.with_values(integrator="progressive", progressive_passes=2, photons_per_pass=2000)
+    plain = sppm.render(scene(None, 0.25), st).passes
+    programmed = sppm.render(scene(constant_program(0.5), 0.9), st).passes
+    for name, image in plain.items():
+        np.testing.assert_array_equal(programmed[name], image, err_msg=name)
+
+
+def test_a_uv_base_colour_gives_the_lambert_radiance_of_each_pixel():
+    # Sun of 3 W/m^2 straight down on a Lambert floor: L = albedo * E / pi, albedo = U,
+    # U linear across the image: the pixel's mean U is its centre's.
+    out = photon_mapping.render(scene(uv_program(), walls=False),
+                                SETTINGS.with_values(samples=16)).passes["direct"]
+    u = (np.arange(RES) + 0.5) / RES
+    expected = np.broadcast_to((u * 3.0 / np.pi)[None, :, None], out.shape)
+    np.testing.assert_allclose(out, expected, rtol=0.03, atol=1e-3)
+
+
+def test_programmed_hits_get_closure_rows_of_their_own():
+    """Hits on the programmed floor get rows past the materials holding the program's
+    colour; hits on the walls (no program) keep the prepared table and their material."""
+    prepared = prepare(scene(constant_program(0.5), 0.9))
+    with prepared:
+        shader = prepared.hit_shader
+        assert shader.active
+        prim = np.flatnonzero(prepared.tri_material == 0).astype(np.int32)
+        u = np.full(prim.shape, 0.25, np.float32)
+        d = np.tile([0.0, 0.0, -1.0], (prim.shape[0], 1))
+        tab, rows = shader.closures_at(prim, u, u, d, prepared.tri_material[prim])
+        assert np.all(rows >= prepared.closures.first.shape[0])
+        np.testing.assert_array_equal(tab.params[tab.first[rows], closures.COLOR], 0.25)
+        # Only the programmed hits get rows of their own: the walls keep theirs.
+        wall = np.flatnonzero(prepared.tri_material == 1)[:1].astype(np.int32)
+        tab2, rows2 = shader.closures_at(wall, u[:1], u[:1], d[:1],
+                                         prepared.tri_material[wall])
+        assert tab2 is prepared.closures and rows2[0] == 1
+
+
+def test_a_program_writing_a_missing_closure_is_refused():
+    code = [ins(pg.OP_INPUT, [pg.SOURCE_UV, 0], [0])]
+    bad = pg.ShaderProgram.build(code, [], [[0, pg.TARGET_CLOSURE, 3, closures.ROUGHNESS]], 3,
+                                 name="bad")
+    with pytest.raises(SceneError, match="closure 3"):
+        scene(bad).validate()
