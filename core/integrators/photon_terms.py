@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..media import world as world_medium
 from ..passes import ProgressFn, StopFn
 from ..photons import estimate, tracing
 from ..prepared import PreparedScene
@@ -109,6 +110,13 @@ def run(prepared: PreparedScene, settings: RenderSettings, maps,
         caustic_map=caustic_map, global_map=global_map, caustic_k=st.caustic_k,
         global_k=st.global_k, caustic_radius=r_c, global_radius=r_g, filter=st.filter,
         mode=st.indirect_mode, gather_rays=max(1, st.final_gather_rays // st.samples))
+    terms.medium = world_medium.renderable(prepared.scene.media)
+    if maps is not None and terms.medium is not None:
+        indirect = "indirect" in wanted
+        terms.volume_map = getattr(maps, "volume_map", None) if indirect else None
+        terms.volume_gather_map = getattr(maps, "volume_gather_map", None) if indirect else None
+        terms.volume_caustic_map = (getattr(maps, "volume_caustic_map", None)
+                                    if "caustics" in wanted else None)
     if global_map is not None and st.indirect_mode == "final_gather" and not cancelled:
         if on_progress is not None:
             points = 2 * gather.cache_point_count(n_g, diffuse_area, r_g)
