@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from tests.blender import scenes
-from tests.blender.test_export import basic_scene, export
+from tests.blender.test_export import export
+from tests.blender.test_export_warnings import lit as _lit
 
 pytestmark = [pytest.mark.blender, pytest.mark.api]
 
@@ -25,13 +26,6 @@ def _world_volume(name, idname, **inputs):
     output = next(n for n in tree.nodes if n.type == 'OUTPUT_WORLD')
     tree.links.new(node.outputs[0], output.inputs["Volume"])
     return world, tree, node, output
-
-
-def _lit():
-    scene = basic_scene(8, 6)
-    scenes.add_plane(size=4.0, material=scenes.diffuse_material())
-    scenes.add_light('POINT', location=(0.0, 0.0, 2.0))
-    return scene
 
 
 def test_principled_volume_on_the_world_has_cycles_coefficients():
