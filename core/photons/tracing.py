@@ -219,19 +219,27 @@ def _from_infinity(src, light_set: LightSet) -> bool:
     return src.index >= 0 and int(light_set.kind[src.index]) == LIGHT_SUN
 
 
+MIN_VOLUME_RADIUS = 1e-7
+"""Floor of a volume photon's radius, metres (k photons at one point would give 0)."""
+
+
 def _volume_maps(medium: _Medium | None, k: int, counters: dict):
     """(camera map, final-gather map): VolumePhotonMaps of a medium's stored volume
-    photons, the camera rays' subset and all of them (radius: the distance to the k-th
-    nearest, itself counted); None where none was stored."""
+    photons, the camera rays' subset and all of them; None where fewer than 2 were stored.
+    Radii: the distance to the k-th nearest of all of them (itself counted), computed
+    once for both maps (the k-NN is the maps' main cost: the camera map's radii are those
+    of a k / (its share of the photons) search, a little sharper)."""
     if medium is None:
         return None, None
     t0 = time.perf_counter()
     pos, flux, direction, camera = medium.vstore.take()
+    if pos.shape[0] < 2:
+        return None, None
+    radii = np.maximum(photon_radii(pos, min(int(k), pos.shape[0])), MIN_VOLUME_RADIUS)
     maps = []
-    for sel in (camera, np.ones(pos.shape[0], bool)):
+    for sel in (camera, slice(None)):
         p = pos[sel]
-        maps.append(VolumePhotonMap(p, flux[sel], direction[sel],
-                                    photon_radii(p, min(int(k), p.shape[0])))
+        maps.append(VolumePhotonMap(p, flux[sel], direction[sel], radii[sel])
                     if p.shape[0] else None)
     counters["time_balancing"] += time.perf_counter() - t0
     return maps[0], maps[1]

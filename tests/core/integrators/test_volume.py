@@ -10,6 +10,8 @@ from core.integrators import photon_mapping, sppm
 from core.lights import kernels as light_kernels
 from core.lights.light_set import LightSet
 from core.media.single_scatter import inscatter_rays
+from core.photons import tracing
+from core.prepared import prepare
 from core.scene import camera as camera_mod
 from core.scene import shapes
 from core.scene.contract import (CAMERA_ORTHOGRAPHIC, LIGHT_POINT, Camera, Lights, Materials,
@@ -136,3 +138,31 @@ def test_media_the_renderer_does_not_take_yet_are_refused_by_name():
                         threads=2)
     with pytest.raises(SettingsError, match='"integrator" is "progressive".*\'Fog\''):
         sppm.render(_floor_scene(mat, media=_fog([0.1] * 3)), st)
+
+
+def test_photon_pass_stores_the_flux_each_scattering_order_carries():
+    """A point light in infinite fog of per-channel albedo a = sigma_s / sigma_t (a tiny
+    far floor only so that photons are traced): every photon collides, the k-th
+    collisions carry Phi a^k in each channel, so the final-gather map (every collision of
+    bounces 0..B) holds Phi sum_{k=1..B+1} a^k and the camera map (the light's first
+    collisions are the shadow rays') Phi sum_{k=2..B+1} a^k; within 2 % (20k photons)."""
+    sa, ss = np.array([0.05, 0.2, 0.35]), np.array([0.45, 0.3, 0.15])
+    a = ss / (sa + ss)
+    lights = Lights.from_list([{"kind": LIGHT_POINT, "position": [0, 0, 0], "power": 10.0}])
+    mesh = shapes.assemble([(shapes.quad([0, 0, -1e3], [0.01, 0, 0], [0, 0.01, 0]), 0)],
+                           names=("Far",))
+    cam = shapes.pinhole([0, -3, 0], [0, 0, 0], 4, 4, 0.8)
+    scene = Scene(mesh, Materials.from_list([{"diffuse": [0.5] * 3}]), lights, cam,
+                  media=_fog(sa, ss, 0.4)).validate()
+    bounces = 3
+    st = RenderSettings(global_photons=20_000, caustics=False, photon_max_bounces=bounces,
+                        threads=2, seed=5)
+    with prepare(scene, 2) as pr:
+        maps = tracing.trace_photons(pr, st)
+    phi = maps.stats["per_source"][0]["global_flux"]
+    orders = np.array([a ** k for k in range(1, bounces + 2)])
+    np.testing.assert_allclose(maps.volume_gather_map.flux.sum(axis=0, dtype=np.float64),
+                               phi * orders.sum(axis=0), rtol=0.02)
+    np.testing.assert_allclose(maps.volume_map.flux.sum(axis=0, dtype=np.float64),
+                               phi * orders[1:].sum(axis=0), rtol=0.02)
+    assert maps.global_map is None or len(maps.global_map) < 10  # the floor is out of reach
