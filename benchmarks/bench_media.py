@@ -3,11 +3,17 @@ against closed forms, and their speed (after a warm-up call, so numba's compile 
 counted).
 
     .venv/bin/python benchmarks/bench_media.py [--photons 400000] [--rays 20000]
+        [--fog-photons 100000]
+
+``fog`` renders tests/core/scenes.py's caustic scene (glass sphere over a floor, point
+light) in World fog and without (the baseline in the same run): volume photons stored per
+second of photon pass, bytes per volume photon, and the render times' ratio.
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 import pathlib
 import sys
@@ -21,6 +27,10 @@ from core import spectral  # noqa: E402
 from core.materials import dispersion  # noqa: E402
 from core.media import free_flight, phase, single_scatter  # noqa: E402
 from core.photons import beam  # noqa: E402
+from core.integrators import photon_mapping  # noqa: E402
+from core.scene.media import Media  # noqa: E402
+from core.settings import RenderSettings  # noqa: E402
+from tests.core.scenes import caustic_scene  # noqa: E402
 
 
 def trapezoid(y, x, axis=0):
@@ -105,11 +115,40 @@ def spectra():
         print(f"BK7 prism 60 deg, incidence 50 deg, {nm} nm: n = {n:.5f}, deviation {dev:.4f} deg")
 
 
+def fog(photons: int):
+    clear = caustic_scene(width=32, height=32)
+    foggy = dataclasses.replace(clear, media=Media.from_list([
+        {"sigma_a": [0.02] * 3, "sigma_s": [0.15] * 3, "anisotropy": 0.2, "name": "Fog"}]))
+    st = RenderSettings(samples=4, global_photons=photons, caustic_photons=photons,
+                        indirect_mode="preview", threads=0, seed=3)
+    photon_mapping.render(clear, st.with_values(global_photons=2000, caustic_photons=2000))
+    photon_mapping.render(foggy, st.with_values(global_photons=2000, caustic_photons=2000))
+    times = {}
+    for name, scene in (("clear", clear), ("fog", foggy)):
+        out = photon_mapping.render(scene, st)
+        times[name] = out.stats
+    s = times["fog"]
+    pm = s["photon_maps"]
+    stored = pm["volume_stored"] + pm["volume_caustic_stored"]
+    print(f"fog (caustic scene, 32x32, 4 spp, {photons:,} + {photons:,} photons, preview): "
+          f"{stored:,} volume photons for the camera ({pm['volume_stored']:,} global, "
+          f"{pm['volume_caustic_stored']:,} caustic) in a {s['time_photons']:.2f} s photon pass "
+          f"= {stored / s['time_photons']:,.0f} volume photons/s (clear scene's photon pass "
+          f"{times['clear']['time_photons']:.2f} s, ratio {s['time_photons'] / times['clear']['time_photons']:.2f}); "
+          f"camera pass {s['time_render']:.2f} s vs {times['clear']['time_render']:.2f} s "
+          f"(ratio {s['time_render'] / times['clear']['time_render']:.2f}); "
+          f"beam estimate {s.get('time_volume_beam', 0.0):.2f} s, Volume Direct "
+          f"{s.get('time_volume', 0.0):.2f} s")
+    print(f"bytes per volume photon: {beam.VolumePhotonMap(np.zeros((4, 3)), np.ones((4, 3)), np.tile([0, 0, 1.0], (4, 1)), np.ones(4)).nbytes / 4:.0f}")
+
+
 def main():
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--photons", type=int, default=400_000)
     p.add_argument("--rays", type=int, default=20_000)
+    p.add_argument("--fog-photons", type=int, default=100_000)
     a = p.parse_args()
+    fog(a.fog_photons)
     slab(a.photons, a.rays)
     inscatter()
     flights()

@@ -2,7 +2,9 @@
 names in Blender, ``RenderOutput``, and the callbacks every integrator takes.
 
 PASSES lists the terms summed into "combined", in summation order (the seed lecture's
-split: emission, environment, direct, specular, caustics, indirect diffuse).
+split: emission, environment, direct, specular, caustics, indirect diffuse); LIGHT_PASSES
+adds the participating media's Volume Direct and Volume Indirect (VOLUME_PASSES), produced
+only for a scene with a medium (core/integrators/volume.py).
 BLENDER_PASS_NAMES maps our keys to the pass names Blender 5 uses in its render results and
 EXR files ("Emission" and "Environment" are Blender's own passes; the others are
 registered by the engine).
@@ -17,6 +19,11 @@ import numpy as np
 
 
 PASSES = ("emission", "environment", "direct", "specular", "caustics", "indirect")
+"""The light passes of every render."""
+VOLUME_PASSES = ("volume_direct", "volume_indirect")
+"""The passes of the media terms: only a render of a scene with a medium produces them."""
+LIGHT_PASSES = PASSES + VOLUME_PASSES
+"""Every light pass, in summation order (the ``pass_*`` settings)."""
 
 BLENDER_PASS_NAMES = {
     "combined": "Combined",
@@ -26,6 +33,8 @@ BLENDER_PASS_NAMES = {
     "specular": "Specular",
     "caustics": "Caustics",
     "indirect": "Indirect",
+    "volume_direct": "Volume Direct",
+    "volume_indirect": "Volume Indirect",
 }
 
 ProgressFn = Callable[[float, str], None]

@@ -42,6 +42,9 @@ GATHER_LOBE = 17       # lobe choices of final-gather rays at mirrors and glass
 CACHE_SAMPLE = 18      # the radiance cache's surface points
 CUTOUT_CHOICE = 19     # camera rays passing a cut-out (opacity < 1)
 GATHER_CUTOUT = 20     # final-gather rays passing a cut-out
+VOLUME_DISTANCE = 21   # the distance along a camera segment where Volume Direct scatters
+VOLUME_LIGHT = 22      # the point on a light a volume shadow ray aims at
+MEDIUM_FLIGHT = 23     # photons' free flights and phase-function scattering in media
 
 PROGRESSIVE = 7
 """Last stream index of the progressive integrator's camera paths: keeps its visible-point

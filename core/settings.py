@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, fields, replace
 
-from .passes import PASSES
+from .passes import LIGHT_PASSES
 
 
 class SettingsError(ValueError):
@@ -121,6 +121,12 @@ class RenderSettings:
     """Produce the "caustics" pass (the term itself is switched by ``caustics``)."""
     pass_indirect: bool = True
     """Produce the "indirect" pass (the term itself is switched by ``indirect_mode``)."""
+    pass_volume_direct: bool = True
+    """Produce the "volume_direct" pass (single scattering of the lights in a medium; only
+    for a scene with a medium)."""
+    pass_volume_indirect: bool = True
+    """Produce the "volume_indirect" pass (the volume photon maps' beam estimate; only for
+    a scene with a medium)."""
     denoising_data: bool = False
     """Produce "denoising_albedo" and "denoising_normal" (core/integrators/denoise_features.py, Cycles'
     definitions) for the compositor's Denoise node; the Photon Map integrator only."""
@@ -152,8 +158,8 @@ class RenderSettings:
     """How SPPM gets direct light: one of PROGRESSIVE_DIRECT ("photons": standard SPPM)."""
 
     def passes(self) -> tuple[str, ...]:
-        """The light passes (names in PASSES, summation order) produced as images."""
-        return tuple(name for name in PASSES if getattr(self, f"pass_{name}"))
+        """The light passes (names in LIGHT_PASSES, summation order) produced as images."""
+        return tuple(name for name in LIGHT_PASSES if getattr(self, f"pass_{name}"))
 
     def validated(self) -> "RenderSettings":
         checks = {
@@ -203,7 +209,7 @@ class RenderSettings:
                                 f'(seconds; 0 = no budget), got {v!r}')
         for name in ("projection_map", "photon_importance", "caustics", "photon_debug_pass",
                      "overlay_composite", "denoising_data") + tuple(
-                f"pass_{p}" for p in PASSES):
+                f"pass_{p}" for p in LIGHT_PASSES):
             v = getattr(self, name)
             if not isinstance(v, bool):
                 raise SettingsError(f'"{name}" must be true or false, got {v!r}')

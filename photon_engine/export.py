@@ -24,10 +24,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..core.scene.contract import Lights, Materials, Mesh, Scene, World
+from ..core.scene.media import Media
 from .export_camera import export_camera, relative_camera, relative_matrix, render_origin
 from .export_errors import ExportError, NoCameraError  # noqa: F401  (re-exported)
 from .export_lights import light_row
 from .export_materials import ImageTable, default_row, read_material, read_world, volume_only
+from .export_volumes import world_medium
 from .export_warnings import scene_warnings
 
 _VISIBILITY_FLAGS = ("visible_camera", "visible_diffuse", "visible_glossy",
@@ -86,6 +88,7 @@ def export_scene(depsgraph, camera=None, origin=None) -> ExportResult:
         camera=camera,
         world=_export_world(depsgraph, warnings),
         textures=materials.images.textures(),
+        media=_export_media(depsgraph, warnings),
     )
     scene.validate()
     warnings.extend(scene_warnings(depsgraph, scene))
@@ -127,6 +130,13 @@ def _export_world(depsgraph, warnings) -> World:
     return World(radiance=np.asarray(radiance, np.float32), visible_to_camera=visible)
 
 
+def _export_media(depsgraph, warnings) -> Media:
+    """The World's Volume as the scene's medium (photon_engine/export_volumes.py); media
+    inside meshes are reported by material (``_MaterialTable``) and not exported yet."""
+    row = world_medium(depsgraph.scene.world, warnings)
+    return Media.from_list([row] if row is not None else [])
+
+
 class _MaterialTable:
     """The global material list, one row per distinct Blender material (None = default grey),
     and the images their Image Texture nodes use (each read once)."""
@@ -150,7 +160,8 @@ class _MaterialTable:
                 # Cycles renders it as a volume without a surface; an opaque black box
                 # would be wrong everywhere, leaving it out only misses the medium.
                 self._warnings.append(f'Material "{mat.name}" has only a Volume output '
-                                      f"(volumes are not supported yet): the faces using it "
+                                      f"(a Volume inside a mesh is not supported yet; only "
+                                      f"the World's Volume renders): the faces using it "
                                       f"are left out of the render")
                 self.left_out.add(len(self.rows))
                 row = default_row(mat.name)

@@ -175,8 +175,9 @@ def read_material(mat, warnings: list[str], images: "ImageTable | None" = None) 
     warnings.extend(reader.notes)
     output = _active_output(tree, ("ShaderNodeOutputMaterial",))
     if _linked(output.inputs.get("Volume")):
-        warnings.append(f'Material "{name}": its Volume is not supported yet; ignored '
-                        f"(the surface is rendered)")
+        warnings.append(f'Material "{name}": a Volume inside a mesh is not supported yet; '
+                        f"ignored (the surface is rendered; only the World's Volume renders "
+                        f"as a medium)")
     notes = []
     for lobe in ("diffuse", "specular", "transmission"):
         v = getattr(closure, lobe)

@@ -4,7 +4,6 @@ The exporter renders what it can; what it drops or ignores is reported here, one
 per object or setting, in the words of Blender's UI (docs/blender.md, "What is not
 supported yet, and what you will see"):
 
-- the World's Volume output (ignored: the world is a background only);
 - hair particle systems drawn as paths, and Curves (hair) objects (not rendered);
 - motion blur (ignored: one instant is rendered);
 - closed transmissive meshes whose normals point inward (rendered as they are, inside out:
@@ -18,19 +17,6 @@ import numpy as np
 from ..core.color import LUMINANCE
 from ..core.scene import orientation
 from ..core.scene.contract import Scene
-
-
-def world_volume(world) -> str | None:
-    """The warning for a World whose active output has a Volume linked, else None."""
-    if world is None or world.node_tree is None:
-        return None
-    for node in world.node_tree.nodes:
-        if node.type == 'OUTPUT_WORLD' and node.is_active_output:
-            volume = node.inputs.get("Volume")
-            if volume is not None and volume.is_linked:
-                return (f"World '{world.name}': the World's Volume is not supported yet; "
-                        f"ignored (the world lights the scene as a background only)")
-    return None
 
 
 def dropped_objects(depsgraph) -> list[str]:
@@ -73,8 +59,7 @@ def inside_out_glass(scene: Scene) -> list[str]:
 
 def scene_warnings(depsgraph, scene: Scene) -> list[str]:
     """Every scene-level warning of ``depsgraph`` exported as ``scene``."""
-    out = [w for w in (world_volume(depsgraph.scene.world), motion_blur(depsgraph.scene))
-           if w is not None]
+    out = [w for w in (motion_blur(depsgraph.scene),) if w is not None]
     out += dropped_objects(depsgraph)
     out += inside_out_glass(scene)
     return out

@@ -325,6 +325,19 @@ class PhotonMapRenderSettings(bpy.types.PropertyGroup):
         description="Indirect pass: indirect diffuse light (colour bleeding) from the global map",
         default=True, update=_update_passes,
     )
+    pass_volume_direct: BoolProperty(
+        name="Volume Direct",
+        description="Volume Direct pass: the lights' light scattered once in the World's "
+                    "Volume towards the camera (shadow rays); only with a World Volume",
+        default=True, update=_update_passes,
+    )
+    pass_volume_indirect: BoolProperty(
+        name="Volume Indirect",
+        description="Volume Indirect pass: light scattered in the World's Volume after "
+                    "other bounces, volumetric caustics included (volume photons); only "
+                    "with a World Volume",
+        default=True, update=_update_passes,
+    )
     denoising_data: BoolProperty(
         name="Denoising Data",
         description="Denoising Albedo and Denoising Normal passes, as Cycles defines them, "
@@ -432,6 +445,8 @@ def to_core_settings(props):
         pass_specular=bool(props.pass_specular),
         pass_caustics=bool(props.pass_caustics),
         pass_indirect=bool(props.pass_indirect),
+        pass_volume_direct=bool(props.pass_volume_direct),
+        pass_volume_indirect=bool(props.pass_volume_indirect),
         denoising_data=bool(props.denoising_data),
         integrator=props.integrator,
         progressive_passes=props.progressive_passes,

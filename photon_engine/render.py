@@ -33,7 +33,11 @@ EXTRA_PASSES = {
     "specular": "Specular",
     "caustics": "Caustics",
     "indirect": "Indirect",
+    "volume_direct": "Volume Direct",
+    "volume_indirect": "Volume Indirect",
 }
+VOLUME_PASSES = ("volume_direct", "volume_indirect")
+"""Filled only for a scene with a medium (the World's Volume, photon_engine/export_volumes.py)."""
 # The photon debug pass (core/integrators/debug_overlay.py): RGBA, not part of Combined.
 DEBUG_PASS = ("photons", "Photons")
 # Denoising features (core/denoise_features.py), under Cycles' pass names, which the
@@ -45,15 +49,17 @@ PASS_UPDATE_SECONDS = 0.2
 """Least time between two progressive images sent to Blender (very fast passes)."""
 
 
-def render_passes(props):
+def render_passes(props, medium: bool = False):
     """The passes a render with settings ``props`` (``scene.photon_map``; None = defaults)
     fills besides Combined: [(core name, Blender name, channels, channel ids)]. The light
-    passes switched on (``pass_*``), then Photons when the debug pass is on; none in
-    progressive mode, which produces Combined only."""
+    passes switched on (``pass_*``; Volume Direct / Indirect only when ``medium``, the
+    scene has one), then Photons when the debug pass is on; none in progressive mode,
+    which produces Combined only."""
     if props is not None and props.integrator == 'progressive':
         return []
     out = [(core_name, blender_name, 3, "RGB") for core_name, blender_name in EXTRA_PASSES.items()
-           if props is None or getattr(props, f"pass_{core_name}")]
+           if (props is None or getattr(props, f"pass_{core_name}"))
+           and (medium or core_name not in VOLUME_PASSES)]
     if props is not None and props.photon_debug_pass:
         out.append((*DEBUG_PASS, 4, "RGBA"))
     if props is not None and props.denoising_data:
@@ -63,8 +69,10 @@ def render_passes(props):
 
 def register_passes(engine, scene, view_layer):
     """``RenderEngine.update_render_passes``: declare the passes a render will fill."""
+    from .export_volumes import scene_has_medium
     engine.register_pass(scene, view_layer, "Combined", 4, "RGBA", 'COLOR')
-    for _, name, channels, chan_id in render_passes(getattr(scene, "photon_map", None)):
+    for _, name, channels, chan_id in render_passes(getattr(scene, "photon_map", None),
+                                                    scene_has_medium(scene)):
         engine.register_pass(scene, view_layer, name, channels, chan_id,
                              'VECTOR' if chan_id == "XYZ" else 'COLOR')
 

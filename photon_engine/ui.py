@@ -78,7 +78,8 @@ class PHOTON_MAP_VIEWLAYER_PT_passes(PhotonMapPanel, bpy.types.Panel):
         settings = context.scene.photon_map
         col = layout.column(heading="Light", align=True)
         col.active = settings.integrator == 'photon_map'  # progressive: Combined only
-        for name in ("emission", "environment", "direct", "specular", "caustics", "indirect"):
+        for name in ("emission", "environment", "direct", "specular", "caustics", "indirect",
+                     "volume_direct", "volume_indirect"):
             col.prop(settings, f"pass_{name}")
         col = layout.column(heading="Data", align=True)
         col.active = settings.integrator == 'photon_map'

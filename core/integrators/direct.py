@@ -31,6 +31,7 @@ from ..lights import kernels as light_kernels
 from ..lights import light_set as lights
 from .. import sampling
 from ..materials import textures
+from ..media import world as world_medium
 from ..scene.accel import Accelerator
 from ..prepared import PreparedScene
 from ..settings import RenderSettings
@@ -190,6 +191,7 @@ class DirectLighting:
     stats: dict = field(default_factory=lambda: {"rays_shadow": 0, "time_shading": 0.0,
                                                  "time_shadow": 0.0})
     no_light: np.ndarray = field(default_factory=lambda: np.zeros(light_kernels.P_COUNT))
+    medium: world_medium.WorldMedium | None = None  # the World's fog every shadow ray crosses
 
 
 class ShadingPoints(NamedTuple):
@@ -225,18 +227,21 @@ class ShadingPoints(NamedTuple):
 
 
 def prepare(settings: RenderSettings, prepared: PreparedScene, samples: int,
-            stats: dict | None = None) -> DirectLighting:
+            stats: dict | None = None,
+            medium: world_medium.WorldMedium | None = None) -> DirectLighting:
     """The direct lighting of a render over the prepared scene's tables and accelerator:
     settings' seed and light_samples; ``samples`` sizes the sample index (the camera
     pass's samples per pixel, SPPM's pass count). ``stats``: the caller's counters to add
-    rays_shadow, time_shading and time_shadow to."""
+    rays_shadow, time_shading and time_shadow to. ``medium``: the World's medium, whose
+    transmittance multiplies every shadow ray's light (None: vacuum)."""
     dl = DirectLighting(
         light_set=prepared.light_set, emissive=prepared.emissive,
         closures=prepared.closures, world=prepared.world, extent=float(prepared.extent),
         accel=prepared.accel, surfaces=prepared.surfaces, tri_vertices=prepared.tri_vertices,
         tri_normals=prepared.tri_normals, seed=int(settings.seed),
         light_samples=int(settings.light_samples),
-        sample_bits=sampling.index_bits(int(samples) * int(settings.light_samples)))
+        sample_bits=sampling.index_bits(int(samples) * int(settings.light_samples)),
+        medium=medium)
     if stats is not None:
         dl.stats = stats
     return dl
@@ -290,6 +295,8 @@ def shade(ctx: DirectLighting, hit: ShadingPoints, pixel, sample, depth, target)
                           ctx.seed, dim, sampling.stream(sampling.LIGHT_PICK, depth, k),
                           k, k_count, bits, use_d, use_g,
                           ctx.extent, contrib, sh_o, sh_d, sh_t, need)
+            if ctx.medium is not None:  # the shadow segment's transmittance
+                world_medium.attenuate(ctx.medium, contrib, need, sh_t)
             t1 = time.perf_counter()
             c = _compact_kernel(need, sh_o, sh_d, sh_t, idx, pk_o, pk_d, pk_t) if shadows else 0
             occ = np.zeros(0, bool)

@@ -44,6 +44,7 @@ from numba import njit, prange
 
 from .. import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
 from .. import sampling
+from ..media import world as world_medium
 from ..prepared import PreparedScene
 from ..scene import geometry
 from ..settings import RenderSettings
@@ -222,7 +223,10 @@ class PhotonTerms:
 
     caustic_map / global_map: PhotonMap or None (term skipped); radii in metres (already
     resolved from 0 = automatic); mode: "final_gather", "preview" or "off";
-    gather_rays: final-gather rays per camera sample.
+    gather_rays: final-gather rays per camera sample. volume_map / volume_caustic_map:
+    the volume photons (core/photons/beam.VolumePhotonMap) of a scene with a medium, read
+    by core/integrators/volume.py; volume_gather_map (every collision) and medium (the
+    World's, core/media/world.py), read by the final-gather rays; None without.
     """
 
     caustic_map: PhotonMap | None
@@ -240,6 +244,10 @@ class PhotonTerms:
     cache_unit_albedo: bool = False           # the cache holds E / pi (textured scenes)
     bsdf_materials: np.ndarray | None = None  # (M,) bool diffuse-like lobes not Lambert
     back_share: np.ndarray | None = None      # (M,) float64 gather rays on the far side
+    volume_map: object = None
+    volume_caustic_map: object = None
+    volume_gather_map: object = None
+    medium: object = None                     # core/media/world.WorldMedium or None
     stats: dict = field(default_factory=lambda: {"rays_gather": 0, "gather_queries": 0,
                                                  "caustic_queries": 0, "time_gather": 0.0,
                                                  "time_caustics": 0.0})
@@ -386,6 +394,18 @@ def final_gather(terms: PhotonTerms, prepared: PreparedScene, settings: RenderSe
     return out
 
 
+def _through_medium(terms: PhotonTerms, o, d, hits, thr, radiance, rows) -> np.ndarray:
+    """Final-gather segments in the World's medium: radiance[rows] += thr x the beam
+    estimate of every volume photon along them (single scattering included, as the global
+    map of final gathering holds direct photons); returns thr x their transmittance."""
+    seg = np.where(hits.prim >= 0, hits.t.astype(np.float64), np.inf)
+    m = terms.medium
+    vmap = terms.volume_gather_map
+    if vmap is not None and len(vmap):
+        radiance[rows] += thr * vmap.radiance(o, d, np.minimum(seg, 1e30), m.sigma_t, m.g)
+    return thr * world_medium.transmittance(m, seg)
+
+
 def _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sample,
                         depth, bsdf=None) -> np.ndarray:
     t_start = time.perf_counter()
@@ -421,6 +441,8 @@ def _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sa
             lambda layer, bounce=bounce: sampling.stream(sampling.GATHER_CUTOUT, depth, bounce,
                                                          layer))
         terms.stats["rays_gather"] += rows.shape[0]
+        if terms.medium is not None:
+            thr = _through_medium(terms, o, d, hits, thr, radiance, rows)
         hit = np.flatnonzero(hits.prim >= 0)
         # Escaping rays and light sources count nothing (direct light holds them).
         rows, thr, d = rows[hit], thr[hit], d[hit]

@@ -60,12 +60,13 @@ from numba import njit, prange
 
 from .. import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
 from .. import sampling
-from ..passes import PASSES, ProgressFn, RenderOutput, StopFn, TileFn, UsedPhotonMaps
+from ..passes import (LIGHT_PASSES, PASSES, VOLUME_PASSES, ProgressFn, RenderOutput, StopFn,
+                      TileFn, UsedPhotonMaps)
 from ..prepared import PreparedScene, prepare
 from ..scene import camera, geometry
 from ..scene.contract import Scene
 from ..settings import RenderSettings
-from . import camera_paths, debug_overlay, denoise_features, direct, gather, photon_terms
+from . import camera_paths, debug_overlay, denoise_features, direct, gather, photon_terms, volume
 
 # A tile holds about this many camera samples (all samples of its pixels); tiles grow
 # while they take less than TILE_SECONDS and shrink when longer, so that progress (and
@@ -95,16 +96,23 @@ class _CameraPass:
     stats: dict
     outputs: tuple
     terms: gather.PhotonTerms | None = None
+    volume: volume.VolumeTerms | None = None
 
 
 def _camera_pass(prepared: PreparedScene, settings: RenderSettings) -> _CameraPass:
     stats = {"rays_camera": 0, "rays_specular": 0, "rays_shadow": 0,
              "time_intersect": 0.0, "time_shadow": 0.0, "time_shading": 0.0}
+    media = volume.prepare(settings, prepared, settings.samples)
     passes = settings.passes()
+    terms = LIGHT_PASSES
+    if media is None:  # no medium: no volume passes (their terms are 0)
+        passes = tuple(p for p in passes if p not in VOLUME_PASSES)
+        terms = PASSES
     return _CameraPass(prepared=prepared, settings=settings,
-                       direct=direct.prepare(settings, prepared, settings.samples, stats),
-                       stats=stats,
-                       outputs=passes + ((REST,) if len(passes) < len(PASSES) else ()))
+                       direct=direct.prepare(settings, prepared, settings.samples, stats,
+                                             None if media is None else media.medium),
+                       stats=stats, volume=media,
+                       outputs=passes + ((REST,) if len(passes) < len(terms) else ()))
 
 
 # --- kernels --------------------------------------------------------------------------------
@@ -214,7 +222,7 @@ def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> dict[str, np.ndarray]:
     n = pixel.shape[0]
     # Switched-off passes share the REST accumulator: every term still reaches combined.
     kept = {name: np.zeros((n, 3)) for name in ctx.outputs}
-    acc = {name: kept.get(name, kept.get(REST)) for name in PASSES}
+    acc = {name: kept.get(name, kept.get(REST)) for name in LIGHT_PASSES}
     pr = ctx.prepared
     mats = pr.materials
     k_light = int(st.light_samples)
@@ -258,6 +266,11 @@ def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> dict[str, np.ndarray]:
         if not first:
             ctx.stats["rays_specular"] += rows.shape[0]
         emit_target = acc["emission"] if first else acc["specular"]
+        if ctx.volume is not None:  # the segments' medium: its light, then its transmittance
+            thr = volume.add_segments(
+                ctx.volume, origins, dirs, np.where(hits.prim >= 0, hits.t, np.inf), thr,
+                rows, pixel, sample, depth, acc["volume_direct"] if first else acc["specular"],
+                acc["volume_indirect"] if first else acc["specular"], emit_target, ctx.stats)
 
         # Lights seen along the rays (lights are not occluders), weighed against light
         # sampling after a rough lobe
@@ -402,6 +415,9 @@ def render(scene: Scene, settings: RenderSettings | None = None,
     try:
         ctx.terms, photon_stats, photons_cancelled = photon_terms.run(
             prepared, settings, photon_maps, on_progress, should_stop, PHOTON_SHARE)
+        if ctx.volume is not None:
+            ctx.volume.volume_map = ctx.terms.volume_map
+            ctx.volume.caustic_map = ctx.terms.volume_caustic_map
     except BaseException:
         prepared.close()
         raise
@@ -477,7 +493,8 @@ def render(scene: Scene, settings: RenderSettings | None = None,
             + stats["rays_gather"])
     stats.update({
         "pixels": done, "samples": settings.samples, "tiles": tiles,
-        "passes_produced": settings.passes(), "pass_buffers": len(ctx.outputs),
+        "passes_produced": tuple(p for p in ctx.outputs if p != REST),
+        "pass_buffers": len(ctx.outputs),
         "rays_total": rays, "time_prepare": t_prepared - t_start,
         "time_photons": t_photons - t_prepared,
         "time_render": t_end - t_photons, "time_total": t_end - t_start,

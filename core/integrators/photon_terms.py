@@ -15,6 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..materials import closure
+from ..media import world as world_medium
 from ..passes import ProgressFn, StopFn
 from ..photons import estimate, tracing
 from ..prepared import PreparedScene
@@ -115,6 +116,13 @@ def run(prepared: PreparedScene, settings: RenderSettings, maps,
     if np.any(lobes["non_lambert"] & used):
         terms.bsdf_materials = lobes["non_lambert"]
         terms.back_share = np.where(lobes["diffuse_transmits"], gather.BACK_SHARE, 0.0)
+    terms.medium = world_medium.renderable(prepared.scene.media)
+    if maps is not None and terms.medium is not None:
+        indirect = "indirect" in wanted
+        terms.volume_map = getattr(maps, "volume_map", None) if indirect else None
+        terms.volume_gather_map = getattr(maps, "volume_gather_map", None) if indirect else None
+        terms.volume_caustic_map = (getattr(maps, "volume_caustic_map", None)
+                                    if "caustics" in wanted else None)
     if global_map is not None and st.indirect_mode == "final_gather" and not cancelled:
         if on_progress is not None:
             points = 2 * gather.cache_point_count(n_g, diffuse_area, r_g)

@@ -41,7 +41,10 @@ from ..passes import ProgressFn, StopFn
 from ..prepared import PreparedScene
 from ..scene.bounds import Targets
 from ..settings import RenderSettings
-from . import emission, importance, scatter
+from ..media import world as world_medium
+from ..scene.contract import LIGHT_SUN
+from . import emission, importance, medium_flight, scatter
+from .beam import VolumePhotonMap, photon_radii
 from .photon_map import PhotonMap
 from .store import MODE_CAUSTIC, MODE_GLOBAL, STORE_ALL, STORE_BOUNCED, PhotonStore, compact_stored
 
@@ -57,19 +60,61 @@ class PhotonMaps:
     """global_map: photons at diffuse hits, or None when not built.
     caustic_map: photons of light -> specular+ -> diffuse paths, or None.
     global_emitted / caustic_emitted: photons emitted for each map (their flux is already
-    divided by these counts). stats: counts, times, which maps were built and why not."""
+    divided by these counts). stats: counts, times, which maps were built and why not.
+    volume_map / volume_caustic_map: the volume photons of the global and the caustic
+    emission for camera rays, volume_gather_map: every collision of the global emission,
+    for final-gather rays (core/photons/medium_flight.py); None without a scattering
+    medium."""
 
     global_map: PhotonMap | None
     caustic_map: PhotonMap | None
     global_emitted: int
     caustic_emitted: int
     stats: dict = field(default_factory=dict)
+    volume_map: VolumePhotonMap | None = None
+    volume_caustic_map: VolumePhotonMap | None = None
+    volume_gather_map: VolumePhotonMap | None = None
+
+
+@dataclass
+class _Medium:
+    """The World's medium of a photon pass and where its volume photons go: ``vstore``
+    (a medium_flight.VolumeStore), ``caustic_apart`` (the caustic emission keeps light ->
+    S+ -> V photons), ``store_direct`` (the source's first collisions are stored)."""
+
+    medium: world_medium.WorldMedium
+    vstore: medium_flight.VolumeStore
+    caustic_apart: bool
+    store_direct: bool = False
+
+
+def _fly(medium: _Medium, hits, o, d, f, pid, n_diff, n_spec, seed, map_id, bounce, mode, last):
+    """The free flights of one wavefront (core/photons/medium_flight.py): stores its volume
+    photons and returns (prim with the collided photons as misses, so the surface kernel
+    leaves them, collided (n,) bool, alive, o_new, d_new, f_new of the collided ones);
+    the passing photons' flux f is weighted in place."""
+    n = o.shape[0]
+    m = medium.medium
+    t_hit = np.where(hits.prim >= 0, hits.t.astype(np.float64), np.inf)
+    dims = np.array([sampling.stream(sampling.MEDIUM_FLIGHT, map_id, k) for k in (0, 1, 2, 3)],
+                    np.int64)
+    out = (np.empty(n, bool), np.empty(n, bool), np.empty(n, bool), np.empty((n, 3), np.float32),
+           np.empty((n, 3), np.float32), np.empty((n, 3), np.float32), np.empty(n, bool),
+           np.empty((n, 3), np.float32), np.empty((n, 3), np.float32), np.empty((n, 3)))
+    medium_flight.fly_kernel(o, d, f, pid, n_diff, n_spec, t_hit, m.sigma_a, m.sigma_s, m.g,
+                             np.int64(seed), dims, np.int64(bounce), mode,
+                             medium.caustic_apart, medium.store_direct, last, *out)
+    collided, v_store, v_camera, v_pos, v_flux, v_dir, alive, o_new, d_new, f_new = out
+    medium.vstore.add(v_store, v_camera, v_pos, v_flux, v_dir)
+    prim = np.where(collided, -1, hits.prim).astype(hits.prim.dtype)
+    return prim, collided, alive, o_new, d_new, f_new
 
 
 def _trace_chunk(prepared: PreparedScene, em: emission.Emitted, pid: np.ndarray, mode: int,
                  store_rule: int, max_bounces: int, seed: int, map_id: int,
-                 store: PhotonStore, counters: dict) -> None:
-    """Trace one chunk of emitted photons through every bounce into ``store``."""
+                 store: PhotonStore, counters: dict, medium: _Medium | None = None) -> None:
+    """Trace one chunk of emitted photons through every bounce into ``store`` (and, in a
+    medium, its volume photons into ``medium.vstore``)."""
     keep = np.any(em.flux > 0, axis=1)
     if keep.all():  # the usual case: no boolean indexing (~30 ns per (N, 3) row)
         o, d, f = em.origin.astype(np.float32), em.direction.astype(np.float32), em.flux
@@ -100,51 +145,65 @@ def _trace_chunk(prepared: PreparedScene, em: emission.Emitted, pid: np.ndarray,
         d2 = np.empty((n, 3), np.float32)
         f2 = np.empty((n, 3))
         surf = prepared.surfaces
-        tab, rows = photon_closures(prepared, hits, d)
+        prim = hits.prim
+        if medium is not None:
+            prim, collided, v_alive, v_o, v_d, v_f = _fly(
+                medium, hits, o, d, f, pid, n_diff, n_spec, seed, map_id, bounce, mode,
+                bounce == max_bounces)
+        tab, rows = photon_closures(prepared, prim, hits.u, hits.v, d)
         scatter.scatter_kernel(prepared.tri_vertices, prepared.tri_normals, prepared.tri_material,
                                prepared.extent, tab, prepared.has_diffuse,
                                prepared.specular_material,
-                               prepared.texels.photon_albedo(hits.prim, hits.u, hits.v), rows,
-                               surf.photon_opacity(hits.prim, hits.u, hits.v),
-                               hits.prim, hits.u, hits.v, d, f, pid, n_diff, n_spec,
+                               prepared.texels.photon_albedo(prim, hits.u, hits.v), rows,
+                               surf.photon_opacity(prim, hits.u, hits.v),
+                               prim, hits.u, hits.v, d, f, pid, n_diff, n_spec,
                                np.int64(seed), dims, np.int64(bounce), mode,
                                np.int64(store_rule), bounce == max_bounces, s_flag, s_pos,
                                s_flux, s_dir, alive, o2, d2, f2)
+        if medium is not None and collided.any():
+            alive = np.where(collided, v_alive, alive)
+            o2[collided], d2[collided], f2[collided] = v_o[collided], v_d[collided], v_f[collided]
         store.add(*compact_stored(s_flag, s_pos, s_flux, s_dir))
         o, d, f, pid, n_diff, n_spec = scatter.compact_alive(alive, o2, d2, f2, pid, n_diff, n_spec)
         counters["time_scatter"] += time.perf_counter() - t1
 
 
-def photon_closures(prepared, hits, d):
+def photon_closures(prepared, prim, u, v, d):
     """(tab, rows) for a photon wavefront (``HitShader.closures_at`` at the hits that are
-    not misses): rows (N,) int32, -1 on misses, or (0,) with the prepared table when no
-    photon met a programmed material (the kernel then reads the triangles' materials)."""
+    not misses; prim (N,) int32 triangle, -1 for a miss or a photon that scattered in a
+    medium first; u, v (N,) float32 barycentrics; d (N, 3) directions): rows (N,) int32, -1
+    where prim is, or (0,) with the prepared table when no photon met a programmed material
+    (the kernel then reads the triangles' materials)."""
     shader = prepared.hit_shader
     if not shader.active:
         return prepared.closures, np.zeros(0, np.int32)
-    got = np.flatnonzero(hits.prim >= 0)
-    mat = prepared.tri_material[hits.prim[got]]
-    tab, r = shader.closures_at(hits.prim[got], hits.u[got], hits.v[got], d[got], mat)
+    got = np.flatnonzero(prim >= 0)
+    mat = prepared.tri_material[prim[got]]
+    tab, r = shader.closures_at(prim[got], u[got], v[got], d[got], mat)
     if r is mat:
         return tab, np.zeros(0, np.int32)
-    rows = np.full(hits.prim.shape[0], -1, np.int32)
+    rows = np.full(prim.shape[0], -1, np.int32)
     rows[got] = r
     return tab, rows
 
 
 def _trace_map(prepared, sources, counts, targets_per_source, mode, store_rule, seed: int,
                max_bounces: int, map_id, counters, on_progress=None, should_stop=None,
-               done_before=0, total_work=0, flux_out=None):
+               done_before=0, total_work=0, flux_out=None, medium: _Medium | None = None):
     """Emit counts[s] photons from each source and trace them; returns (store, cancelled).
     on_progress(fraction, message) after each chunk, should_stop() -> True ends the map
     between chunks. flux_out: optional (S, 3) float64 array, += the flux each source
-    emitted (watts)."""
+    emitted (watts). medium: the World's medium the photons fly through (None: vacuum)."""
     store = PhotonStore()
     first_id = 0
     done = done_before
     for slot, (src, n_src) in enumerate(zip(sources, counts)):
         n_src = int(n_src)
         targets, probs = targets_per_source[slot]
+        if medium is not None:
+            # The camera pass takes the lights' single scattering by shadow rays; the
+            # emissive triangles' and the world's from their stored first collisions.
+            medium.store_direct = src.index < 0
         for first in range(0, n_src, CHUNK):
             count = min(CHUNK, n_src - first)
             t0 = time.perf_counter()
@@ -155,10 +214,13 @@ def _trace_map(prepared, sources, counts, targets_per_source, mode, store_rule, 
             counters["time_emission"] += time.perf_counter() - t0
             if flux_out is not None:
                 flux_out[slot] += em.flux.sum(axis=0)
+            if medium is not None and _from_infinity(src, prepared.light_set):
+                # Sun and world light cross infinite World fog: none arrives (Cycles).
+                em.flux[:, medium.medium.sigma_t > 0] = 0.0
             pid = np.arange(first_id + first, first_id + first + count, dtype=np.int64)
             t1 = time.perf_counter()
             _trace_chunk(prepared, em, pid, mode, store_rule, max_bounces, seed, map_id,
-                         store, counters)
+                         store, counters, medium)
             counters["time_tracing"] += time.perf_counter() - t1
             done += count
             if on_progress is not None:
@@ -168,6 +230,39 @@ def _trace_map(prepared, sources, counts, targets_per_source, mode, store_rule, 
                 return store, True
         first_id += n_src
     return store, False
+
+
+def _from_infinity(src, light_set: LightSet) -> bool:
+    """The source's light comes from infinitely far: the sun or the world background."""
+    if src.index == emission.SOURCE_WORLD:
+        return True
+    return src.index >= 0 and int(light_set.kind[src.index]) == LIGHT_SUN
+
+
+MIN_VOLUME_RADIUS = 1e-7
+"""Floor of a volume photon's radius, metres (k photons at one point would give 0)."""
+
+
+def _volume_maps(medium: _Medium | None, k: int, counters: dict):
+    """(camera map, final-gather map): VolumePhotonMaps of a medium's stored volume
+    photons, the camera rays' subset and all of them; None where fewer than 2 were stored.
+    Radii: the distance to the k-th nearest of all of them (itself counted), computed
+    once for both maps (the k-NN is the maps' main cost: the camera map's radii are those
+    of a k / (its share of the photons) search, a little sharper)."""
+    if medium is None:
+        return None, None
+    t0 = time.perf_counter()
+    pos, flux, direction, camera = medium.vstore.take()
+    if pos.shape[0] < 2:
+        return None, None
+    radii = np.maximum(photon_radii(pos, min(int(k), pos.shape[0])), MIN_VOLUME_RADIUS)
+    maps = []
+    for sel in (camera, slice(None)):
+        p = pos[sel]
+        maps.append(VolumePhotonMap(p, flux[sel], direction[sel], radii[sel])
+                    if p.shape[0] else None)
+    counters["time_balancing"] += time.perf_counter() - t0
+    return maps[0], maps[1]
 
 
 def _balance(store: PhotonStore, counters: dict):
@@ -428,18 +523,32 @@ def trace_photons(prepared: PreparedScene, settings: RenderSettings,
             parts.append(text)
         if parts:
             decisions.append(f"{_source_label(src, ls)}: " + "; ".join(parts))
+    medium = world_medium.renderable(scene.media)
+    g_medium = c_medium = None
+    if medium is not None:
+        g_medium = _Medium(medium, medium_flight.VolumeStore(), caustic_apart=build_caustic)
+        c_medium = _Medium(medium, medium_flight.VolumeStore(), caustic_apart=True)
     if build_global:
         g_store, cancelled = _trace_map(
             prepared, sources, global_counts, [(None, None)] * len(sources),
             MODE_GLOBAL, global_rule, seed, max_bounces, MAP_GLOBAL, counters, on_progress,
-            should_stop, 0, total_work, g_flux)
+            should_stop, 0, total_work, g_flux, g_medium)
     if build_caustic and not cancelled:
         t0 = time.perf_counter()
         c_store, cancelled = _trace_map(
             prepared, caustic_sources, caustic_counts, caustic_targets,
             MODE_CAUSTIC, STORE_ALL, seed, max_bounces, MAP_CAUSTIC, counters, on_progress,
-            should_stop, int(global_counts.sum()), total_work, c_flux)
+            should_stop, int(global_counts.sum()), total_work, c_flux, c_medium)
         t_caustic = time.perf_counter() - t0
+    volume_map = volume_caustic_map = volume_gather_map = None
+    if medium is not None and not cancelled:
+        volume_map, volume_gather_map = _volume_maps(g_medium, settings.global_k, counters)
+        volume_caustic_map, _ = _volume_maps(c_medium, settings.caustic_k, counters)
+        decisions.append(f"volume photons in medium '{medium.name}': "
+                         f"{len(volume_map) if volume_map else 0:,} global "
+                         f"({len(volume_gather_map) if volume_gather_map else 0:,} with the "
+                         f"direct ones, for final gathering), "
+                         f"{len(volume_caustic_map) if volume_caustic_map else 0:,} caustic")
     if not cancelled:
         if g_store is not None:
             global_map = _balance(g_store, counters)
@@ -488,6 +597,8 @@ def trace_photons(prepared: PreparedScene, settings: RenderSettings,
         "importance": imp,
         "decisions": decisions,
         "cancelled": cancelled,
+        "volume_stored": len(volume_map) if volume_map is not None else 0,
+        "volume_caustic_stored": len(volume_caustic_map) if volume_caustic_map is not None else 0,
     }
     return PhotonMaps(global_map, caustic_map, stats["global_emitted"], stats["caustic_emitted"],
-                      stats)
+                      stats, volume_map, volume_caustic_map, volume_gather_map)

@@ -22,10 +22,8 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from . import closures
-
-
-class SceneError(ValueError):
-    """A scene that cannot be rendered; the message names the field and the value."""
+from .checks import MAX_MAGNITUDE, SceneError, check_array, label
+from .media import Media
 
 
 # Light kinds, stored in Lights.kind (int32). Explicit values: they cross the boundary.
@@ -518,6 +516,8 @@ class Scene:
     camera: Camera
     world: World = field(default_factory=World)
     textures: Textures = field(default_factory=Textures.empty)
+    media: Media = field(default_factory=Media.empty)
+    """The participating media (core/scene/media.py); empty: none, every ray in vacuum."""
 
     def validate(self) -> "Scene":
         """Check every array; raise SceneError naming the field, object or material."""
@@ -526,7 +526,8 @@ class Scene:
         _validate_materials(self.materials, self.textures.count)
         _validate_lights(self.lights)
         _validate_camera(self.camera)
-        _check_array("world.radiance", self.world.radiance, (3,), nonnegative=True)
+        check_array("world.radiance", self.world.radiance, (3,), nonnegative=True)
+        self.media.validate(len(self.mesh.object_names), self.textures.count)
         if self.mesh.triangle_count:
             lo, hi = self.bounds()
             size = float(np.max(hi - lo))
@@ -558,52 +559,6 @@ MAX_SCENE_SIZE = 1e11
 too bright, at 4.4e-12 m the radiance estimate finds k photons on one point, at 4.4e13 m
 the image is black."""
 
-MAX_MAGNITUDE = 1e30
-"""Largest magnitude of any float input: radiance, power, lengths. Beyond it float32 sums
-of the passes (and squares of lengths) overflow to infinity."""
-
-
-def _check_array(name, a, shape, *, dtype=None, nonnegative=False, finite=True, labels=None,
-                 at_most=None):
-    """Validate one array: shape (None = any length), dtype kind, finite and within
-    +-MAX_MAGNITUDE, >= 0, <= at_most."""
-    if not isinstance(a, np.ndarray):
-        raise SceneError(f"{name} must be a numpy array, got {type(a).__name__}")
-    if a.ndim != len(shape) or any(s is not None and s != d for s, d in zip(shape, a.shape)):
-        want = "(" + ", ".join("N" if s is None else str(s) for s in shape) + ")"
-        raise SceneError(f"{name} must have shape {want}, got {a.shape}")
-    if dtype is not None and a.dtype != dtype:
-        raise SceneError(f"{name} must be {np.dtype(dtype).name}, got {a.dtype.name}")
-    if finite and a.dtype.kind == "f" and a.size and not np.all(np.isfinite(a)):
-        bad = np.argwhere(~np.isfinite(a))[0]
-        where = _label(labels, bad[0])
-        raise SceneError(f"{name}{where} holds a non-finite value {a[tuple(bad)]} at index {tuple(bad)}")
-    if finite and a.dtype.kind == "f" and a.size and np.any(np.abs(a) > MAX_MAGNITUDE):
-        bad = np.argwhere(np.abs(a) > MAX_MAGNITUDE)[0]
-        where = _label(labels, bad[0])
-        raise SceneError(f"{name}{where} holds {a[tuple(bad)]} at index {tuple(bad)}, beyond "
-                         f"the largest magnitude {MAX_MAGNITUDE:g} the renderer accepts")
-    if nonnegative and a.size and np.any(a < 0):
-        bad = np.argwhere(a < 0)[0]
-        where = _label(labels, bad[0])
-        raise SceneError(f"{name}{where} must be >= 0, got {a[tuple(bad)]} at index {tuple(bad)}")
-    if at_most is not None and a.size and np.any(a > at_most):
-        bad = np.argwhere(a > at_most)[0]
-        where = _label(labels, bad[0])
-        raise SceneError(f"{name}{where} must be <= {at_most:g}, got {a[tuple(bad)]} at index {tuple(bad)}")
-
-
-
-check_array = _check_array
-"""The same check, public for the contract's sibling modules (scene/media.py)."""
-
-
-def _label(labels, i):
-    if labels is not None and 0 <= i < len(labels):
-        return f" of '{labels[i]}'"
-    return ""
-
-
 class _TriangleObjects:
     """Object name of triangle i, looked up only when an error message needs it
     (a list over millions of triangles would cost seconds per render)."""
@@ -622,13 +577,13 @@ class _TriangleObjects:
 
 def _validate_mesh(mesh: Mesh, materials: Materials) -> None:
     t = mesh.triangle_count
-    _check_array("mesh.vertices", mesh.vertices, (None, 3), dtype=np.float32)
-    _check_array("mesh.triangles", mesh.triangles, (None, 3), dtype=np.int32)
-    _check_array("mesh.material_index", mesh.material_index, (t,), dtype=np.int32)
-    _check_array("mesh.object_index", mesh.object_index, (t,), dtype=np.int32)
+    check_array("mesh.vertices", mesh.vertices, (None, 3), dtype=np.float32)
+    check_array("mesh.triangles", mesh.triangles, (None, 3), dtype=np.int32)
+    check_array("mesh.material_index", mesh.material_index, (t,), dtype=np.int32)
+    check_array("mesh.object_index", mesh.object_index, (t,), dtype=np.int32)
     tri_obj = _TriangleObjects(mesh)
-    _check_array("mesh.normals", mesh.normals, (t, 3, 3), dtype=np.float32, labels=tri_obj)
-    _check_array("mesh.uvs", mesh.uvs, (t, 3, 2), dtype=np.float32, labels=tri_obj)
+    check_array("mesh.normals", mesh.normals, (t, 3, 3), dtype=np.float32, labels=tri_obj)
+    check_array("mesh.uvs", mesh.uvs, (t, 3, 2), dtype=np.float32, labels=tri_obj)
     if t:
         v = mesh.vertices.shape[0]
         if mesh.triangles.min() < 0 or mesh.triangles.max() >= v:
@@ -657,16 +612,16 @@ def _validate_mesh(mesh: Mesh, materials: Materials) -> None:
 def _validate_textures(tx: Textures) -> None:
     k = tx.count
     names = tx.names if len(tx.names) == k else None
-    _check_array("textures.pixels", tx.pixels, (None, 4), dtype=np.float32, nonnegative=True)
-    _check_array("textures.offset", tx.offset, (k,), dtype=np.int64)
-    _check_array("textures.width", tx.width, (k,), dtype=np.int32)
-    _check_array("textures.height", tx.height, (k,), dtype=np.int32)
+    check_array("textures.pixels", tx.pixels, (None, 4), dtype=np.float32, nonnegative=True)
+    check_array("textures.offset", tx.offset, (k,), dtype=np.int64)
+    check_array("textures.width", tx.width, (k,), dtype=np.int32)
+    check_array("textures.height", tx.height, (k,), dtype=np.int32)
     for i in range(k):
         w, h, o = int(tx.width[i]), int(tx.height[i]), int(tx.offset[i])
         if w < 1 or h < 1:
-            raise SceneError(f"textures.width/height{_label(names, i)} must be >= 1, got {w}x{h}")
+            raise SceneError(f"textures.width/height{label(names, i)} must be >= 1, got {w}x{h}")
         if o < 0 or o + w * h > tx.pixels.shape[0]:
-            raise SceneError(f"textures.offset{_label(names, i)}: texels [{o}, {o + w * h}) "
+            raise SceneError(f"textures.offset{label(names, i)}: texels [{o}, {o + w * h}) "
                              f"outside textures.pixels (P = {tx.pixels.shape[0]})")
 
 
@@ -677,57 +632,57 @@ def _validate_materials(m: Materials, texture_count: int = 0) -> None:
         a = getattr(m, key)
         if a is None:
             continue
-        _check_array(f"materials.{key}", a, (n,), dtype=np.int32, labels=names)
+        check_array(f"materials.{key}", a, (n,), dtype=np.int32, labels=names)
         if n and (a.min() < -1 or a.max() >= texture_count):
             i = int(np.argmax((a < -1) | (a >= texture_count)))
-            raise SceneError(f"materials.{key}{_label(names, i)} is {a[i]}, not -1 (none) or "
+            raise SceneError(f"materials.{key}{label(names, i)} is {a[i]}, not -1 (none) or "
                              f"an index into the scene's {texture_count} textures")
     if m.closure_kind is not None:
         _validate_closures(m, texture_count, names)
     if m.programs is not None:
         _validate_programs(m, names)
     if m.alpha is not None:
-        _check_array("materials.alpha", m.alpha, (n,), dtype=np.float32, nonnegative=True,
+        check_array("materials.alpha", m.alpha, (n,), dtype=np.float32, nonnegative=True,
                      labels=names, at_most=1.0)
     # Reflectances above 1 create energy (photon flux grows geometrically with the
     # bounces until it overflows); the exporter clamps them to 1 with a warning.
     for key in ("diffuse", "specular", "transmission"):
-        _check_array(f"materials.{key}", getattr(m, key), (n, 3), dtype=np.float32,
+        check_array(f"materials.{key}", getattr(m, key), (n, 3), dtype=np.float32,
                      nonnegative=True, labels=names, at_most=1.0)
-    _check_array("materials.emission", m.emission, (n, 3), dtype=np.float32,
+    check_array("materials.emission", m.emission, (n, 3), dtype=np.float32,
                  nonnegative=True, labels=names)
-    _check_array("materials.roughness", m.roughness, (n,), dtype=np.float32, nonnegative=True,
+    check_array("materials.roughness", m.roughness, (n,), dtype=np.float32, nonnegative=True,
                  labels=names, at_most=1.0)
-    _check_array("materials.ior", m.ior, (n,), dtype=np.float32, labels=names)
+    check_array("materials.ior", m.ior, (n,), dtype=np.float32, labels=names)
     if n and np.any(m.ior <= 0):
         i = int(np.argmax(m.ior <= 0))
-        raise SceneError(f"materials.ior{_label(names, i)} must be > 0, got {m.ior[i]}")
+        raise SceneError(f"materials.ior{label(names, i)} must be > 0, got {m.ior[i]}")
 
 
 def _validate_closures(m: Materials, texture_count: int, names) -> None:
     t = m.closure_table()
     c = t["kind"].shape[0]
-    _check_array("materials.closure_kind", m.closure_kind, (c,), dtype=np.int32)
+    check_array("materials.closure_kind", m.closure_kind, (c,), dtype=np.int32)
     if c and not np.all(np.isin(t["kind"], list(closures.CLOSURE_KIND_NAMES))):
         j = int(np.argmax(~np.isin(t["kind"], list(closures.CLOSURE_KIND_NAMES))))
         raise SceneError(f"materials.closure_kind[{j}] is {t['kind'][j]}, not one of "
                          f"{closures.CLOSURE_KIND_NAMES}")
-    _check_array("materials.closure_weight", m.closure_weight, (c, 3), dtype=np.float32,
+    check_array("materials.closure_weight", m.closure_weight, (c, 3), dtype=np.float32,
                  nonnegative=True)
-    _check_array("materials.closure_params", m.closure_params, (c, closures.PARAM_COUNT),
+    check_array("materials.closure_params", m.closure_params, (c, closures.PARAM_COUNT),
                  dtype=np.float32)
-    _check_array("materials.closure_texture", m.closure_texture, (c,), dtype=np.int32)
+    check_array("materials.closure_texture", m.closure_texture, (c,), dtype=np.int32)
     if c and (t["texture"].min() < -1 or t["texture"].max() >= texture_count):
         j = int(np.argmax((t["texture"] < -1) | (t["texture"] >= texture_count)))
         raise SceneError(f"materials.closure_texture[{j}] is {t['texture'][j]}, not -1 (none) "
                          f"or an index into the scene's {texture_count} textures")
     for key in ("closure_first", "closure_count"):
-        _check_array(f"materials.{key}", getattr(m, key), (m.count,), dtype=np.int32,
+        check_array(f"materials.{key}", getattr(m, key), (m.count,), dtype=np.int32,
                      labels=names)
     end = t["first"].astype(np.int64) + t["count"]
     if m.count and (t["first"].min() < 0 or t["count"].min() < 0 or end.max() > c):
         i = int(np.argmax((t["first"] < 0) | (t["count"] < 0) | (end > c)))
-        raise SceneError(f"materials.closure_first/count{_label(names, i)}: closures "
+        raise SceneError(f"materials.closure_first/count{label(names, i)}: closures "
                          f"[{t['first'][i]}, {end[i]}) outside the table of {c}")
 
 
@@ -755,29 +710,29 @@ def _validate_programs(m: Materials, names) -> None:
 def _validate_lights(li: Lights) -> None:
     n = li.count
     names = li.names if len(li.names) == n else None
-    _check_array("lights.kind", li.kind, (n,), dtype=np.int32)
+    check_array("lights.kind", li.kind, (n,), dtype=np.int32)
     if n and not np.all(np.isin(li.kind, list(LIGHT_KIND_NAMES))):
         i = int(np.argmax(~np.isin(li.kind, list(LIGHT_KIND_NAMES))))
-        raise SceneError(f"lights.kind{_label(names, i)} is {li.kind[i]}, not one of {LIGHT_KIND_NAMES}")
-    _check_array("lights.to_world", li.to_world, (n, 4, 4), labels=names)
-    _check_array("lights.color", li.color, (n, 3), nonnegative=True, labels=names)
+        raise SceneError(f"lights.kind{label(names, i)} is {li.kind[i]}, not one of {LIGHT_KIND_NAMES}")
+    check_array("lights.to_world", li.to_world, (n, 4, 4), labels=names)
+    check_array("lights.color", li.color, (n, 3), nonnegative=True, labels=names)
     for key in ("power", "radius", "angle", "spot_size"):
-        _check_array(f"lights.{key}", getattr(li, key), (n,), nonnegative=True, labels=names)
-    _check_array("lights.spot_blend", li.spot_blend, (n,), nonnegative=True, labels=names,
+        check_array(f"lights.{key}", getattr(li, key), (n,), nonnegative=True, labels=names)
+    check_array("lights.spot_blend", li.spot_blend, (n,), nonnegative=True, labels=names,
                  at_most=1.0)
-    _check_array("lights.shape", li.shape, (n,), dtype=np.int32)
-    _check_array("lights.size", li.size, (n, 2), nonnegative=True, labels=names)
-    _check_array("lights.visible_to_camera", li.visible_to_camera, (n,), dtype=bool)
-    _check_array("lights.cast_shadow", li.cast_shadow, (n,), dtype=bool)
+    check_array("lights.shape", li.shape, (n,), dtype=np.int32)
+    check_array("lights.size", li.size, (n, 2), nonnegative=True, labels=names)
+    check_array("lights.visible_to_camera", li.visible_to_camera, (n,), dtype=bool)
+    check_array("lights.cast_shadow", li.cast_shadow, (n,), dtype=bool)
     for key in ("soft_falloff", "visible_to_diffuse", "visible_to_glossy", "visible_to_transmission"):
         if getattr(li, key) is not None:
-            _check_array(f"lights.{key}", getattr(li, key), (n,), dtype=bool)
+            check_array(f"lights.{key}", getattr(li, key), (n,), dtype=bool)
 
 
 def _validate_camera(c: Camera) -> None:
-    _check_array("camera.to_world", c.to_world, (4, 4), labels=[c.name] * 4)
-    _check_array("camera.film_size", np.asarray(c.film_size, np.float64), (2,))
-    _check_array("camera.film_shift", np.asarray(c.film_shift, np.float64), (2,))
+    check_array("camera.to_world", c.to_world, (4, 4), labels=[c.name] * 4)
+    check_array("camera.film_size", np.asarray(c.film_size, np.float64), (2,))
+    check_array("camera.film_shift", np.asarray(c.film_shift, np.float64), (2,))
     if int(c.width) < 1 or int(c.height) < 1:
         raise SceneError(f"camera '{c.name}' resolution must be at least 1x1, got {c.width}x{c.height}")
     if np.any(np.asarray(c.film_size) <= 0):

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .contract import SceneError, check_array
+from .checks import SceneError, check_array
 
 WORLD = -1
 """``Media.bounds`` of the World's volume: the medium of every point inside no mesh medium."""

@@ -26,7 +26,7 @@ def test_a_plain_scene_has_no_warning():
     assert export().warnings == []
 
 
-def test_the_worlds_volume_is_named():
+def test_the_worlds_volume_is_exported_without_a_warning():
     scene = lit()
     world = bpy.data.worlds.new("Foggy World")
     scene.world = world
@@ -34,9 +34,9 @@ def test_the_worlds_volume_is_named():
     volume = tree.nodes.new('ShaderNodeVolumePrincipled')
     output = next(n for n in tree.nodes if n.type == 'OUTPUT_WORLD')
     tree.links.new(volume.outputs[0], output.inputs["Volume"])
-    assert export().warnings == [
-        "World 'Foggy World': the World's Volume is not supported yet; ignored (the world "
-        "lights the scene as a background only)"]
+    result = export()
+    assert result.warnings == []  # a medium now (tests/blender/test_media.py)
+    assert result.scene.media.names == ("Foggy World",)
 
 
 def test_hair_particles_are_named():

@@ -94,9 +94,11 @@ def test_translator_carries_every_value(pm):
     assert (core.filter, core.indirect_mode, core.caustics, core.projection_map) == (
         'gaussian', 'preview', False, False)
     props.pass_direct, props.pass_indirect, props.integrator = False, False, 'progressive'
+    props.pass_volume_direct = False
     props.progressive_passes, props.photons_per_pass, props.time_budget = 9, 321, 2.5
     core = to_core_settings(props)
-    assert core.passes() == ("emission", "environment", "specular", "caustics")
+    assert core.passes() == ("emission", "environment", "specular", "caustics",
+                             "volume_indirect")
     assert (core.integrator, core.progressive_passes, core.photons_per_pass,
             core.time_budget) == ('progressive', 9, 321, 2.5)
 

@@ -425,11 +425,12 @@ def test_all_light_passes_off_keeps_only_combined():
 
 
 def test_pass_switches_are_validated_by_name():
-    assert RenderSettings().passes() == integrator.PASSES
+    assert RenderSettings().passes() == integrator.LIGHT_PASSES
     with pytest.raises(SettingsError, match='"pass_direct"'):
         RenderSettings().with_values(pass_direct=1)
     assert RenderSettings().with_strings({"pass_caustics": "off"}).passes() == (
-        "emission", "environment", "direct", "specular", "indirect")
+        "emission", "environment", "direct", "specular", "indirect", "volume_direct",
+        "volume_indirect")
 
 
 def test_on_tile_shows_the_image_filling_in(monkeypatch):

@@ -1,0 +1,131 @@
+"""Photons through the World's medium (core/media/world.py): one free flight per photon
+and bounce, before its surface hit is shaded (core/photons/tracing.py).
+
+Per photon of a wavefront with its surface hit at t_hit (inf: it escapes):
+- a spectral free flight (``free_flight.sample_distance``) over [0, t_hit]: passing, the
+  flux takes the passing weight T / P(pass) and the surface hit is shaded as without a
+  medium; colliding at t < t_hit, the flux takes the collision weight sigma_s T / pdf
+  (absorption stays in the weight) and the photon scatters there by Henyey-Greenstein
+  (sampled exactly, so the phase adds no weight), counted as a diffuse-like bounce in
+  ``n_diff`` (a later surface photon is indirect light, not a caustic), after Russian
+  roulette on the weight (survive with p = min(1, max w), flux / p);
+- where it collides, a volume photon is stored for the final-gather rays (every collision
+  of the global emission) and, for the camera rays, by the rules below (its scattered flux, position and
+  propagation direction), by the rules of the maps (core/photons/store.py's surface
+  rules carried to media):
+  - global emission (MODE_GLOBAL): after at least one diffuse or volume bounce; straight
+    from the source only with ``store_direct`` (sources whose single scattering the camera
+    pass does not take by shadow rays: emissive triangles, the world); after specular
+    bounces only (light -> S+ -> V) only when the caustic volume map is not built
+    (``caustic_apart`` False);
+  - caustic emission (MODE_CAUSTIC): light -> S+ -> V only, and the photon ends there (its
+    further light is the global emission's).
+Units: metres, flux in watts, coefficients in 1/m.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+from .. import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
+from .. import sampling
+from ..media.free_flight import sample_distance
+from ..media.phase import hg_sample
+from .store import MODE_CAUSTIC
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def fly_kernel(o, d, flux, pid, n_diff, n_spec, t_hit, sigma_a, sigma_s, g, seed, dims, bounce,
+               mode, caustic_apart, store_direct, last,
+               collided, v_store, v_camera, v_pos, v_flux, v_dir, alive, o_new, d_new, f_new):
+    """One free flight per photon (module doc).
+
+    Inputs: o, d (N, 3) float32 origins and unit directions of travel; flux (N, 3)
+    float64 W (updated in place for photons that pass: times the passing weight); pid (N,)
+    int64 random counters; n_diff, n_spec (N,) int32 bounces so far (n_diff += 1 where a
+    photon scatters in the medium); t_hit (N,) float64 metres to the surface hit (inf);
+    sigma_a, sigma_s (3,) 1/m; g the anisotropy; dims (4,) int64 random dimensions;
+    bounce the wavefront's index; mode MODE_GLOBAL / MODE_CAUSTIC.
+    Outputs: collided (N,) bool; v_store (N,) bool, a volume photon is stored, v_camera
+    (N,) bool, it belongs to the camera rays' map (the rules of the module doc; the
+    global emission's map for final-gather rays takes every collision, as the global
+    surface map of final gathering holds direct photons), with v_pos (N, 3) float32 metres,
+    v_flux (N, 3) float32 W, v_dir (N, 3) float32 unit propagation direction; alive (N,)
+    bool, a collided photon goes on from o_new along d_new (float32) with f_new (float64).
+    """
+    for i in prange(o.shape[0]):
+        collided[i] = False
+        v_store[i] = False
+        v_camera[i] = mode == MODE_CAUSTIC
+        alive[i] = False
+        u_c = sampling.hash_uniform(seed, pid[i], bounce, dims[0])
+        u_t = sampling.hash_uniform(seed, pid[i], bounce, dims[1])
+        t, scattered, w0, w1, w2 = sample_distance(sigma_a[0], sigma_a[1], sigma_a[2],
+                                                   sigma_s[0], sigma_s[1], sigma_s[2],
+                                                   t_hit[i], u_c, u_t)
+        if not scattered:
+            flux[i, 0] *= w0
+            flux[i, 1] *= w1
+            flux[i, 2] *= w2
+            continue
+        collided[i] = True
+        dx, dy, dz = np.float64(d[i, 0]), np.float64(d[i, 1]), np.float64(d[i, 2])
+        px = np.float64(o[i, 0]) + t * dx
+        py = np.float64(o[i, 1]) + t * dy
+        pz = np.float64(o[i, 2]) + t * dz
+        f0, f1, f2 = flux[i, 0] * w0, flux[i, 1] * w1, flux[i, 2] * w2
+        if not (f0 > 0.0 or f1 > 0.0 or f2 > 0.0):
+            continue  # absorbed (a medium that does not scatter in this photon's light)
+        nd, ns = n_diff[i], n_spec[i]
+        caustic_path = nd == 0 and ns > 0
+        if mode == MODE_CAUSTIC:
+            keep = caustic_path
+        else:
+            keep = True  # the final-gather rays' map holds every collision
+            v_camera[i] = nd > 0 or (nd == 0 and ns == 0 and store_direct) or (
+                caustic_path and not caustic_apart)
+        if keep:
+            v_store[i] = True
+            v_pos[i, 0], v_pos[i, 1], v_pos[i, 2] = px, py, pz
+            v_flux[i, 0], v_flux[i, 1], v_flux[i, 2] = f0, f1, f2
+            v_dir[i, 0], v_dir[i, 1], v_dir[i, 2] = dx, dy, dz
+        if last or mode == MODE_CAUSTIC:
+            continue
+        p = min(1.0, max(w0, max(w1, w2)))
+        if not sampling.hash_uniform(seed, pid[i], bounce, dims[2]) < p:
+            continue
+        u1 = sampling.hash_uniform(seed, pid[i], bounce, dims[3])
+        u2 = sampling.hash_uniform(seed, pid[i], bounce, dims[3] + 1)
+        nx, ny, nz, _ = hg_sample(g, dx, dy, dz, u1, u2)
+        n_diff[i] = nd + 1
+        o_new[i, 0], o_new[i, 1], o_new[i, 2] = px, py, pz
+        d_new[i, 0], d_new[i, 1], d_new[i, 2] = nx, ny, nz
+        f_new[i, 0], f_new[i, 1], f_new[i, 2] = f0 / p, f1 / p, f2 / p
+        alive[i] = True
+
+
+class VolumeStore:
+    """Stored volume photons, appended per bounce: positions, flux (W), propagation
+    directions, (n, 3) float32 each, and whether the camera rays' map holds them (n,)
+    bool, in emission order."""
+
+    def __init__(self):
+        self.pos, self.flux, self.dir, self.camera = [], [], [], []
+
+    def add(self, flag, camera, pos, flux, direction):
+        idx = np.flatnonzero(flag)
+        if idx.size:
+            self.pos.append(pos[idx])
+            self.flux.append(flux[idx])
+            self.dir.append(direction[idx])
+            self.camera.append(camera[idx])
+
+    def take(self):
+        """(positions, flux, directions (M, 3) float32, camera (M,) bool); the store is
+        emptied."""
+        out = tuple(np.concatenate(parts) if parts else np.zeros((0, 3), np.float32)
+                    for parts in (self.pos, self.flux, self.dir))
+        camera = np.concatenate(self.camera) if self.camera else np.zeros(0, bool)
+        self.pos, self.flux, self.dir, self.camera = [], [], [], []
+        return (*out, camera)

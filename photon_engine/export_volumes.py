@@ -1,0 +1,146 @@
+"""Volume shaders -> participating media (core/scene/media.py), as Cycles defines them.
+
+The coefficients, per RGB channel in 1/m (Blender's density is per metre), from Cycles'
+svm_closure.h (and EEVEE's node_volume_* shaders, which follow it):
+- Volume Absorption (Color C, Density rho): sigma_a = max(1 - C, 0) rho;
+- Volume Scatter (Color C, Density rho, Anisotropy g): sigma_s = C rho, Henyey-Greenstein g;
+- Principled Volume (Color C, Density rho, Anisotropy g, Absorption Color A, Emission
+  Strength S, Emission Color E): sigma_s = C rho,
+  sigma_a = max(1 - C, 0) max(1 - sqrt(A), 0) rho, emission S E (W/(m^3 sr), not scaled by
+  the density); Blackbody Intensity > 0 is reported (not supported yet);
+- Emission on a Volume output: emission Strength x Color;
+- Add Shader sums the media, Mix Shader weighs them by (1 - Fac, Fac); the anisotropy of a
+  sum is the sigma_s-weighted mean of its lobes' g (Cycles keeps the lobes apart: exact
+  for equal g).
+A linked input (a texture giving heterogeneous density or colour) is reported by node and
+input and its own value is used. Only the World's Volume is rendered so far
+(core/media/world.py); a material's Volume output is reported by export_materials.py
+(beside a Surface) and export.py (alone: its faces are left out).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..core.scene.media import WORLD
+from . import compat
+from .export_nodes import follow_reroutes
+
+
+class _Medium:
+    """Coefficients being summed: sigma_a, sigma_s, emission (3,) float64, g_weight: the
+    sum of sigma_s-luminance x g (the mean anisotropy's numerator)."""
+
+    def __init__(self):
+        self.sigma_a = np.zeros(3)
+        self.sigma_s = np.zeros(3)
+        self.emission = np.zeros(3)
+        self.g_weight = 0.0
+
+    def add(self, other: "_Medium", w: float) -> None:
+        self.sigma_a += w * other.sigma_a
+        self.sigma_s += w * other.sigma_s
+        self.emission += w * other.emission
+        self.g_weight += w * other.g_weight
+
+    @property
+    def anisotropy(self) -> float:
+        s = float(np.mean(self.sigma_s))
+        return float(np.clip(self.g_weight / s, -1.0, 1.0)) if s > 0 else 0.0
+
+
+def _value(node, name, owner, warnings, size=None):
+    """An input's own value (colour inputs: RGB (3,) float64), reporting a link."""
+    sock = node.inputs.get(name)
+    if sock is None:
+        return np.zeros(3) if size == 3 else 0.0
+    if sock.is_linked and follow_reroutes(sock) is not None:
+        warnings.append(f"{owner}: input '{name}' of node '{node.name}' is linked (textured "
+                        f"or heterogeneous media are not supported yet); using its own value")
+    v = sock.default_value
+    if size == 3:
+        return np.asarray(v[:3], np.float64)
+    return float(v)
+
+
+def _read(sock, owner, warnings, depth=0) -> _Medium:
+    m = _Medium()
+    out = follow_reroutes(sock) if sock is not None else None
+    if out is None or depth > 32:
+        return m
+    node = out.node
+    kind = node.bl_idname
+    if kind == "ShaderNodeAddShader":
+        m.add(_read(node.inputs[0], owner, warnings, depth + 1), 1.0)
+        m.add(_read(node.inputs[1], owner, warnings, depth + 1), 1.0)
+    elif kind == "ShaderNodeMixShader":
+        fac = float(np.clip(_value(node, "Fac", owner, warnings), 0.0, 1.0))
+        m.add(_read(node.inputs[1], owner, warnings, depth + 1), 1.0 - fac)
+        m.add(_read(node.inputs[2], owner, warnings, depth + 1), fac)
+    elif kind == "ShaderNodeVolumeAbsorption":
+        c = _value(node, "Color", owner, warnings, 3)
+        rho = max(_value(node, "Density", owner, warnings), 0.0)
+        m.sigma_a = np.maximum(1.0 - c, 0.0) * rho
+    elif kind == "ShaderNodeVolumeScatter":
+        c = np.maximum(_value(node, "Color", owner, warnings, 3), 0.0)
+        rho = max(_value(node, "Density", owner, warnings), 0.0)
+        m.sigma_s = c * rho
+        m.g_weight = float(np.mean(m.sigma_s)) * _value(node, "Anisotropy", owner, warnings)
+        phase = getattr(node, "phase", "HENYEY_GREENSTEIN")
+        if phase != "HENYEY_GREENSTEIN":
+            warnings.append(f"{owner}: phase function '{phase}' of node '{node.name}' is not "
+                            f"supported yet; using Henyey-Greenstein")
+    elif kind == "ShaderNodeVolumePrincipled":
+        c = np.maximum(_value(node, "Color", owner, warnings, 3), 0.0)
+        rho = max(_value(node, "Density", owner, warnings), 0.0)
+        a = np.sqrt(np.maximum(_value(node, "Absorption Color", owner, warnings, 3), 0.0))
+        m.sigma_s = c * rho
+        m.sigma_a = np.maximum(1.0 - c, 0.0) * np.maximum(1.0 - a, 0.0) * rho
+        m.g_weight = float(np.mean(m.sigma_s)) * _value(node, "Anisotropy", owner, warnings)
+        strength = max(_value(node, "Emission Strength", owner, warnings), 0.0)
+        m.emission = strength * np.maximum(_value(node, "Emission Color", owner, warnings, 3), 0.0)
+        if _value(node, "Blackbody Intensity", owner, warnings) > 0.0:
+            warnings.append(f"{owner}: Blackbody Intensity of node '{node.name}' is not "
+                            f"supported yet; no blackbody emission")
+    elif kind == "ShaderNodeEmission":
+        strength = max(_value(node, "Strength", owner, warnings), 0.0)
+        m.emission = strength * np.maximum(_value(node, "Color", owner, warnings, 3), 0.0)
+    else:
+        warnings.append(f"{owner}: node '{node.name}' ({kind}) on the Volume output is not "
+                        f"supported; ignored")
+    return m
+
+
+def _volume_socket(tree, idname):
+    """The active output node's linked Volume input, or None."""
+    if tree is None:
+        return None
+    output = tree.get_output_node('CYCLES') if hasattr(tree, "get_output_node") else None
+    if output is None:
+        output = next((n for n in tree.nodes if n.bl_idname == idname
+                       and getattr(n, "is_active_output", True)), None)
+    if output is None:
+        return None
+    sock = output.inputs.get("Volume")
+    return sock if sock is not None and sock.is_linked and follow_reroutes(sock) is not None \
+        else None
+
+
+def world_medium(world, warnings: list[str]) -> dict | None:
+    """The World's Volume as a ``Media.from_list`` row (bounds WORLD), or None when its
+    active World Output has no Volume linked."""
+    if world is None:
+        return None
+    sock = _volume_socket(compat.node_tree(world), "ShaderNodeOutputWorld")
+    if sock is None:
+        return None
+    m = _read(sock, f"World '{world.name}'", warnings)
+    return {"sigma_a": m.sigma_a, "sigma_s": m.sigma_s, "anisotropy": m.anisotropy,
+            "emission": m.emission, "bounds": WORLD, "name": world.name}
+
+
+def scene_has_medium(scene) -> bool:
+    """The scene's World has a Volume linked (the render then has the volume passes)."""
+    world = getattr(scene, "world", None)
+    return world is not None and _volume_socket(compat.node_tree(world),
+                                                "ShaderNodeOutputWorld") is not None

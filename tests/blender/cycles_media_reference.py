@@ -1,0 +1,139 @@
+"""Cycles as the reference for the World's fog (issue 16): two scenes, 48 x 36.
+
+- ``fog_spot``: a grey diffuse floor (4 m, albedo 0.6) in World fog (Principled Volume:
+  Color 0.7, Density 0.25, Anisotropy 0.3, Absorption Color black: sigma_s = 0.175,
+  sigma_a = 0.075 per metre, albedo 0.7), lit by a spot light 2 m above the floor pointing
+  down (200 W, 50 degrees, blend 0.2, radius 0.1 m: Cycles finds paths through the glass
+  only to a light with a size); the camera sees the lit cone and the floor.
+- ``fog_caustic``: the same, with a glass sphere (IOR 1.5, radius 0.25 m) 1.2 m above the
+  floor under the spot: the volumetric caustic (the focused cone in the fog below it).
+
+Cycles renders full transport with BOUNCES bounces of every kind (volume bounces
+included, caustics on, no clamping, the 1-pixel box filter of
+cycles_reference.configure_cycles), two seeds of CYCLES_SAMPLES each, averaged; the
+standard error of the 8 x 8 block means comes from the two seeds. Cached in
+tests/data/cycles_media_<name>_48x36.npz with a fingerprint of this module's scene code.
+Re-render (both scenes, or the ones named) with:
+
+    .venv/bin/python tests/blender/cycles_media_reference.py [fog_spot fog_caustic]
+"""
+
+from __future__ import annotations
+
+import hashlib
+import inspect
+import math
+import pathlib
+import sys
+
+import numpy as np
+
+import bpy
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+if str(ROOT) not in sys.path:
+    sys.path.insert(0, str(ROOT))
+
+from tests.blender import cycles_reference as ref  # noqa: E402
+from tests.blender import scenes  # noqa: E402
+
+RESOLUTION = (48, 36)
+CYCLES_SAMPLES = 2048
+"""Samples per pixel and seed (two seeds are averaged)."""
+BOUNCES = 8
+FOG = {"Color": (0.7, 0.7, 0.7, 1.0), "Density": 0.25, "Anisotropy": 0.3}
+
+
+def fog_world(scene):
+    """The World: black background, the Principled Volume FOG on its Volume output."""
+    world = bpy.data.worlds.new("Fog")
+    scene.world = world
+    tree = scenes.ensure_node_tree(world)
+    for node in list(tree.nodes):
+        if node.type != 'OUTPUT_WORLD':
+            tree.nodes.remove(node)
+    output = next(n for n in tree.nodes if n.type == 'OUTPUT_WORLD')
+    volume = tree.nodes.new('ShaderNodeVolumePrincipled')
+    for key, value in FOG.items():
+        volume.inputs[key].default_value = value
+    tree.links.new(volume.outputs[0], output.inputs["Volume"])
+    return world
+
+
+def fog_spot_scene(resolution=RESOLUTION, sphere=False):
+    scene = scenes.reset()
+    scenes.set_resolution(*resolution)
+    scenes.add_plane(size=4.0, material=scenes.diffuse_material("Floor", (0.6, 0.6, 0.6)))
+    scenes.add_light('SPOT', location=(0.0, 0.0, 2.0), power=200.0, spot_size=math.radians(50.0),
+                     spot_blend=0.2, shadow_soft_size=0.1, name="Spot")
+    if sphere:
+        glass = bpy.data.materials.new("Glass")
+        tree = scenes.ensure_node_tree(glass)
+        bsdf = tree.nodes.new('ShaderNodeBsdfGlass')
+        bsdf.inputs["Roughness"].default_value = 0.0
+        bsdf.inputs["IOR"].default_value = 1.5
+        out = next(n for n in tree.nodes if n.type == 'OUTPUT_MATERIAL')
+        tree.links.new(bsdf.outputs[0], out.inputs["Surface"])
+        scenes.add_sphere(radius=0.25, location=(0.0, 0.0, 1.2), material=glass, name="Ball",
+                          segments=48)
+    scenes.add_camera(location=(0.0, -4.5, 1.2), look_at=(0.0, 0.0, 0.8), lens=30.0)
+    fog_world(scene)
+    return scene
+
+
+SCENES = {"fog_spot": lambda: fog_spot_scene(),
+          "fog_caustic": lambda: fog_spot_scene(sphere=True)}
+
+
+def configure_cycles_media(scene, samples, seed=0):
+    """Cycles as in cycles_reference, with BOUNCES bounces of every kind and caustics on."""
+    ref.configure_cycles(scene, samples, seed, max_depth=BOUNCES)
+    c = scene.cycles
+    c.max_bounces = c.diffuse_bounces = c.volume_bounces = BOUNCES
+    c.caustics_reflective = c.caustics_refractive = True
+    return scene
+
+
+def fingerprint() -> str:
+    parts = [inspect.getsource(fog_world), inspect.getsource(fog_spot_scene),
+             inspect.getsource(configure_cycles_media), repr((RESOLUTION, BOUNCES, FOG))]
+    return hashlib.sha256("\n".join(parts).encode()).hexdigest()[:16]
+
+
+def reference_path(name) -> pathlib.Path:
+    return ref.DATA / f"cycles_media_{name}_{RESOLUTION[0]}x{RESOLUTION[1]}.npz"
+
+
+def load_reference(name) -> dict:
+    """The cached Cycles render of ``name``: image (H, W, 3), block_sigma, fingerprint."""
+    path = reference_path(name)
+    regenerate = f"re-render it with: .venv/bin/python tests/blender/cycles_media_reference.py {name}"
+    assert path.exists(), f"missing Cycles reference {path.relative_to(ROOT)}; {regenerate}"
+    data = dict(np.load(path))
+    assert str(data["fingerprint"]) == fingerprint(), \
+        f"{path.relative_to(ROOT)} was made from other scene code; {regenerate}"
+    return data
+
+
+def main(names=None):
+    import time
+
+    for name in names or list(SCENES):
+        started = time.perf_counter()
+        runs = []
+        for seed in (1, 2):
+            scene = configure_cycles_media(SCENES[name](), CYCLES_SAMPLES, seed)
+            runs.append(scenes.render_passes(scene)["Combined"][..., :3].astype(np.float32))
+        a, b = runs
+        np.savez_compressed(
+            reference_path(name), image=((a + b) / 2).astype(np.float32),
+            block_sigma=ref.block_sigma(a, b).astype(np.float32),
+            samples=np.int64(2 * CYCLES_SAMPLES), fingerprint=np.str_(fingerprint()),
+            bounces=np.int64(BOUNCES), blender=np.str_(bpy.app.version_string))
+        print(f"{reference_path(name).relative_to(ROOT)}: 2 x {CYCLES_SAMPLES} spp in "
+              f"{time.perf_counter() - started:.1f} s, mean "
+              f"{((a + b) / 2).reshape(-1, 3).mean(axis=0)}", flush=True)
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:] or None)

@@ -1,0 +1,168 @@
+"""The World's homogeneous medium through the renderer (core/integrators/volume.py,
+core/photons/medium_flight.py): transmittance on camera and shadow segments exactly,
+Volume Direct against the single-scattering integral, the passes' sum, and the refusals."""
+
+import numpy as np
+import pytest
+
+from core import sampling
+from core.integrators import photon_mapping, sppm
+from core.lights import kernels as light_kernels
+from core.lights.light_set import LightSet
+from core.media.single_scatter import inscatter_rays
+from core.photons import tracing
+from core.prepared import prepare
+from core.scene import camera as camera_mod
+from core.scene import shapes
+from core.scene.contract import (CAMERA_ORTHOGRAPHIC, LIGHT_POINT, Camera, Lights, Materials,
+                                 Scene, SceneError)
+from core.scene.media import Media
+from core.settings import RenderSettings, SettingsError
+
+pytestmark = pytest.mark.core
+
+CAM_HEIGHT = 5.0  # the orthographic camera's plane above the floor, metres
+
+
+def _floor_scene(material, lights=None, media=None, res=8, size=1.0):
+    """A 4 m x 4 m floor at z = 0 (normal +z) seen straight down by an orthographic camera
+    CAM_HEIGHT above it, its view size x size metres."""
+    mesh = shapes.assemble([(shapes.quad([0, 0, 0], [2, 0, 0], [0, 2, 0]), 0)],
+                           names=("Floor",))
+    cam = Camera(to_world=shapes.look_at([0, 0, CAM_HEIGHT], [0, 0, 0], (0, 1, 0)), width=res,
+                 height=res, film_size=np.array([size, size]), kind=CAMERA_ORTHOGRAPHIC)
+    return Scene(mesh, Materials.from_list([material]), lights or Lights.empty(), cam,
+                 media=media or Media.empty()).validate()
+
+
+def _fog(sigma_a, sigma_s=(0.0, 0.0, 0.0), g=0.0):
+    return Media.from_list([{"sigma_a": sigma_a, "sigma_s": sigma_s, "anisotropy": g,
+                             "name": "Fog"}])
+
+
+FAST = dict(samples=1, caustics=False, indirect_mode="off", threads=2)
+
+
+def test_camera_segments_take_exp_minus_sigma_t_d_exactly():
+    """An emissive floor seen through absorbing World fog: Emission = E exp(-sigma_t d)
+    per channel, d the camera's height less its clip start (orthographic rays start at the
+    clip start, as Cycles', and all travel the same distance)."""
+    emission = np.array([1.0, 2.0, 3.0])
+    sigma = np.array([0.05, 0.2, 0.6])
+    mat = {"diffuse": [0, 0, 0], "emission": emission}
+    st = RenderSettings(**FAST)
+    clear = photon_mapping.render(_floor_scene(mat), st).passes
+    scene = _floor_scene(mat, media=_fog(sigma))
+    fog = photon_mapping.render(scene, st).passes
+    want = emission * np.exp(-sigma * (CAM_HEIGHT - scene.camera.clip_start))
+    np.testing.assert_allclose(clear["emission"], np.broadcast_to(emission, (8, 8, 3)), rtol=1e-6)
+    np.testing.assert_allclose(fog["emission"], np.broadcast_to(want, (8, 8, 3)), rtol=1e-5)
+    assert np.array_equal(fog["combined"], fog["emission"])  # nothing else lights the floor
+
+
+def test_shadow_rays_take_exp_minus_sigma_t_r_exactly():
+    """A diffuse floor under a point light through absorbing fog, one sample per pixel: the
+    Direct pass divided by the clear render's is exp(-sigma_t (d_camera + r_light)) for the
+    very point each pixel's sample hit (regenerated from the same random numbers)."""
+    sigma = np.array([0.1, 0.3, 0.7])
+    light_pos = np.array([0.2, -0.1, 1.0])
+    lights = Lights.from_list([{"kind": LIGHT_POINT, "position": light_pos, "power": 100.0}])
+    mat = {"diffuse": [0.8, 0.8, 0.8]}
+    st = RenderSettings(**FAST)
+    clear = _floor_scene(mat, lights)
+    fogged = _floor_scene(mat, lights, _fog(sigma))
+    a = photon_mapping.render(clear, st).passes
+    b = photon_mapping.render(fogged, st).passes
+    assert "volume_direct" in b and not np.any(b["volume_direct"])  # sigma_s = 0
+    assert "volume_direct" not in a  # no medium: no volume passes
+    # The samples' hit points, as the camera pass draws them (samples = 1).
+    pixel = np.arange(64, dtype=np.int64)
+    sample = np.zeros(64, np.int64)
+    jitter = np.stack(sampling.stratified2(st.seed, pixel, sample, 1,
+                                           sampling.stream(sampling.PIXEL_JITTER)), axis=1)
+    rays = camera_mod.generate_rays(clear.camera, pixel, jitter)
+    t = -rays.origins[:, 2] / rays.directions[:, 2]
+    hit = rays.origins + t[:, None] * rays.directions
+    r = np.linalg.norm(hit - light_pos, axis=1)
+    want = np.exp(-sigma[None, :] * (t + r)[:, None]).reshape(8, 8, 3)
+    np.testing.assert_allclose(b["direct"] / a["direct"], want, rtol=2e-5)
+
+
+def test_volume_direct_matches_the_single_scattering_integral():
+    """Scattering fog under a point light, rays that escape (a black floor far below, out
+    of view): the Volume Direct pass's mean over the image = the equiangular reference of
+    core/media/single_scatter.py (itself tested against a trapezoid integral) on the same
+    camera rays, within 1 %; combined = the sum of the passes exactly."""
+    sa, ss, g = np.array([0.05, 0.1, 0.2]), np.array([0.3, 0.2, 0.1]), 0.3
+    light_pos = np.array([0.1, 0.05, 4.0])  # above the view: no ray passes near it
+    lights = Lights.from_list([{"kind": LIGHT_POINT, "position": light_pos, "power": 50.0,
+                                "soft_falloff": False}])
+    mesh = shapes.assemble([(shapes.quad([0, 0, -50], [1, 0, 0], [0, 1, 0]), 0)],
+                           names=("Far",))
+    cam = shapes.pinhole([0, -3, 2], [0, 0, 2], 8, 8, 0.8)
+    scene = Scene(mesh, Materials.from_list([{"diffuse": [0, 0, 0]}]), lights, cam,
+                  media=_fog(sa, ss, g)).validate()
+    st = RenderSettings(samples=16, light_samples=2, caustics=False, indirect_mode="off",
+                        threads=2)
+    out = photon_mapping.render(scene, st).passes
+    vd = out["volume_direct"].astype(np.float64)
+    assert np.all(np.isfinite(vd)) and vd.min() >= 0
+    total = sum(out[p].astype(np.float64) for p in photon_mapping.LIGHT_PASSES if p in out)
+    np.testing.assert_array_equal(out["combined"], total.astype(np.float32))
+    # The reference on the camera rays of every sample, the intensity I = l r^2 of the light.
+    ls = LightSet.from_lights(lights)
+    q = ls.params[0]
+    wx, wy, wz, dist, l0, l1, l2, _, ok = light_kernels.sample_light(q, *(light_pos + [0, 0, -1.0]),
+                                                                     0.5, 0.5)
+    assert ok and abs(dist - 1.0) < 1e-9
+    intensity = np.array([l0, l1, l2])
+    pixel = np.repeat(np.arange(64, dtype=np.int64), 16)
+    sample = np.tile(np.arange(16, dtype=np.int64), 64)
+    jitter = np.stack(sampling.stratified2(st.seed, pixel, sample, 16,
+                                           sampling.stream(sampling.PIXEL_JITTER)), axis=1)
+    rays = camera_mod.generate_rays(cam, pixel, jitter)
+    ref = np.empty((pixel.shape[0], 3))
+    inscatter_rays(rays.origins.astype(np.float64), rays.directions.astype(np.float64),
+                   np.full(pixel.shape[0], 1e3), light_pos, intensity, sa, ss, g, 64, 3, ref)
+    want = ref.mean(axis=0)
+    got = vd.reshape(-1, 3).mean(axis=0)
+    np.testing.assert_allclose(got, want, rtol=0.01)
+
+
+def test_media_the_renderer_does_not_take_yet_are_refused_by_name():
+    mat = {"diffuse": [0.5] * 3}
+    boxed = Media.from_list([{"sigma_s": [1, 1, 1], "bounds": 0, "name": "Smoke"}])
+    with pytest.raises(SceneError, match="medium 'Smoke'.*closed meshes"):
+        photon_mapping.render(_floor_scene(mat, media=boxed), RenderSettings(**FAST))
+    st = RenderSettings(integrator="progressive", progressive_passes=1, photons_per_pass=100,
+                        threads=2)
+    with pytest.raises(SettingsError, match='"integrator" is "progressive".*\'Fog\''):
+        sppm.render(_floor_scene(mat, media=_fog([0.1] * 3)), st)
+
+
+def test_photon_pass_stores_the_flux_each_scattering_order_carries():
+    """A point light in infinite fog of per-channel albedo a = sigma_s / sigma_t (a tiny
+    far floor only so that photons are traced): every photon collides, the k-th
+    collisions carry Phi a^k in each channel, so the final-gather map (every collision of
+    bounces 0..B) holds Phi sum_{k=1..B+1} a^k and the camera map (the light's first
+    collisions are the shadow rays') Phi sum_{k=2..B+1} a^k; within 2 % (20k photons)."""
+    sa, ss = np.array([0.05, 0.2, 0.35]), np.array([0.45, 0.3, 0.15])
+    a = ss / (sa + ss)
+    lights = Lights.from_list([{"kind": LIGHT_POINT, "position": [0, 0, 0], "power": 10.0}])
+    mesh = shapes.assemble([(shapes.quad([0, 0, -1e3], [0.01, 0, 0], [0, 0.01, 0]), 0)],
+                           names=("Far",))
+    cam = shapes.pinhole([0, -3, 0], [0, 0, 0], 4, 4, 0.8)
+    scene = Scene(mesh, Materials.from_list([{"diffuse": [0.5] * 3}]), lights, cam,
+                  media=_fog(sa, ss, 0.4)).validate()
+    bounces = 3
+    st = RenderSettings(global_photons=20_000, caustics=False, photon_max_bounces=bounces,
+                        threads=2, seed=5)
+    with prepare(scene, 2) as pr:
+        maps = tracing.trace_photons(pr, st)
+    phi = maps.stats["per_source"][0]["global_flux"]
+    orders = np.array([a ** k for k in range(1, bounces + 2)])
+    np.testing.assert_allclose(maps.volume_gather_map.flux.sum(axis=0, dtype=np.float64),
+                               phi * orders.sum(axis=0), rtol=0.02)
+    np.testing.assert_allclose(maps.volume_map.flux.sum(axis=0, dtype=np.float64),
+                               phi * orders[1:].sum(axis=0), rtol=0.02)
+    assert maps.global_map is None or len(maps.global_map) < 10  # the floor is out of reach
