@@ -122,7 +122,7 @@ def export_camera(depsgraph, warnings: list[str]) -> Camera:
         clip_end=float(cam.clip_end),
         name=cam_obj.name,
         region=render_region(render, width, height),
-        **depth_of_field(cam_obj, cam, warnings),
+        **depth_of_field(cam_obj, cam),
     )
 
 
@@ -153,16 +153,16 @@ _FSTOP_INFINITY = float(np.finfo(np.float32).max)
 """Blender's largest f-stop (typing inf stores it): a pinhole, exactly."""
 
 
-def depth_of_field(cam_obj, cam, warnings) -> dict:
+def depth_of_field(cam_obj, cam) -> dict:
     """Camera fields for the Depth of Field panel, as Cycles reads it (blender/camera.cpp):
-    aperture radius = focal length / (2 f-stop) in metres (the lens in mm x 1e-3),
-    blades < 3 = round, rotation in radians, ratio; the focus distance is the focus
-    object's depth along the view axis, else ``focus_distance``. {} without DOF."""
+    aperture radius = focal length / (2 f-stop) for a perspective camera (the lens in mm
+    x 1e-3), 1 / (2 f-stop) for an orthographic one, in scene units either way: Cycles
+    applies no unit scale (Scene > Units > Unit Scale) to it, and the focus distance is
+    stored in scene units too; blades < 3 = round, rotation in radians, ratio; the focus
+    distance is the focus object's depth along the view axis, else ``focus_distance``.
+    {} without DOF."""
     dof = getattr(cam, "dof", None)
-    if dof is None or not dof.use_dof or cam.type == 'ORTHO':
-        if dof is not None and dof.use_dof:
-            warnings.append(f"Camera '{cam_obj.name}': depth of field on an orthographic "
-                            f"camera is not supported yet; ignored")
+    if dof is None or not dof.use_dof:
         return {}
     fstop = max(float(dof.aperture_fstop), 1e-5)
     if fstop >= _FSTOP_INFINITY:  # "inf" typed into the field: Blender stores FLT_MAX
@@ -174,7 +174,8 @@ def depth_of_field(cam_obj, cam, warnings) -> dict:
         view = -m[:3, 2] / np.linalg.norm(m[:3, 2])
         focus = abs(float(np.dot(view, target - m[:3, 3])))
     blades = int(dof.aperture_blades)
-    return {"aperture_radius": float(cam.lens) * 1e-3 / (2.0 * fstop),
+    lens = 1.0 if cam.type == 'ORTHO' else float(cam.lens) * 1e-3
+    return {"aperture_radius": lens / (2.0 * fstop),
             "focus_distance": max(focus, 1e-6),
             "aperture_blades": blades if blades >= 3 else 0,
             "aperture_rotation": float(dof.aperture_rotation),

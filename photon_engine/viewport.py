@@ -57,7 +57,7 @@ def view_camera(region_data, width: int, height: int, scene_camera=None):
     camera = camera_from_projection(to_world, projection, width, height, name="Viewport")
     if scene_camera is not None and getattr(region_data, "view_perspective", "") == 'CAMERA' \
             and scene_camera.type == 'CAMERA':
-        camera = dataclasses.replace(camera, **depth_of_field(scene_camera, scene_camera.data, []))
+        camera = dataclasses.replace(camera, **depth_of_field(scene_camera, scene_camera.data))
     return camera
 
 

@@ -61,6 +61,19 @@ def passes_in_view(view, region):
             return viewport.image(), viewport.state
 
 
+def assert_only_the_region_renders(view, region):
+    """The view's passes cut to ``region`` (x0, y0, x1, y1) hold the whole view's pixels
+    there, bit for bit, nothing elsewhere, and trace no visible point outside it."""
+    x0, y0, x1, y1 = region
+    (whole, _), (part, state) = (passes_in_view(view, cut) for cut in (None, region))
+    assert whole[y0:y1, x0:x1].max() > 0
+    np.testing.assert_array_equal(part[y0:y1, x0:x1], whole[y0:y1, x0:x1])
+    outside = np.ones((H, W), bool)
+    outside[y0:y1, x0:x1] = False
+    assert np.all(part[outside] == 0.0)
+    assert max(state.stats["visible_points"]) <= (x1 - x0) * (y1 - y0)
+
+
 def test_viewport_through_the_camera_is_the_progressive_render(lit_plane):
     """The view's matrices give the scene camera's rays: after Viewport Passes passes the
     viewport shows the Progressive integrator's F12 image of the same passes."""
@@ -166,13 +179,7 @@ def test_the_viewport_render_region_renders_those_pixels_only(lit_plane):
     region = view_region(space, view, W, H)
     assert region == (8, 0, 24, 12)
     assert view_region(types.SimpleNamespace(use_render_border=False), view, W, H) is None
-    (whole, _), (part, state) = (passes_in_view(view, cut) for cut in (None, region))
-    assert whole[0:12, 8:24].max() > 0
-    np.testing.assert_array_equal(part[0:12, 8:24], whole[0:12, 8:24])
-    outside = np.ones((H, W), bool)
-    outside[0:12, 8:24] = False
-    assert np.all(part[outside] == 0.0)
-    assert max(state.stats["visible_points"]) <= 16 * 12
+    assert_only_the_region_renders(view, region)
 
 
 def test_the_scene_render_region_in_the_camera_view_renders_its_part_of_the_frame(lit_plane):
@@ -199,10 +206,4 @@ def test_the_scene_render_region_in_the_camera_view_renders_its_part_of_the_fram
     # x: 0.25 + [0, 0.5] x 0.5 of 32 pixels; y (up): 0.25 + [0.5, 1] x 0.5 of 24 -> rows 6-12
     region = view_region(space, view, W, H, lit_plane)
     assert region == (8, 6, 16, 12)
-    (whole, _), (part, state) = (passes_in_view(view, cut) for cut in (None, region))
-    assert whole[6:12, 8:16].max() > 0
-    np.testing.assert_array_equal(part[6:12, 8:16], whole[6:12, 8:16])
-    outside = np.ones((H, W), bool)
-    outside[6:12, 8:16] = False
-    assert np.all(part[outside] == 0.0)
-    assert max(state.stats["visible_points"]) <= 8 * 6
+    assert_only_the_region_renders(view, region)
