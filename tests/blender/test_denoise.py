@@ -149,3 +149,36 @@ def test_progressive_makes_the_denoising_passes_of_the_photon_mapping_integrator
         assert flat.mean() > 0.4
         assert err[flat].max() < 1e-5, name
         np.testing.assert_allclose(a.mean(axis=(0, 1)), b.mean(axis=(0, 1)), rtol=0.02, atol=2e-3)
+
+
+@pytest.mark.api
+def test_the_denoise_setting_builds_and_removes_its_compositor(tmp_path):
+    """The Denoise setting on every supported Blender (compat.denoise_compositor: 5.x a
+    compositing node group, 4.x the scene's own node tree with a Composite node): the
+    Render Layers' Image, Denoising Albedo and Denoising Normal feed a Denoise node whose
+    result is the saved image (finite, not the render, its mean kept, no rougher between
+    neighbouring pixels: this smooth scene has little noise to take; that Denoise lowers
+    the error of a noisy render is test_denoise_lowers_the_error_of_a_preview_render), and
+    switching it off gives the render back unchanged."""
+    scene = scenes.plane_and_point_light(width=32, height=24)
+    scenes.use_photon_map(scene, samples=1, global_photons=2000, caustic_photons=0,
+                          final_gather_rays=2, seed=3)
+    from photon_map.photon_engine import compat
+    noisy = composite(scene, tmp_path / "noisy.exr")
+    scene.photon_map.denoise = True
+    assert scene.photon_map.denoising_data
+    tree = scene.compositing_node_group if hasattr(scene, "compositing_node_group") \
+        else scene.node_tree
+    denoise = tree.nodes[compat.DENOISE_TREE]
+    assert {s.name for s in denoise.inputs if s.is_linked} == {"Image", "Albedo", "Normal"}
+    denoised = composite(scene, tmp_path / "denoised.exr")
+    assert np.isfinite(denoised).all() and denoised.min() >= 0
+
+    def roughness(image):
+        return float(np.abs(np.diff(image, axis=1)).mean())
+
+    print(f"\nneighbour spread: {roughness(noisy):.4f} noisy, {roughness(denoised):.4f} denoised")
+    assert not np.array_equal(denoised, noisy) and roughness(denoised) <= roughness(noisy)
+    np.testing.assert_allclose(denoised.mean(), noisy.mean(), rtol=0.1)
+    scene.photon_map.denoise = False
+    np.testing.assert_allclose(composite(scene, tmp_path / "again.exr"), noisy, atol=1e-6)
