@@ -28,18 +28,19 @@ def render_size(render) -> tuple[int, int]:
 
 def render_region(render, width: int, height: int) -> tuple | None:
     """The Render Region (``render.use_border``) as core pixels (x0, y0, x1, y1), row 0 at
-    the top, x1 and y1 exclusive; None without one. Blender's own rule: each border
-    fraction (a float32) times the resolution, rounded to the nearest pixel (its
-    RenderResult is then x1 - x0 by y1 - y0 pixels, cropped or pasted into the frame by
-    Blender, ``use_crop_to_border``). Truncating instead loses a row and a column when
-    the float32 fraction falls just below an exact product (0.65 x 40 = 25.99999).
-    Checked against the RenderResult size Blender hands the engine
-    (tests/blender/test_render_region.py)."""
+    the top, x1 and y1 exclusive; None without one. Blender's own rule (pipeline.cc,
+    render_init_from_main: ``disprect.xmin = rd->border.xmin * winx``): each border
+    fraction (a float32) times the resolution in float32 arithmetic, truncated to an
+    integer. Its RenderResult is then x1 - x0 by y1 - y0 pixels, cropped or pasted into the
+    frame at (x0, y0) by Blender (``use_crop_to_border``). In float32, 0.65 x 40 is exactly
+    26 (in float64 it is 25.99999); 0.2 x 54 = 10.8 is pixel 10, not 11. Checked against
+    where Blender pastes the region (tests/blender/test_render_region.py, and
+    test_blender_exe_region.py through ``blender -b``)."""
     if not render.use_border:
         return None
 
     def pixel(fraction, size):
-        return int(math.floor(float(fraction) * size + 0.5))  # round_fl_to_int
+        return int(np.float32(fraction) * np.float32(size))  # C's float product, truncated
 
     x0, x1 = pixel(render.border_min_x, width), pixel(render.border_max_x, width)
     # Blender's rows count from the bottom.

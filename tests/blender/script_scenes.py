@@ -121,7 +121,7 @@ def passes_scene():
     return scene
 
 
-REGION_BORDER = (0.2, 0.7, 0.3, 0.8)  # min_x, max_x, min_y, max_y: columns 11-38, rows 5-14 up
+REGION_BORDER = (0.2, 0.7, 0.3, 0.8)  # min_x, max_x, min_y, max_y: columns 10-37, rows 5-14 up
 
 
 def region_scene(crop=None):
