@@ -28,18 +28,19 @@ def render_size(render) -> tuple[int, int]:
 
 def render_region(render, width: int, height: int) -> tuple | None:
     """The Render Region (``render.use_border``) as core pixels (x0, y0, x1, y1), row 0 at
-    the top, x1 and y1 exclusive; None without one. Blender's own rule: each border
-    fraction (a float32) times the resolution, rounded to the nearest pixel (its
-    RenderResult is then x1 - x0 by y1 - y0 pixels, cropped or pasted into the frame by
-    Blender, ``use_crop_to_border``). Truncating instead loses a row and a column when
-    the float32 fraction falls just below an exact product (0.65 x 40 = 25.99999).
-    Checked against the RenderResult size Blender hands the engine
-    (tests/blender/test_render_region.py)."""
+    the top, x1 and y1 exclusive; None without one. Blender's own rule (pipeline.cc,
+    render_init_from_main: ``disprect.xmin = rd->border.xmin * winx``): each border
+    fraction (a float32) times the resolution in float32 arithmetic, truncated to an
+    integer. Its RenderResult is then x1 - x0 by y1 - y0 pixels, cropped or pasted into the
+    frame at (x0, y0) by Blender (``use_crop_to_border``). In float32, 0.65 x 40 is exactly
+    26 (in float64 it is 25.99999); 0.2 x 54 = 10.8 is pixel 10, not 11. Checked against
+    where Blender pastes the region (tests/blender/test_render_region.py, and
+    test_blender_exe_region.py through ``blender -b``)."""
     if not render.use_border:
         return None
 
     def pixel(fraction, size):
-        return int(math.floor(float(fraction) * size + 0.5))  # round_fl_to_int
+        return int(np.float32(fraction) * np.float32(size))  # C's float product, truncated
 
     x0, x1 = pixel(render.border_min_x, width), pixel(render.border_max_x, width)
     # Blender's rows count from the bottom.
@@ -122,7 +123,7 @@ def export_camera(depsgraph, warnings: list[str]) -> Camera:
         clip_end=float(cam.clip_end),
         name=cam_obj.name,
         region=render_region(render, width, height),
-        **depth_of_field(cam_obj, cam, warnings),
+        **depth_of_field(cam_obj, cam),
     )
 
 
@@ -153,16 +154,16 @@ _FSTOP_INFINITY = float(np.finfo(np.float32).max)
 """Blender's largest f-stop (typing inf stores it): a pinhole, exactly."""
 
 
-def depth_of_field(cam_obj, cam, warnings) -> dict:
+def depth_of_field(cam_obj, cam) -> dict:
     """Camera fields for the Depth of Field panel, as Cycles reads it (blender/camera.cpp):
-    aperture radius = focal length / (2 f-stop) in metres (the lens in mm x 1e-3),
-    blades < 3 = round, rotation in radians, ratio; the focus distance is the focus
-    object's depth along the view axis, else ``focus_distance``. {} without DOF."""
+    aperture radius = focal length / (2 f-stop) for a perspective camera (the lens in mm
+    x 1e-3), 1 / (2 f-stop) for an orthographic one, in scene units either way: Cycles
+    applies no unit scale (Scene > Units > Unit Scale) to it, and the focus distance is
+    stored in scene units too; blades < 3 = round, rotation in radians, ratio; the focus
+    distance is the focus object's depth along the view axis, else ``focus_distance``.
+    {} without DOF."""
     dof = getattr(cam, "dof", None)
-    if dof is None or not dof.use_dof or cam.type == 'ORTHO':
-        if dof is not None and dof.use_dof:
-            warnings.append(f"Camera '{cam_obj.name}': depth of field on an orthographic "
-                            f"camera is not supported yet; ignored")
+    if dof is None or not dof.use_dof:
         return {}
     fstop = max(float(dof.aperture_fstop), 1e-5)
     if fstop >= _FSTOP_INFINITY:  # "inf" typed into the field: Blender stores FLT_MAX
@@ -174,7 +175,8 @@ def depth_of_field(cam_obj, cam, warnings) -> dict:
         view = -m[:3, 2] / np.linalg.norm(m[:3, 2])
         focus = abs(float(np.dot(view, target - m[:3, 3])))
     blades = int(dof.aperture_blades)
-    return {"aperture_radius": float(cam.lens) * 1e-3 / (2.0 * fstop),
+    lens = 1.0 if cam.type == 'ORTHO' else float(cam.lens) * 1e-3
+    return {"aperture_radius": lens / (2.0 * fstop),
             "focus_distance": max(focus, 1e-6),
             "aperture_blades": blades if blades >= 3 else 0,
             "aperture_rotation": float(dof.aperture_rotation),

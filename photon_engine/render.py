@@ -53,14 +53,14 @@ def render_passes(props, medium: bool = False):
     """The passes a render with settings ``props`` (``scene.photon_map``; None = defaults)
     fills besides Combined: [(core name, Blender name, channels, channel ids)]. The light
     passes switched on (``pass_*``; Volume Direct / Indirect only when ``medium``, the
-    scene has one), then Photons when the debug pass is on; none in progressive mode,
-    which produces Combined only."""
-    if props is not None and props.integrator == 'progressive':
-        return []
+    scene has one), then Photons when the debug pass is on (neither in progressive mode,
+    which produces no light passes), then the denoising features (both integrators make
+    them)."""
+    progressive = props is not None and props.integrator == 'progressive'
     out = [(core_name, blender_name, 3, "RGB") for core_name, blender_name in EXTRA_PASSES.items()
-           if (props is None or getattr(props, f"pass_{core_name}"))
+           if not progressive and (props is None or getattr(props, f"pass_{core_name}"))
            and (medium or core_name not in VOLUME_PASSES)]
-    if props is not None and props.photon_debug_pass:
+    if props is not None and props.photon_debug_pass and not progressive:
         out.append((*DEBUG_PASS, 4, "RGBA"))
     if props is not None and props.denoising_data:
         out.extend((core, blender, 3, chan) for core, blender, chan in DENOISING_PASSES)

@@ -57,28 +57,57 @@ def view_camera(region_data, width: int, height: int, scene_camera=None):
     camera = camera_from_projection(to_world, projection, width, height, name="Viewport")
     if scene_camera is not None and getattr(region_data, "view_perspective", "") == 'CAMERA' \
             and scene_camera.type == 'CAMERA':
-        camera = dataclasses.replace(camera, **depth_of_field(scene_camera, scene_camera.data, []))
+        camera = dataclasses.replace(camera, **depth_of_field(scene_camera, scene_camera.data))
     return camera
 
 
-def view_region(space, region_data, width: int, height: int) -> tuple | None:
-    """The viewport's Render Region (View3D ``use_render_border``, fractions of the view)
-    as core pixels (x0, y0, x1, y1) of the ``width`` x ``height`` image, row 0 at the top;
-    None without one. Looking through the camera, Blender's region is the scene's
-    (``render.use_border``, a fraction of the camera frame): not done yet, the whole view
-    is rendered."""
-    if space is None or getattr(region_data, "view_perspective", "") == 'CAMERA' \
-            or not getattr(space, "use_render_border", False):
+def view_region(space, region_data, width: int, height: int, scene=None) -> tuple | None:
+    """The viewport's Render Region as core pixels (x0, y0, x1, y1) of the ``width`` x
+    ``height`` image, row 0 at the top, x1 and y1 exclusive; None without one.
+
+    Outside the camera view it is View3D's own (``use_render_border``, fractions of the
+    view). Looking through the camera it is the scene's (``render.use_border``, fractions of
+    the camera frame), as Blender and Cycles render it: the camera frame is placed in the
+    view (``camera_frame_in_view``) and the border taken as a part of it."""
+    if space is None:
+        return None
+    if getattr(region_data, "view_perspective", "") == 'CAMERA':
+        render = getattr(scene, "render", None)
+        if render is None or scene.camera is None or not render.use_border:
+            return None
+        fx0, fy0, fx1, fy1 = camera_frame_in_view(region_data, scene)
+        border = (fx0 + render.border_min_x * (fx1 - fx0), fy0 + render.border_min_y * (fy1 - fy0),
+                  fx0 + render.border_max_x * (fx1 - fx0), fy0 + render.border_max_y * (fy1 - fy0))
+    elif getattr(space, "use_render_border", False):
+        border = (space.render_border_min_x, space.render_border_min_y,
+                  space.render_border_max_x, space.render_border_max_y)
+    else:
         return None
 
     def pixel(fraction, size):
         return int(math.floor(min(max(float(fraction), 0.0), 1.0) * size + 0.5))
 
-    x0, x1 = pixel(space.render_border_min_x, width), pixel(space.render_border_max_x, width)
-    y0, y1 = pixel(space.render_border_min_y, height), pixel(space.render_border_max_y, height)
+    x0, x1 = pixel(border[0], width), pixel(border[2], width)
+    y0, y1 = pixel(border[1], height), pixel(border[3], height)
     if x1 <= x0 or y1 <= y0 or (x0, y0, x1, y1) == (0, 0, width, height):
         return None
     return (x0, height - y1, x1, height - y0)  # Blender's rows count from the bottom
+
+
+def camera_frame_in_view(region_data, scene) -> tuple[float, float, float, float]:
+    """The scene camera's frame (``Camera.view_frame`` at the scene's resolution, lens shift
+    and sensor fit included) in a 3D view, as fractions (x0, y0, x1, y1) of the view, y up
+    from the bottom as Blender's borders are: its corners through the view's perspective
+    matrix (window x view), which is Blender's camera-frame-in-view for the camera view."""
+    camera = scene.camera
+    corners = np.array([tuple(camera.matrix_world @ c) + (1.0,)
+                        for c in camera.data.view_frame(scene=scene)], np.float64)
+    projection = np.array(region_data.window_matrix, np.float64) \
+        @ np.array(region_data.view_matrix, np.float64)
+    clip = corners @ projection.T                   # (4, 4) homogeneous clip coordinates
+    ndc = clip[:, :2] / clip[:, 3:4]                # (4, 2) in [-1, 1] across the view
+    lo, hi = (ndc.min(axis=0) + 1.0) / 2.0, (ndc.max(axis=0) + 1.0) / 2.0
+    return float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1])
 
 
 def render_size(width: int, height: int, pixel_size: int = 1) -> tuple[int, int]:
@@ -232,7 +261,7 @@ def view_draw(engine, context, depsgraph) -> None:
     try:
         camera = view_camera(context.region_data, width, height, depsgraph.scene.camera)
         camera = dataclasses.replace(camera, region=view_region(
-            context.space_data, context.region_data, width, height))
+            context.space_data, context.region_data, width, height, depsgraph.scene))
     except ValueError as error:  # a degenerate view matrix: nothing to render through
         engine.update_stats("", f"Photon Map: viewport: {error}")
         return

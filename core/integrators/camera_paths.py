@@ -34,7 +34,7 @@ from ..photons.importance import VisibleView, prepass_resolution
 from ..prepared import PreparedScene
 from ..scene import camera, geometry
 from ..scene.contract import Camera
-from . import direct
+from . import denoise_features, direct
 
 TANGENT = closure.DEFAULT_TANGENT
 """The unit tangent given to the BSDF (the mesh carries no tangents yet)."""
@@ -323,10 +323,15 @@ class VisiblePoints:
 
 
 def visible_points(prepared: PreparedScene, cam: Camera, seed: int, k: int, max_depth: int,
-                   direct: np.ndarray) -> VisiblePoints:
+                   direct: np.ndarray,
+                   features: denoise_features.FeatureAccumulator | None = None) -> VisiblePoints:
     """Pass k's visible points (one jittered camera ray per pixel of ``cam``'s region, sample k),
     adding the radiance seen on the way (emitters, lights, background) to direct (P, 3)
-    float64 (see core/integrators/sppm.py, step 1)."""
+    float64 (see core/integrators/sppm.py, step 1).
+
+    features: Cycles' denoising features of this pass's paths (one sample per region pixel,
+    in ``camera.region_pixels`` order), written at their hits as the photon-mapping
+    integrator writes them (denoise_features.py)."""
     mats = prepared.materials
     frame = int(cam.width) * int(cam.height)
     # The Render Region's pixels only (all of them without one), by frame index: each
@@ -389,6 +394,9 @@ def visible_points(prepared: PreparedScene, cam: Camera, seed: int, k: int, max_
                      albedo, mats["specular"], mats["alpha"], mats["transmission"],
                      mats["ior"], prepared.closures, prepared.sampled_only, texel, vp, new_o,
                      new_d, new_thr, go_on, new_tr)
+        if features is not None:  # ns now faces the ray, as the shading normal does there
+            features.surface(rows, albedo, mats["specular"][sp.material],
+                             mats["transmission"][sp.material], mats["alpha"][sp.material], ns)
         # Visible points: the first diffuse lobe on the path
         s = np.flatnonzero(vp)
         if s.size:

@@ -87,6 +87,7 @@ from ..scene.contract import Scene
 from ..settings import (MAX_PHOTONS_PER_PASS, MAX_PROGRESSIVE_PASSES as MAX_PASSES,  # noqa: F401
                         RenderSettings, SettingsError)
 from . import camera_paths
+from . import denoise_features
 from . import direct as direct_light
 
 INITIAL_PHOTONS = 12.0
@@ -214,6 +215,9 @@ class PassSums:
     stop: int
     radiance: np.ndarray
     stats: dict = field(default_factory=_new_stats)
+    features: dict = field(default_factory=dict)
+    """With settings.denoising_data: "denoising_albedo" / "denoising_normal" (P, 3) float64,
+    the passes' features summed like ``radiance`` (denoise_features.py); else empty."""
 
     @property
     def passes(self) -> int:
@@ -229,6 +233,7 @@ class ImageSum:
     def __init__(self, width: int, height: int):
         self.width, self.height = int(width), int(height)
         self.total = np.zeros((self.width * self.height, 3))
+        self.features: dict[str, np.ndarray] = {}  # PassSums.features, summed
         self.passes = 0
         self.stats = _new_stats()
         self._pending: dict[int, PassSums] = {}
@@ -241,6 +246,8 @@ class ImageSum:
         while self.passes in self._pending:
             s = self._pending.pop(self.passes)
             self.total += s.radiance
+            for name, value in s.features.items():
+                self.features[name] = self.features.get(name, 0.0) + value
             self.stats = merge_stats(self.stats, s.stats)
             self.passes = s.stop
         return self.passes
@@ -253,9 +260,19 @@ class ImageSum:
     def radiance(self, partial: PassSums | None = None) -> np.ndarray:
         """(H, W, 3) float32, W/(m^2 sr): the average of the merged passes (and of
         ``partial``, the running block that follows them, if given)."""
-        total, n = self.total, self.passes
+        return self._mean(self.total, None if partial is None else partial.radiance, partial)
+
+    def feature(self, name: str, partial: PassSums | None = None) -> np.ndarray:
+        """(H, W, 3) float32: the average of denoising feature ``name`` over the merged passes
+        (and ``partial``), as ``radiance`` averages the image."""
+        zero = np.zeros((self.width * self.height, 3))
+        own = partial.features.get(name, zero) if partial is not None else None
+        return self._mean(self.features.get(name, zero), own, partial)
+
+    def _mean(self, total, more, partial) -> np.ndarray:
+        n = self.passes
         if partial is not None and partial.passes:
-            total, n = total + partial.radiance, n + partial.passes
+            total, n = total + more, n + partial.passes
         img = total / max(n, 1)
         return img.reshape(self.height, self.width, 3).astype(np.float32)
 
@@ -305,7 +322,7 @@ class PassRenderer:
     def add_pass(self, sums: PassSums) -> None:
         """Render pass ``sums.stop`` and add its estimate to ``sums`` (which then ends one
         pass later)."""
-        sums.radiance += self.render_pass(sums.stop, sums.stats)
+        sums.radiance += self.render_pass(sums.stop, sums.stats, sums.features)
         sums.stop += 1
 
     def render_block(self, start: int, stop: int,
@@ -319,8 +336,10 @@ class PassRenderer:
                 on_pass(sums)
         return sums
 
-    def render_pass(self, k: int, st: dict) -> np.ndarray:
-        """Pass k's estimate L_k, (P, 3) float64, W/(m^2 sr); adds its counters to st."""
+    def render_pass(self, k: int, st: dict, features: dict | None = None) -> np.ndarray:
+        """Pass k's estimate L_k, (P, 3) float64, W/(m^2 sr); adds its counters to st and,
+        with settings.denoising_data, its denoising features to ``features`` (name ->
+        (P, 3) float64, made on first use)."""
         prepared, settings = self.prepared, self.settings
         scene = prepared.scene
         seed = int(settings.seed)
@@ -328,8 +347,19 @@ class PassRenderer:
         t0 = time.perf_counter()
         vps = None
         if self.has_geometry:
+            acc = None
+            if settings.denoising_data and features is not None:
+                acc = denoise_features.FeatureAccumulator(
+                    camera.region_pixels(scene.camera).shape[0],
+                    camera.camera_frame(scene.camera)[1:])
             vps = camera_paths.visible_points(prepared, scene.camera, seed, k,
-                                              int(settings.max_specular_depth), image)
+                                              int(settings.max_specular_depth), image, acc)
+            if acc is not None:  # one sample per region pixel, in region_pixels order
+                frame = camera.region_pixels(scene.camera)
+                for name, value in (("denoising_albedo", acc.albedo),
+                                    ("denoising_normal", acc.normal)):
+                    total = features.setdefault(name, np.zeros_like(image))
+                    total[frame] += value
             if vps.pixel.size and self.shadow_rays is not None:
                 tab, rows = prepared.hit_shader.closures_at(vps.prim, vps.u, vps.v, -vps.wo,
                                                             vps.material)
@@ -480,6 +510,8 @@ def render(scene: Scene, settings: RenderSettings | None = None,
     says why it ended.
 
     Returns RenderOutput with passes {"combined": (H, W, 3) float32 radiance W/(m^2 sr)}
+    (with settings.denoising_data also "denoising_albedo" / "denoising_normal", the means
+    over the passes' paths, core/integrators/denoise_features.py)
     and stats: passes, alpha, initial_radius (r_1), radius_min / radius_mean / radius_max
     (the last pass's radius, metres), photons_per_pass, progressive_block, photons_emitted,
     photons_stored (list, one count per pass), photons_alive_max (most photons held at
@@ -517,4 +549,9 @@ def render(scene: Scene, settings: RenderSettings | None = None,
     # A Render Region: visible points were traced for its pixels only
     # (camera_paths.visible_points); the per-pixel sums stay frame-sized.
     image = camera.crop_to_region(state.radiance(), scene.camera)
-    return RenderOutput(passes={"combined": image}, stats=stats, cancelled=cancelled)
+    passes = {"combined": image}
+    if settings.denoising_data:  # not light: not in combined
+        for name in denoise_features.FEATURES:
+            passes[name] = camera.crop_to_region(state.image.feature(name, state.block),
+                                                 scene.camera)
+    return RenderOutput(passes=passes, stats=stats, cancelled=cancelled)

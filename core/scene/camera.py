@@ -92,8 +92,9 @@ def _rays_kernel(pixel, jitter, w, h, size, shift, pos, right, up, back, near, f
 
 
 def has_aperture(camera: Camera) -> bool:
-    """True when the camera has depth of field (callers then pass ``lens`` samples)."""
-    return camera.kind == CAMERA_PERSPECTIVE and float(camera.aperture_radius) > 0.0
+    """True when the camera has depth of field (callers then pass ``lens`` samples):
+    perspective or orthographic, as in Cycles."""
+    return float(camera.aperture_radius) > 0.0
 
 
 @njit(cache=True, error_model="numpy")
@@ -125,16 +126,32 @@ def aperture_point(u, v, blades, rotation, ratio):
 
 @njit(cache=True, parallel=True, error_model="numpy")
 def _lens_rays_kernel(pixel, jitter, lens, w, h, size, shift, pos, right, up, back, near, far,
-                      radius, focus, blades, rotation, ratio, o_out, d_out, t_out):
+                      radius, focus, blades, rotation, ratio, ortho, o_out, d_out, t_out):
+    """Thin-lens rays as Cycles' camera_sample_perspective / camera_sample_orthographic
+    (kernel/camera/camera.h) make them. Perspective: from the lens point through the film
+    point's focus point (x, y, 1) x focus. Orthographic: the lens point offsets the origin
+    in the camera plane, and the direction runs from the lens point to the axis point at
+    the focus distance, so every ray of a film point (x, y) meets at (x, y, focus); the
+    origin then moves along the ray to the near clip plane (depth ``near``)."""
     for i in prange(pixel.shape[0]):
         col = pixel[i] % w
         row = pixel[i] // w
         x = ((col + jitter[i, 0]) / w - 0.5) * size[0] + shift[0]
         y = (0.5 - (row + jitter[i, 1]) / h) * size[1] + shift[1]
-        ln = np.sqrt(x * x + y * y + 1.0)  # 1 / cos(theta) of the pinhole ray
         lx, ly = aperture_point(lens[i, 0], lens[i, 1], blades, rotation, ratio)
         lx *= radius
         ly *= radius
+        if ortho:
+            dx, dy, dz = -lx, -ly, focus
+            dl = np.sqrt(dx * dx + dy * dy + dz * dz)
+            dx, dy, dz = dx / dl, dy / dl, dz / dl
+            ox, oy = x + lx + dx * near / dz, y + ly + dy * near / dz
+            for k in range(3):
+                d_out[i, k] = dx * right[k] + dy * up[k] - dz * back[k]
+                o_out[i, k] = pos[k] + ox * right[k] + oy * up[k] - near * back[k]
+            t_out[i] = far - near
+            continue
+        ln = np.sqrt(x * x + y * y + 1.0)  # 1 / cos(theta) of the pinhole ray
         # Focus point (camera space, depth focus) minus the lens point, normalised.
         dx, dy, dz = x * focus - lx, y * focus - ly, focus
         dl = np.sqrt(dx * dx + dy * dy + dz * dz)
@@ -192,7 +209,8 @@ def generate_rays(camera: Camera, pixel: np.ndarray, jitter: np.ndarray,
                               float(camera.clip_start), float(camera.clip_end),
                               float(camera.aperture_radius), float(camera.focus_distance),
                               float(camera.aperture_blades), float(camera.aperture_rotation),
-                              float(camera.aperture_ratio), origins, directions, tmax)
+                              float(camera.aperture_ratio), camera.kind == CAMERA_ORTHOGRAPHIC,
+                              origins, directions, tmax)
         return CameraRays(origins, directions, tmax)
     return _pinhole_rays(camera, pixel, jitter)
 

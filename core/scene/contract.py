@@ -469,7 +469,8 @@ class Camera:
         angle theta from the axis runs from clip_start / cos(theta) to clip_end / cos(theta)
         (kernel/camera/camera.h: ``nearclip * z_inv``).
     aperture_radius: float, metres: the thin lens's radius for depth of field (Cycles:
-        focal length / (2 f-stop)); 0 is a pinhole (perspective cameras only).
+        focal length / (2 f-stop) for perspective cameras, 1 m / (2 f-stop) for
+        orthographic ones); 0 is a pinhole (or parallel rays).
     focus_distance: float, metres along the view axis to the plane in focus.
     aperture_blades: int, 0 for a round aperture, else the polygon's corner count (>= 3).
     aperture_rotation: float, radians: the polygon's rotation.

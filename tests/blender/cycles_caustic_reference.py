@@ -86,13 +86,7 @@ def reference_path() -> pathlib.Path:
 def load_reference() -> dict:
     """caustic (H, W, 3): Cycles with caustics minus without; caustic_b: the same from a
     second pair of seeds (the difference of the two is Cycles' noise)."""
-    path = reference_path()
-    regenerate = "re-render it with: .venv/bin/python tests/blender/cycles_caustic_reference.py"
-    assert path.exists(), f"missing Cycles reference {path.relative_to(ROOT)}; {regenerate}"
-    data = dict(np.load(path))
-    assert str(data["fingerprint"]) == fingerprint(), \
-        f"{path.relative_to(ROOT)} was made from other scene code; {regenerate}"
-    return data
+    return ref.load_cached(reference_path(), fingerprint(), "cycles_caustic_reference.py")
 
 
 def main():

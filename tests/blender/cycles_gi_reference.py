@@ -73,13 +73,7 @@ def reference_path() -> pathlib.Path:
 
 def load_reference() -> dict:
     """The cached Cycles render: image (H, W, 3), block_sigma, samples, fingerprint."""
-    path = reference_path()
-    regenerate = "re-render it with: .venv/bin/python tests/blender/cycles_gi_reference.py"
-    assert path.exists(), f"missing Cycles reference {path.relative_to(ROOT)}; {regenerate}"
-    data = dict(np.load(path))
-    assert str(data["fingerprint"]) == fingerprint(), \
-        f"{path.relative_to(ROOT)} was made from other scene code; {regenerate}"
-    return data
+    return ref.load_cached(reference_path(), fingerprint(), "cycles_gi_reference.py")
 
 
 def main():

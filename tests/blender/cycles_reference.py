@@ -276,11 +276,17 @@ def load_reference(name) -> dict:
 
     Raises AssertionError with the command to run when it is missing or stale.
     """
-    path = reference_path(name)
-    regenerate = "re-render it with: .venv/bin/python tests/blender/cycles_reference.py"
+    return load_cached(reference_path(name), scene_fingerprint(name), "cycles_reference.py")
+
+
+def load_cached(path: pathlib.Path, fingerprint: str, script: str) -> dict:
+    """The arrays of a cached reference ``path`` made by tests/blender/``script``; raises
+    AssertionError with the command that re-renders it when it is missing or was made from
+    other code (its stored fingerprint is not ``fingerprint``)."""
+    regenerate = f"re-render it with: .venv/bin/python tests/blender/{script}"
     assert path.exists(), f"missing Cycles reference {path.relative_to(ROOT)}; {regenerate}"
     data = dict(np.load(path))
-    assert str(data["fingerprint"]) == scene_fingerprint(name), \
+    assert str(data["fingerprint"]) == fingerprint, \
         f"{path.relative_to(ROOT)} was made from other scene code; {regenerate}"
     return data
 

@@ -121,6 +121,19 @@ def passes_scene():
     return scene
 
 
+REGION_BORDER = (0.2, 0.7, 0.3, 0.8)  # min_x, max_x, min_y, max_y: columns 10-37, rows 5-14 up
+
+
+def region_scene(crop=None):
+    """passes_scene with the Render Region on (crop: Crop to Render Region), or off (None)."""
+    scene = passes_scene()
+    if crop is not None:
+        r = scene.render
+        r.use_border, r.use_crop_to_border = True, crop
+        r.border_min_x, r.border_max_x, r.border_min_y, r.border_max_y = REGION_BORDER
+    return scene
+
+
 def animated_scene():
     """Frames 1-3: the cube and the camera keyframed at every frame (see the constants)."""
     s = _scenes()
@@ -148,7 +161,9 @@ def animated_scene():
 def main(argv):
     """``-- NAME OUT.blend``: build scene NAME and save it (Blender's own arguments before --)."""
     name, out = argv[argv.index("--") + 1:][:2]
-    builders = {"passes_scene": passes_scene, "animated_scene": animated_scene}
+    builders = {"passes_scene": passes_scene, "animated_scene": animated_scene,
+                "region_whole": region_scene, "region_crop": lambda: region_scene(True),
+                "region_in_place": lambda: region_scene(False)}
     builders[name]()
     bpy.ops.wm.save_as_mainfile(filepath=str(pathlib.Path(out).resolve()))
 

@@ -118,3 +118,67 @@ def test_denoise_lowers_the_error_of_a_preview_render(tmp_path):
     assert getattr(scene, "compositing_node_group", None) is None or \
         not scene.compositing_node_group
     np.testing.assert_allclose(composite(scene, tmp_path / "again.exr"), noisy, atol=1e-6)
+
+
+def test_progressive_makes_the_denoising_passes_of_the_photon_mapping_integrator():
+    """The Progressive integrator's Denoising Albedo / Normal are the photon-mapping
+    integrator's: the same rule at the same hits (denoise_features.py), averaged over its
+    passes' camera rays instead of the camera samples. Where the feature is the same over
+    the whole pixel (3 x 3 neighbourhood uniform) both are the mean of one value, hence
+    equal to float rounding; at silhouettes and texel edges the two sub-pixel sample sets
+    differ, which is sampling noise (the image means agree within 2 %)."""
+    scene = feature_scene()
+    scenes.use_photon_map(scene, samples=16, denoising_data=True, caustics=False,
+                          indirect_mode='off', seed=1)
+    final = scenes.render_passes(scene)
+    scene = feature_scene()
+    scenes.use_photon_map(scene, integrator='progressive', progressive_passes=16,
+                          photons_per_pass=500, denoising_data=True, seed=1)
+    sppm = scenes.render_passes(scene)
+    for name in ("Denoising Albedo", "Denoising Normal"):
+        a, b = sppm[name][..., :3].astype(np.float64), final[name][..., :3].astype(np.float64)
+        assert np.isfinite(a).all() and np.abs(a).max() > 0.1
+        pad = np.pad(b, ((1, 1), (1, 1), (0, 0)), mode="edge")
+        spread = np.max([np.abs(pad[1 + dy:1 + dy + b.shape[0], 1 + dx:1 + dx + b.shape[1]] - b)
+                         for dy in (-1, 0, 1) for dx in (-1, 0, 1)], axis=0).max(axis=-1)
+        flat = spread < 1e-6
+        err = np.abs(a - b).max(axis=-1)
+        print(f"\n{name}: {flat.mean():.0%} of the pixels uniform, there max |difference| "
+              f"{err[flat].max():.1e}; means {a.mean(axis=(0, 1)).round(4)} vs "
+              f"{b.mean(axis=(0, 1)).round(4)}")
+        assert flat.mean() > 0.4
+        assert err[flat].max() < 1e-5, name
+        np.testing.assert_allclose(a.mean(axis=(0, 1)), b.mean(axis=(0, 1)), rtol=0.02, atol=2e-3)
+
+
+@pytest.mark.api
+def test_the_denoise_setting_builds_and_removes_its_compositor(tmp_path):
+    """The Denoise setting on every supported Blender (compat.denoise_compositor: 5.x a
+    compositing node group, 4.x the scene's own node tree with a Composite node): the
+    Render Layers' Image, Denoising Albedo and Denoising Normal feed a Denoise node whose
+    result is the saved image (finite, not the render, its mean kept, no rougher between
+    neighbouring pixels: this smooth scene has little noise to take; that Denoise lowers
+    the error of a noisy render is test_denoise_lowers_the_error_of_a_preview_render), and
+    switching it off gives the render back unchanged."""
+    scene = scenes.plane_and_point_light(width=32, height=24)
+    scenes.use_photon_map(scene, samples=1, global_photons=2000, caustic_photons=0,
+                          final_gather_rays=2, seed=3)
+    from photon_map.photon_engine import compat
+    noisy = composite(scene, tmp_path / "noisy.exr")
+    scene.photon_map.denoise = True
+    assert scene.photon_map.denoising_data
+    tree = scene.compositing_node_group if hasattr(scene, "compositing_node_group") \
+        else scene.node_tree
+    denoise = tree.nodes[compat.DENOISE_TREE]
+    assert {s.name for s in denoise.inputs if s.is_linked} == {"Image", "Albedo", "Normal"}
+    denoised = composite(scene, tmp_path / "denoised.exr")
+    assert np.isfinite(denoised).all() and denoised.min() >= 0
+
+    def roughness(image):
+        return float(np.abs(np.diff(image, axis=1)).mean())
+
+    print(f"\nneighbour spread: {roughness(noisy):.4f} noisy, {roughness(denoised):.4f} denoised")
+    assert not np.array_equal(denoised, noisy) and roughness(denoised) <= roughness(noisy)
+    np.testing.assert_allclose(denoised.mean(), noisy.mean(), rtol=0.1)
+    scene.photon_map.denoise = False
+    np.testing.assert_allclose(composite(scene, tmp_path / "again.exr"), noisy, atol=1e-6)

@@ -2,7 +2,8 @@
 the camera focused on the middle one (focus object) with a wide aperture, round and with
 blades; Photon Map's block means against Cycles rendered in this same bpy process, with
 the terms both compute (direct light + specular chains, cycles_reference.configure_cycles).
-An f-stop of infinity is today's pinhole image, bit for bit.
+An f-stop of infinity is today's pinhole image, bit for bit. The same for an orthographic
+camera, against Cycles' cached image (tests/blender/cycles_dof_reference.py).
 """
 
 import math
@@ -13,46 +14,35 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
+from tests.blender import cycles_dof_reference as dr  # noqa: E402
 from tests.blender import cycles_reference as ref  # noqa: E402
 from tests.blender import scenes  # noqa: E402
+from tests.blender.cycles_dof_reference import SIZE, dof_scene  # noqa: E402
 
 pytestmark = pytest.mark.blender
 
-SIZE = (64, 48)
 SAMPLES = 256  # per render; two seeds each
 BLOCK = 4  # 4 x 4 pixel blocks: fine enough to see the blur
 
 
-def dof_scene(fstop=0.1, blades=0, rotation=0.0, ratio=1.0, use_dof=True):
-    scenes.reset()
-    scenes.set_resolution(*SIZE)
-    scenes.add_plane(size=12.0, material=scenes.diffuse_material("Floor", (0.6, 0.6, 0.6)))
-    colours = [(0.9, 0.2, 0.2), (0.2, 0.9, 0.2), (0.2, 0.3, 0.9), (0.9, 0.8, 0.2)]
-    spheres = []
-    for k, (x, y) in enumerate([(-0.9, -1.5), (-0.2, 0.0), (0.6, 2.0), (1.5, 4.5)]):
-        spheres.append(scenes.add_sphere(radius=0.35, location=(x, y, 0.35), segments=24,
-                                         material=scenes.diffuse_material(f"S{k}", colours[k])))
-    scenes.add_light('SUN', power=3.0, angle=0.05, rotation=(0.6, 0.2, 0.3))
-    scene = bpy.context.scene
-    cam_data = bpy.data.cameras.new("DofCamera")
-    cam_data.lens = 50.0
-    cam = bpy.data.objects.new("DofCamera", cam_data)
-    scene.collection.objects.link(cam)
-    cam.location = (0.0, -4.5, 0.9)
-    cam.rotation_euler = (math.radians(82.0), 0.0, 0.0)
-    scene.camera = cam
-    dof = cam_data.dof
-    dof.use_dof = use_dof
-    dof.focus_object = spheres[1]
-    dof.aperture_fstop = fstop
-    dof.aperture_blades = blades
-    dof.aperture_rotation = rotation
-    dof.aperture_ratio = ratio
-    return scene
-
-
 def photon_map_image(scene, samples, seed):
     return ref.render_photon_map(scene, samples, seed=seed)["Combined"][..., :3].astype(np.float64)
+
+
+def assert_matches_cycles(pm, cyc, sharp, what):
+    """Two seeds each of Photon Map (pm) and Cycles (cyc): channel means within 2 %, every
+    4 x 4 block within 5 % + 3 sigma; the image without DOF (sharp) is off by > 10 % in
+    some block, so the blur is large enough for the comparison to mean something."""
+    sigma = np.hypot(ref.block_sigma(*cyc, block=BLOCK), ref.block_sigma(*pm, block=BLOCK)) / 2
+    image, reference = (pm[0] + pm[1]) / 2, (cyc[0] + cyc[1]) / 2
+    fig = ref.compare(image, reference, sigma, block=BLOCK)
+    blur = ref.compare(sharp, reference, block=BLOCK)
+    print(f"\n{what}: channel {np.round(100 * fig['channel'], 3)} %, worst block "
+          f"{100 * fig['worst_block']:.2f} %, excess {np.nanmax(fig['excess']):.2f}; the "
+          f"image without DOF: worst block {100 * blur['worst_block']:.1f} %")
+    assert np.all(np.abs(fig["channel"]) < 0.02), fig["channel"]
+    assert np.nanmax(fig["excess"]) <= 1.0  # every block within 5 % + 3 sigma
+    assert blur["worst_block"] > 0.1
 
 
 @pytest.mark.parametrize("blades, rotation, ratio", [(0, 0.0, 1.0), (5, 0.4, 1.6)])
@@ -60,22 +50,18 @@ def test_depth_of_field_matches_cycles(blades, rotation, ratio):
     args = dict(blades=blades, rotation=rotation, ratio=ratio)
     cyc = [ref.render_cycles(dof_scene(**args), SAMPLES, seed=s).astype(np.float64) for s in (1, 2)]
     pm = [photon_map_image(dof_scene(**args), SAMPLES, s) for s in (1, 2)]
-    sigma = np.hypot(ref.block_sigma(*cyc, block=BLOCK), ref.block_sigma(*pm, block=BLOCK)) / 2
-    image, reference = (pm[0] + pm[1]) / 2, (cyc[0] + cyc[1]) / 2
-    fig = ref.compare(image, reference, sigma, block=BLOCK)
     pinhole = photon_map_image(dof_scene(use_dof=False, **args), 16, 1)
-    blur = ref.compare(pinhole, reference, block=BLOCK)
-    print(f"\nDOF blades {blades}: channel {np.round(100 * fig['channel'], 3)} %, worst block "
-          f"{100 * fig['worst_block']:.2f} %, excess {np.nanmax(fig['excess']):.2f}; the "
-          f"pinhole image's worst block {100 * blur['worst_block']:.1f} %")
-    assert np.all(np.abs(fig["channel"]) < 0.02), fig["channel"]
-    assert np.nanmax(fig["excess"]) <= 1.0  # every block within 5 % + 3 sigma
-    assert blur["worst_block"] > 0.1  # the blur is large enough for the test to mean something
+    assert_matches_cycles(pm, cyc, pinhole, f"DOF blades {blades}")
 
 
-def test_infinite_fstop_is_the_pinhole_bit_for_bit():
-    """f-stop infinity exports a pinhole: the same camera, hence the same rays bit for bit
-    (two renders of one scene still differ by float rounding of parallel sums, ~1e-7)."""
+@pytest.mark.parametrize("ortho, fstop, radius", [(False, 0.1, 50e-3 / (2 * 0.1)),
+                                                   (True, 1.0, 1.0 / (2 * 1.0))])
+def test_infinite_fstop_is_the_pinhole_bit_for_bit(ortho, fstop, radius):
+    """f-stop infinity exports a pinhole (or parallel rays, orthographic): the same camera,
+    hence the same rays bit for bit (two renders of one scene still differ by float
+    rounding of parallel sums, ~1e-7). A finite f-stop's aperture radius is Cycles': focal
+    length / (2 f-stop) or, orthographic, 1 / (2 f-stop), in scene units whatever the
+    scene's Unit Scale (Cycles applies none)."""
     from tests.conftest import load_extension_package
 
     load_extension_package()
@@ -84,13 +70,14 @@ def test_infinite_fstop_is_the_pinhole_bit_for_bit():
 
     cams = {}
     for key, args in {"pinhole": dict(use_dof=False), "inf": dict(fstop=math.inf),
-                      "wide": dict(fstop=0.1)}.items():
-        dof_scene(**args)
+                      "wide": dict(fstop=fstop)}.items():
+        dof_scene(ortho=ortho, **args)
+        bpy.context.scene.unit_settings.scale_length = 0.01 if key == "wide" else 1.0
         cams[key] = export_scene(bpy.context.evaluated_depsgraph_get()).scene.camera
     for field in cams["pinhole"].__dataclass_fields__:
         assert np.array_equal(getattr(cams["inf"], field), getattr(cams["pinhole"], field)), field
     assert cams["inf"].aperture_radius == 0.0
-    assert cams["wide"].aperture_radius == pytest.approx(50e-3 / (2 * 0.1))
+    assert cams["wide"].aperture_radius == pytest.approx(radius)
     pixel = np.arange(SIZE[0] * SIZE[1])
     jitter = np.random.default_rng(1).random((pixel.size, 2))
     lens = np.random.default_rng(2).random((pixel.size, 2))
@@ -98,10 +85,10 @@ def test_infinite_fstop_is_the_pinhole_bit_for_bit():
     b = core_camera.generate_rays(cams["inf"], pixel, jitter, lens)
     for x, y in zip(a, b):
         np.testing.assert_array_equal(x, y)
-    pinhole = ref.render_photon_map(dof_scene(use_dof=False), 4, seed=3)["Combined"]
-    infinite = ref.render_photon_map(dof_scene(fstop=math.inf), 4, seed=3)["Combined"]
+    pinhole = ref.render_photon_map(dof_scene(use_dof=False, ortho=ortho), 4, seed=3)["Combined"]
+    infinite = ref.render_photon_map(dof_scene(fstop=math.inf, ortho=ortho), 4, seed=3)["Combined"]
     np.testing.assert_allclose(infinite, pinhole, rtol=1e-5, atol=1e-6)
-    wide = ref.render_photon_map(dof_scene(fstop=0.1), 4, seed=3)["Combined"]
+    wide = ref.render_photon_map(dof_scene(fstop=fstop, ortho=ortho), 4, seed=3)["Combined"]
     assert np.abs(wide - pinhole).max() > 0.05
 
 
@@ -164,3 +151,14 @@ def test_viewport_through_the_camera_has_its_depth_of_field():
     np.testing.assert_allclose(images['CAMERA'], final, rtol=1e-3, atol=1e-3 * final.max())
     # A free view (not through the camera) is a pinhole, like Cycles' viewport.
     assert np.abs(images['PERSP'] - final).max() > 0.05 * final.max()
+
+
+def test_orthographic_depth_of_field_matches_cycles():
+    """Cycles' orthographic thin lens (aperture radius 1 / (2 f-stop) scene units, rays
+    of a film point meeting at the focus distance): block means within 5 % + 3 sigma of
+    Cycles' cached image, where the sharp orthographic image is far off."""
+    cycles = dr.load_reference()
+    cyc = [cycles["a"].astype(np.float64), cycles["b"].astype(np.float64)]
+    pm = [photon_map_image(dr.ortho_scene(), SAMPLES, s) for s in (1, 2)]
+    sharp = photon_map_image(dr.ortho_scene(use_dof=False), 16, 1)
+    assert_matches_cycles(pm, cyc, sharp, "orthographic DOF")

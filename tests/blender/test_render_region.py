@@ -24,21 +24,28 @@ def scene_with_border():
     return scene
 
 
-def region_rows_cols():
-    """The border in pixels, top-first rows: 0.2-0.65 of 40 and 0.3-0.9 of 30 (exact
-    products, whatever Blender's float32 fractions)."""
-    return slice(H - 27, H - 9), slice(8, 26)
+def region_rows_cols(border=BORDER):
+    """The border in pixels, top-first rows, where Blender puts it: each float32 fraction
+    times the resolution in float32, truncated. BORDER: 0.2-0.65 of 40 and 0.3-0.9 of 30
+    (exact products in float32, though 0.65 x 40 is 25.99999 in float64); SHIFTED: 0.27 x
+    40 = 10.8 is column 10 (rounding would say 11 and shift the region by a pixel)."""
+    x0, x1, y0, y1 = (int(np.float32(f) * np.float32(n)) for f, n in zip(border, (W, W, H, H)))
+    return slice(H - y1, H - y0), slice(x0, x1)
 
 
-@pytest.mark.parametrize("crop", [True, False])
-def test_the_region_is_the_same_pixels_as_the_whole_render(crop):
+SHIFTED = (0.27, 0.7, 0.3, 0.8)
+
+
+@pytest.mark.parametrize("crop, border", [(True, BORDER), (False, BORDER), (True, SHIFTED),
+                                          (False, SHIFTED)])
+def test_the_region_is_the_same_pixels_as_the_whole_render(crop, border):
     scene = scene_with_border()
     whole = scenes.render_passes()["Combined"]
     r = scene.render
     r.use_border, r.use_crop_to_border = True, crop
-    r.border_min_x, r.border_max_x, r.border_min_y, r.border_max_y = BORDER
+    r.border_min_x, r.border_max_x, r.border_min_y, r.border_max_y = border
     part = scenes.render_passes()["Combined"]
-    rows, cols = region_rows_cols()
+    rows, cols = region_rows_cols(border)
     if crop:  # the size Blender gave the RenderResult, filled to its edges
         assert np.all(part[..., 3] == 1.0)
         assert part.shape == (rows.stop - rows.start, cols.stop - cols.start, 4)

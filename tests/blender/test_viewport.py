@@ -45,6 +45,35 @@ def run_to_the_end(viewport, scene, view):
             return steps
 
 
+def passes_in_view(view, region):
+    """(image, SPPMState) of a ViewportRender through ``view`` cut to ``region`` (core
+    pixels or None), run to its last pass."""
+    import dataclasses
+
+    from photon_map.photon_engine.viewport import ViewportRender, view_camera
+
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    viewport = ViewportRender()
+    camera = dataclasses.replace(view_camera(view, W, H), region=region)
+    while True:
+        viewport.sync(depsgraph, camera)
+        if not viewport.step(seconds=0.0):
+            return viewport.image(), viewport.state
+
+
+def assert_only_the_region_renders(view, region):
+    """The view's passes cut to ``region`` (x0, y0, x1, y1) hold the whole view's pixels
+    there, bit for bit, nothing elsewhere, and trace no visible point outside it."""
+    x0, y0, x1, y1 = region
+    (whole, _), (part, state) = (passes_in_view(view, cut) for cut in (None, region))
+    assert whole[y0:y1, x0:x1].max() > 0
+    np.testing.assert_array_equal(part[y0:y1, x0:x1], whole[y0:y1, x0:x1])
+    outside = np.ones((H, W), bool)
+    outside[y0:y1, x0:x1] = False
+    assert np.all(part[outside] == 0.0)
+    assert max(state.stats["visible_points"]) <= (x1 - x0) * (y1 - y0)
+
+
 def test_viewport_through_the_camera_is_the_progressive_render(lit_plane):
     """The view's matrices give the scene camera's rays: after Viewport Passes passes the
     viewport shows the Progressive integrator's F12 image of the same passes."""
@@ -140,9 +169,7 @@ def test_rendered_shading_in_a_real_viewport(tmp_path):
 def test_the_viewport_render_region_renders_those_pixels_only(lit_plane):
     """View3D's Render Region (outside the camera view): the region's pixels are those of
     the whole view's passes, bit for bit, and nothing is traced outside it."""
-    import dataclasses
-
-    from photon_map.photon_engine.viewport import ViewportRender, view_camera, view_region
+    from photon_map.photon_engine.viewport import view_region
 
     view = camera_view(lit_plane)
     view.view_perspective = 'PERSP'
@@ -152,20 +179,31 @@ def test_the_viewport_render_region_renders_those_pixels_only(lit_plane):
     region = view_region(space, view, W, H)
     assert region == (8, 0, 24, 12)
     assert view_region(types.SimpleNamespace(use_render_border=False), view, W, H) is None
-    depsgraph = bpy.context.evaluated_depsgraph_get()
-    images = []
-    for cut in (None, region):
-        viewport = ViewportRender()
-        camera = dataclasses.replace(view_camera(view, W, H), region=cut)
-        while True:
-            viewport.sync(depsgraph, camera)
-            if not viewport.step(seconds=0.0):
-                break
-        images.append((viewport.image(), viewport.state))
-    (whole, _), (part, state) = images
-    assert whole[0:12, 8:24].max() > 0
-    np.testing.assert_array_equal(part[0:12, 8:24], whole[0:12, 8:24])
-    outside = np.ones((H, W), bool)
-    outside[0:12, 8:24] = False
-    assert np.all(part[outside] == 0.0)
-    assert max(state.stats["visible_points"]) <= 16 * 12
+    assert_only_the_region_renders(view, region)
+
+
+def test_the_scene_render_region_in_the_camera_view_renders_its_part_of_the_frame(lit_plane):
+    """Looking through the camera, the Render Region is the scene's (``render.use_border``,
+    fractions of the camera frame), placed where the camera frame sits in the view: here
+    the view is zoomed out so the frame fills the middle half of it. Its pixels are those of
+    the whole view's passes, bit for bit, and nothing outside it is traced or shown."""
+    from mathutils import Matrix
+
+    from photon_map.photon_engine.viewport import camera_frame_in_view, view_region
+
+    view = camera_view(lit_plane)
+    view.view_perspective = 'CAMERA'
+    half = Matrix.Diagonal((0.5, 0.5, 1.0, 1.0))  # the camera frame in the middle half
+    view.window_matrix = half @ view.window_matrix
+    np.testing.assert_allclose(camera_frame_in_view(view, lit_plane), (0.25, 0.25, 0.75, 0.75),
+                               atol=1e-6)
+    space = types.SimpleNamespace(use_render_border=False)
+    render = lit_plane.render
+    assert view_region(space, view, W, H, lit_plane) is None  # use_border off: whole view
+    render.use_border = True
+    render.border_min_x, render.border_max_x = 0.0, 0.5
+    render.border_min_y, render.border_max_y = 0.5, 1.0
+    # x: 0.25 + [0, 0.5] x 0.5 of 32 pixels; y (up): 0.25 + [0.5, 1] x 0.5 of 24 -> rows 6-12
+    region = view_region(space, view, W, H, lit_plane)
+    assert region == (8, 6, 16, 12)
+    assert_only_the_region_renders(view, region)

@@ -65,6 +65,31 @@ def test_orthographic_rays_are_parallel_and_spread_over_the_film():
     np.testing.assert_allclose(rays.origins[:, 2], -0.5)
 
 
+def test_orthographic_depth_of_field_meets_at_the_focus_distance():
+    """Cycles' orthographic thin lens: every lens sample of a film point (x, y) starts on
+    the near clip plane at (x, y) + lens offset moved along the ray, and passes through
+    (x, y) at the focus distance; the offsets fill the aperture (radius 0.3 here)."""
+    cam = identity_camera(kind=CAMERA_ORTHOGRAPHIC, film_size=np.array([4.0, 2.0]),
+                          clip_start=0.5, clip_end=20.0, aperture_radius=0.3,
+                          focus_distance=3.0)
+    assert camera.has_aperture(cam)
+    n = 4000
+    pixel = np.full(n, 5)  # column 1, row 1: film point (-0.5, -0.5) at the pixel centre
+    lens = np.random.default_rng(3).random((n, 2))
+    rays = camera.generate_rays(cam, pixel, np.full((n, 2), 0.5), lens)
+    np.testing.assert_allclose(np.linalg.norm(rays.directions, axis=1), 1.0, rtol=1e-12)
+    np.testing.assert_allclose(rays.origins[:, 2], -0.5, rtol=1e-12)  # on the near plane
+    t = (3.0 - 0.5) / -rays.directions[:, 2]
+    focus = rays.origins + t[:, None] * rays.directions
+    np.testing.assert_allclose(focus, np.tile([-0.5, -0.5, -3.0], (n, 1)), atol=1e-12)
+    back = rays.origins - (0.5 / -rays.directions[:, 2])[:, None] * rays.directions  # depth 0
+    offset = back[:, :2] - [-0.5, -0.5]
+    r = np.linalg.norm(offset, axis=1)
+    assert r.max() <= 0.3 + 1e-12 and r.max() > 0.29
+    assert abs(np.mean(r <= 0.15) - 0.25) < 0.03  # uniform over the disk's area
+    np.testing.assert_array_equal(rays.tmax, 20.0 - 0.5)  # Cycles: cliplength along D
+
+
 def test_clipping_planes_are_depths_like_cycles():
     cam = identity_camera(clip_start=0.5, clip_end=10.0)
     rays = camera.generate_rays(cam, np.arange(8), np.random.default_rng(1).random((8, 2)))
