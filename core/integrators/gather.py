@@ -291,9 +291,10 @@ BACK_SHARE = 0.5
 """Share of a point's gather rays sent to the far side where a diffuse-like lobe transmits."""
 
 
-def bsdf_terms(terms: PhotonTerms, closures, rows, mat, texel, d, nsf, front):
-    """Split the diffuse hits ``rows`` (indices into mat (N,), texel (N, 3), d (N, 3) the
-    arriving directions, nsf (N, 3), front (N,)) into those with Lambert diffuse lobes
+def bsdf_terms(terms: PhotonTerms, closures, rows, mat, closure_rows, texel, d, nsf, front):
+    """Split the diffuse hits ``rows`` (indices into mat (N,) their materials, closure_rows
+    (N,) int32 their rows of ``closures`` (``HitShader.closures_at``), texel (N, 3), d (N, 3)
+    the arriving directions, nsf (N, 3), front (N,)) into those with Lambert diffuse lobes
     (the albedo path) and the others: (lambert rows, BSDF rows, BsdfHits of the BSDF rows
     or None when there are none)."""
     if terms.bsdf_materials is None:
@@ -302,7 +303,8 @@ def bsdf_terms(terms: PhotonTerms, closures, rows, mat, texel, d, nsf, front):
     if not b.any():
         return rows, rows[:0], None
     br = rows[b]
-    hits = BsdfHits(closures, mat[br].astype(np.int32), texel[br], -d[br], nsf[br], front[br])
+    hits = BsdfHits(closures, closure_rows[br].astype(np.int32), texel[br], -d[br], nsf[br],
+                    front[br], terms.back_share[mat[br]])
     return rows[~b], br, hits
 
 
@@ -424,7 +426,7 @@ def _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sa
         _gather_rays_kernel(pos, ngf, nsf, eps, owner, u1, u2, o, d, ok)
     else:
         weight = np.empty((m, 3))
-        back = terms.back_share[bsdf.material]
+        back = bsdf.back_share
         _bsdf_gather_rays_kernel(bsdf.closures, bsdf.material, np.ascontiguousarray(bsdf.texel),
                                  np.ascontiguousarray(bsdf.outgoing), bsdf.front, pos, ngf, nsf,
                                  eps, back, g, u1, u2, o, d, weight, ok)
@@ -456,8 +458,9 @@ def _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sa
                 bd, diff = diff[b], diff[~b]
                 hd = hit[bd]
                 texel = prepared.texels.albedo(hits.prim[hd], hits.u[hd], hits.v[hd], mat[bd])
-                hb = BsdfHits(prepared.closures, mat[bd].astype(np.int32), texel, -d[bd],
-                              s2[bd], front[bd])
+                tab, crow = prepared.hit_shader.closures_at(hits.prim[hd], hits.u[hd],
+                                                            hits.v[hd], d[bd], mat[bd])
+                hb = BsdfHits(tab, crow.astype(np.int32), texel, -d[bd], s2[bd], front[bd])
                 est = radiance_estimate(terms.global_map, p2[bd], n2[bd], None, terms.global_k,
                                         terms.global_radius, terms.filter, bsdf=hb)
                 radiance[rows[bd]] += thr[bd] * est

@@ -143,11 +143,13 @@ def _add(acc, rows, values):
 
 
 def _photon_terms(ctx: _CameraPass, rows, pos, ngf, nsf, eps, mat, thr, pixel, sample, depth,
-                  caustic_target, indirect_target, albedo, after_glossy, d, texel, front):
+                  caustic_target, indirect_target, albedo, after_glossy, d, texel, front,
+                  tab, crow):
     """Add T * (caustics) and T * (indirect) at the hits with a diffuse lobe
     (core/integrators/gather.py). albedo (N, 3): the (textured) diffuse albedo at the hits;
-    d (N, 3) the arriving directions, texel (N, 3), front (N,): the BSDF where the
-    diffuse-like lobes are not Lambert (``gather.bsdf_terms``).
+    d (N, 3) the arriving directions, texel (N, 3), front (N,), tab and crow (N,) (the hits'
+    closure rows, ``HitShader.closures_at``): the BSDF where the diffuse-like lobes are not
+    Lambert (``gather.bsdf_terms``).
     after_glossy (N,) bool: the path reached the hit through a rough lobe; with
     ``global_after_glossy(terms)`` the diffuse part's whole radiance there is the global
     map's estimate (direct and caustic photons included), added to indirect_target."""
@@ -169,7 +171,7 @@ def _photon_terms(ctx: _CameraPass, rows, pos, ngf, nsf, eps, mat, thr, pixel, s
         sel = sel[~blur]
         if sel.size == 0:
             return
-    sel, bs, hb = gather.bsdf_terms(terms, ctx.prepared.closures, sel, mat, texel, d, nsf, front)
+    sel, bs, hb = gather.bsdf_terms(terms, tab, sel, mat, crow, texel, d, nsf, front)
     if hb is not None:
         r = rows[bs]
         if terms.caustic_map is not None:
@@ -332,7 +334,7 @@ def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> dict[str, np.ndarray]:
             _photon_terms(ctx, rows, pos, ngf, nsf, eps, mat, thr, pixel, sample, depth,
                           acc["caustics"] if first else acc["specular"],
                           acc["indirect"] if first else acc["specular"], albedo, glossy, d,
-                          texel, front)
+                          texel, front, tab, crow)
 
         # Continue through one sampled lobe: mirrors, glass, the glossy part of rough lobes
         if last:

@@ -333,6 +333,9 @@ class BsdfHits(NamedTuple):
     (M, 3) float64 the texel colour multiplying the closures' COLOR (1 untextured);
     outgoing (M, 3) float64 unit, toward the viewer; shading_normal (M, 3) float64 unit;
     front (M,) bool, the viewer is on the front of the mesh's geometric normal.
+    material is the row of ``closures`` (a shader program's hits have rows of their own past
+    the materials', ``HitShader.closures_at``). back_share (M,) float64: the share of final
+    gathering's rays sent to the far side (None where no final gathering starts there).
     """
 
     closures: closure.ClosureTable
@@ -341,11 +344,13 @@ class BsdfHits(NamedTuple):
     outgoing: np.ndarray
     shading_normal: np.ndarray
     front: np.ndarray
+    back_share: np.ndarray | None = None
 
     def take(self, rows) -> "BsdfHits":
         """The hits ``rows`` (an index array or slice)."""
         return BsdfHits(self.closures, self.material[rows], self.texel[rows],
-                        self.outgoing[rows], self.shading_normal[rows], self.front[rows])
+                        self.outgoing[rows], self.shading_normal[rows], self.front[rows],
+                        None if self.back_share is None else self.back_share[rows])
 
 
 TANGENT = closure.DEFAULT_TANGENT

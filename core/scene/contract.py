@@ -596,10 +596,10 @@ def _validate_mesh(mesh: Mesh, materials: Materials) -> None:
     n_obj = int(mesh.object_index.max()) + 1 if t else 0
     names = mesh.object_names if len(mesh.object_names) >= n_obj else None
     if mesh.object_to_world is not None:
-        _check_array("mesh.object_to_world", mesh.object_to_world, (None, 4, 4),
+        check_array("mesh.object_to_world", mesh.object_to_world, (None, 4, 4),
                      dtype=np.float64, labels=names)
     if mesh.object_texspace is not None:
-        _check_array("mesh.object_texspace", mesh.object_texspace, (None, 2, 3),
+        check_array("mesh.object_texspace", mesh.object_texspace, (None, 2, 3),
                      dtype=np.float64, labels=names)
     for key in ("object_to_world", "object_texspace"):
         a = getattr(mesh, key)
@@ -607,7 +607,7 @@ def _validate_mesh(mesh: Mesh, materials: Materials) -> None:
             raise SceneError(f"mesh.{key} has {a.shape[0]} rows, fewer than the "
                              f"{n_obj} objects of mesh.object_index")
     if mesh.origin is not None:
-        _check_array("mesh.origin", mesh.origin, (3,), dtype=np.float64)
+        check_array("mesh.origin", mesh.origin, (3,), dtype=np.float64)
 
 
 def _validate_textures(tx: Textures) -> None:
@@ -699,11 +699,11 @@ def _validate_programs(m: Materials, names) -> None:
         try:
             prog.validate()
         except ValueError as exc:
-            raise SceneError(f"materials.programs{_label(names, i)}: {exc}") from None
+            raise SceneError(f"materials.programs{label(names, i)}: {exc}") from None
         for row in np.asarray(prog.outputs).reshape(-1, 4):
             # row[1] == 0: core.shading.program.TARGET_CLOSURE (rank 2, not importable here)
             if int(row[1]) == 0 and not 0 <= int(row[2]) < int(count[i]):
-                raise SceneError(f"materials.programs{_label(names, i)}: an output writes "
+                raise SceneError(f"materials.programs{label(names, i)}: an output writes "
                                  f"closure {int(row[2])}, but the material has "
                                  f"{int(count[i])} closures")
 

@@ -48,9 +48,11 @@ def sun(strength):
     return {"kind": LIGHT_SUN, "to_world": m, "power": strength, "angle": 0.0}
 
 
-def scene(program, colour=0.25, walls=True):
+def scene(program, colour=0.25, walls=True, roughness=0.0):
     """A 2 m floor (UV (0, 0) to (1, 1) over x, y in [-1, 1]) seen from above, a sun
-    straight down, and (walls) four white walls 2.5 m high around it for indirect light."""
+    straight down, and (walls) four white walls 2.5 m high around it for indirect light.
+    roughness > 0 makes the floor Oren-Nayar (its photon terms then go through the BSDF
+    estimate, gather.bsdf_terms)."""
     floor = shapes.quad([0, 0, 0], [1, 0, 0], [0, 1, 0])
     parts = [(floor, 0)]
     if walls:
@@ -63,9 +65,10 @@ def scene(program, colour=0.25, walls=True):
     uvs[mesh.material_index == 0] = (corners[..., :2] + 1.0) / 2.0
     mesh = replace(mesh, uvs=uvs.astype(np.float32))
     # The legacy diffuse lobe as the exporter writes it: the photon terms of hits
-    # without a program still read it (prepared.surfaces).
+    # without a program still read it (prepared.surfaces). Roughness 0: Lambert.
     floor_row = {"closures": [{"kind": closures.CLOSURE_DIFFUSE,
-                               "params": {"color": colour}}], "program": program,
+                               "params": {"color": colour, "roughness": roughness}}],
+                 "program": program,
                  "diffuse": [colour] * 3}
     mats = Materials.from_list([floor_row, {"diffuse": [0.8, 0.8, 0.8]}])
     cam = Camera(to_world=shapes.look_at([0, 0, 3], [0, 0, 0], (0, 1, 0)), width=RES,
@@ -77,11 +80,13 @@ SETTINGS = RenderSettings(samples=2, global_photons=3000, caustic_photons=1000,
                           final_gather_rays=4, threads=2)
 
 
+@pytest.mark.parametrize("roughness", [0.0, 0.5], ids=["lambert", "oren_nayar"])
 @pytest.mark.parametrize("mode", ["final_gather", "preview"])
-def test_a_constant_program_renders_exactly_like_the_material(mode):
+def test_a_constant_program_renders_exactly_like_the_material(mode, roughness):
     st = SETTINGS.with_values(indirect_mode=mode)
-    plain = photon_mapping.render(scene(None, 0.25), st).passes
-    programmed = photon_mapping.render(scene(constant_program(0.5), 0.9), st).passes
+    plain = photon_mapping.render(scene(None, 0.25, roughness=roughness), st).passes
+    programmed = photon_mapping.render(scene(constant_program(0.5), 0.9, roughness=roughness),
+                                       st).passes
     assert plain["indirect"].max() > 0 and plain["direct"].max() > 0
     for name, image in plain.items():
         np.testing.assert_array_equal(programmed[name], image, err_msg=name)
