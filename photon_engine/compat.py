@@ -45,9 +45,12 @@ EEVEE = 'BLENDER_EEVEE_NEXT' if (4, 2, 0) <= VERSION < (5, 0, 0) else 'BLENDER_E
 """EEVEE's engine id: 4.2 to 4.5 call the rewritten EEVEE "BLENDER_EEVEE_NEXT"."""
 
 
-CRASHES_AT_EXIT = VERSION < (4, 3, 0)
-"""bpy 4.2's module segfaults at interpreter exit once properties with update callbacks
-were registered (measured with bpy 4.2.23; 5.0.1 and 5.2.3 exit cleanly)."""
+CRASHES_AT_EXIT = VERSION < (5, 0, 0)
+"""bpy 4.x's module does not survive its own teardown at process exit: 4.2 segfaults once
+properties with update callbacks were registered (measured with bpy 4.2.23), and 4.5 can
+hang for ever in a static destructor (bpy 4.5.15: ``GlobalState::~GlobalState`` destroys the
+condition variable its ``delayed_close_thread`` still waits on; seen in gdb on a CLI run that
+had already printed its error and called exit(1)). 5.0.1, 5.1.2 and 5.2.3 exit cleanly."""
 
 
 VORONOI_PCG_HASH = VERSION >= (5, 0, 0)
