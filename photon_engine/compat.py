@@ -132,6 +132,12 @@ DENOISE_TREE = "Photon Map Denoise"
 """Name of the compositor node group (5.0+) or marker node (4.x) denoise_compositor makes."""
 
 
+DEFAULT_COMPOSITOR_NODES = frozenset({"CompositorNodeRLayers", "CompositorNodeComposite",
+                                      "CompositorNodeViewer", "NodeReroute"})
+"""What 4.x puts in a scene's new compositor tree (4.2: Render Layers -> Composite; 4.5 adds
+a Reroute and a Viewer): a tree of only these is not the user's own compositor."""
+
+
 def denoise_compositor(scene, on: bool) -> str:
     """Set up (``on``) or remove the compositor that denoises a Photon Map render:
     Render Layers (Image, Denoising Albedo, Denoising Normal) -> Denoise (OpenImageDenoise,
@@ -167,8 +173,7 @@ def denoise_compositor(scene, on: bool) -> str:
         tree = scene.node_tree
         if tree.nodes.get(DENOISE_TREE) is not None:
             return ""
-        if any(n.bl_idname not in ("CompositorNodeRLayers", "CompositorNodeComposite")
-               for n in tree.nodes):
+        if any(n.bl_idname not in DEFAULT_COMPOSITOR_NODES for n in tree.nodes):
             return (f"scene '{scene.name}' has its own compositor: add a Denoise node to it "
                     f"by hand")
         tree.nodes.clear()
