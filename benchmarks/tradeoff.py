@@ -7,6 +7,11 @@ measured against converged references on four scenes built with bpy.
 
 --write-docs rewrites the generated block of docs/tradeoff.md and docs/images/tradeoff_<scene>.png;
 --strip draws docs/images/tradeoff_presets.png (each preset's image beside the reference).
+--pictures writes only the scenes' pictures (docs/images/tradeoff_<scene>.png, and for the fog
+scenes tradeoff_<scene>_images.png: each preset above Cycles at about its wall time), not
+docs/tradeoff.md (a run of some scenes must not drop the others' rows there):
+
+    .venv/bin/python benchmarks/tradeoff.py --scenes fog_spot,fog_caustic --pictures
 
 Scenes (SCENES): ``demo`` (the Cornell box of examples/cornell_box.py: mirror and glass
 spheres, a small area light), ``caustic`` (a glass sphere on a floor under a small area
@@ -14,7 +19,9 @@ light, tests/blender/cycles_caustic_reference.py's scene), ``interior`` (a close
 only by an area light facing the ceiling: almost every visible pixel is indirect light),
 ``mirror`` (a room corner with a mirror wall, a diffuse sphere and box, a ceiling light),
 ``artist`` (a room of default Principled BSDF walls, a glossy floor, rough copper, gold and
-frosted-glass spheres: issue 13's scene).
+frosted-glass spheres: issue 13's scene), ``fog_spot`` (a floor in World fog lit by a spot
+light) and ``fog_caustic`` (the same with a glass sphere under the spot: the volumetric
+caustic), tests/blender/cycles_media_reference.py's scenes (issue 16).
 
 Resolutions: RESOLUTIONS (64 x 48, the caustic 96 x 72), or --resolution / --quick (48 x 36).
 References (cached in benchmarks/references/<scene>_<W>x<H>.npz with the command that
@@ -23,6 +30,11 @@ re-rendered, or refused with the command under ``--no-make``):
 - Cycles, full global illumination with BOUNCES bounces of every kind (Photon Map's
   ``photon_max_bounces`` and ``max_specular_depth``), caustics on, no clamping, no
   denoising, a 1-pixel box filter, 2 seeds x REF_SAMPLES samples averaged;
+- for ``fog_spot``: cycles_media_reference.py's cached Cycles render (CYCLES_SEEDS x
+  CYCLES_SAMPLES samples, BOUNCES bounces, volume bounces included); for ``fog_caustic``
+  Photon Map at FOG_CAUSTIC_REF, cross-checked against that Cycles render (why: its
+  docstring); both at that module's resolution only, and without SPPM rows (the progressive
+  mode refuses media);
 - for ``caustic``: SPPM with 2 seeds x CAUSTIC_REF_PASSES passes of CAUSTIC_REF_PHOTONS
   photons, cross-checked against a Cycles render of the same scene (the relMSE between
   the two is stored and printed).
@@ -52,6 +64,7 @@ import pathlib
 import os
 import platform
 import sys
+import textwrap
 import time
 
 import numpy as np
@@ -63,13 +76,15 @@ if str(ROOT) not in sys.path:
 import bpy  # noqa: E402
 
 from tests.blender import cycles_caustic_reference as caustic_ref  # noqa: E402
+from tests.blender import cycles_media_reference as media_ref  # noqa: E402
 from tests.blender import cycles_reference as cref  # noqa: E402
 from tests.blender import scenes  # noqa: E402
 
 REF_DIR = ROOT / "benchmarks" / "references"
 DOCS = ROOT / "docs"
 RESOLUTIONS = {"demo": (64, 48), "caustic": (96, 72), "interior": (64, 48), "mirror": (64, 48),
-               "artist": (64, 48)}
+               "artist": (64, 48), "fog_spot": media_ref.RESOLUTION,
+               "fog_caustic": media_ref.RESOLUTION}
 """Pixels per scene: small, so a full run fits ~30 min on 2 shared cores (the caustic is
 larger: its reference is SPPM, whose cost does not grow with the pixel count)."""
 QUICK_RESOLUTION = (48, 36)
@@ -86,6 +101,9 @@ SPPM_MARKS = (1, 4, 16, 64, 256)
 CYCLES_SAMPLES = (1, 4, 16, 64, 256, 1024, 4096)
 QUICK_SPPM_MARKS = (1, 4, 16, 64)
 QUICK_CYCLES_SAMPLES = (1, 4, 16, 64, 256)
+MEDIA_CYCLES_SAMPLES = (16, 64, 256, 1024, 4096, 16384)
+"""Cycles' sample counts on the fog scenes, --quick or not: 48 x 36 pixels take Cycles about
+2 ms a sample, so Photon Map's wall times are reached by measurement, not extrapolation."""
 REGENERATE = ".venv/bin/python benchmarks/tradeoff.py --make-references --scenes {scene} " \
              "--resolution {w}x{h}"
 
@@ -238,8 +256,31 @@ def artist_scene(resolution):
     return scene
 
 
+def fog_spot_scene(resolution):
+    """A grey floor in World fog (albedo 0.7, sigma_t 0.25 / m) under a spot light."""
+    return media_ref.fog_spot_scene(resolution)
+
+
+def fog_caustic_scene(resolution):
+    """fog_spot with a glass sphere under the spot: the volumetric caustic."""
+    return media_ref.fog_spot_scene(resolution, sphere=True)
+
+
 SCENES = {"demo": demo_scene, "caustic": caustic_scene, "interior": interior_scene,
-          "mirror": mirror_scene, "artist": artist_scene}
+          "mirror": mirror_scene, "artist": artist_scene, "fog_spot": fog_spot_scene,
+          "fog_caustic": fog_caustic_scene}
+MEDIA_SCENES = ("fog_spot", "fog_caustic")
+"""Scenes whose Cycles renders use cycles_media_reference.configure_cycles_media (volume
+bounces too) and whose reference is that module's cached Cycles render, except
+``fog_caustic`` (FOG_CAUSTIC_REF)."""
+FOG_CAUSTIC_REF = dict(samples=64, global_photons=4_000_000, caustic_photons=4_000_000,
+                       indirect_mode="preview", light_samples=4, photon_max_bounces=BOUNCES,
+                       max_specular_depth=BOUNCES)
+"""The volumetric caustic's reference: Photon Map with these settings, two seeds, cross-checked
+against the cached Cycles render. Cycles is no reference there: it finds light -> glass -> fog
+paths only by phase-sampled rays through the sphere that hit the 0.1 m light, and even an
+index-matched sphere (IOR 1, which must change nothing) darkens its image by 13 % at 8 x 2048
+samples (docs/volumes.md), where Photon Map's changes by 0.9 %."""
 
 
 # Renderers ----------------------------------------------------------------------------
@@ -258,9 +299,9 @@ def configure_cycles_full(scene, samples, seed=0):
     return scene
 
 
-def cycles_render(scene, samples, seed=0):
+def cycles_render(scene, samples, seed=0, configure=configure_cycles_full):
     """(image (H, W, 3) float64, wall s of bpy.ops.render.render)."""
-    configure_cycles_full(scene, samples, seed)
+    configure(scene, samples, seed)
     t0 = time.perf_counter()
     bpy.ops.render.render()
     wall = time.perf_counter() - t0
@@ -293,6 +334,14 @@ class PhotonMap:
         wall = time.perf_counter() - t0
         return out.passes["combined"].astype(np.float64), wall, out.stats
 
+    def custom(self, values, seed=0):
+        """(image (H, W, 3) float64, wall s incl. export) with RenderSettings ``values``."""
+        t0 = time.perf_counter()
+        core_scene = self.export_scene()
+        settings = self.settings.RenderSettings().with_values(seed=seed, **values)
+        out = self.integrator.render(core_scene, settings)
+        return out.passes["combined"].astype(np.float64), time.perf_counter() - t0
+
     def progressive(self, marks, photons, seed=0):
         """{passes: (image, wall s incl. export)} at each mark."""
         t0 = time.perf_counter()
@@ -314,6 +363,8 @@ class PhotonMap:
         caustic_scene((8, 6))  # glass: the caustic map's kernels too
         self.preset("draft")
         self.progressive((1,), 1000)
+        fog_caustic_scene((8, 6))  # World fog: the media kernels (not progressive: refused)
+        self.preset("draft")
 
 
 # References ---------------------------------------------------------------------------
@@ -330,6 +381,8 @@ def fingerprint(name, resolution) -> str:
                   repr((CAUSTIC_REF_PASSES, CAUSTIC_REF_PHOTONS))]
     if name in ("interior", "mirror"):
         parts += [inspect.getsource(_room), inspect.getsource(_glossy_mirror)]
+    if name in MEDIA_SCENES:
+        parts += [media_ref.fingerprint(), repr(FOG_CAUSTIC_REF)]
     return hashlib.sha256("\n".join(parts).encode()).hexdigest()[:16]
 
 
@@ -361,7 +414,20 @@ def make_reference(name, resolution, pm: PhotonMap) -> dict:
     stamp = fingerprint(name, resolution)  # before the long render (the source may change)
     scene = SCENES[name](resolution)
     extra = {}
-    if name == "caustic":
+    if name == "fog_caustic":
+        a, b = (pm.custom(FOG_CAUSTIC_REF, seed)[0] for seed in (101, 102))
+        image = (a + b) / 2
+        cycles = media_ref.load_reference(name)
+        cycles_image = cycles["image"].astype(np.float64)
+        extra = dict(method=np.str_("Photon Map 2 x " + ", ".join(
+                         f"{k} {v:,}" if isinstance(v, int) else f"{k} {v}"
+                         for k, v in FOG_CAUSTIC_REF.items())),
+                     cycles=cycles_image.astype(np.float32),
+                     cycles_a=cycles["image_a"], cycles_b=cycles["image_b"],
+                     cycles_vs_sppm=np.float64(rel_mse(cycles_image, image)),
+                     cycles_noise=np.float64(noise_floor(cycles["image_a"], cycles["image_b"])),
+                     cycles_mean_ratio=np.float64(mean_ratio(cycles_image, image)))
+    elif name == "caustic":
         halves = []
         for seed in (101, 102):
             found = pm.progressive((CAUSTIC_REF_PASSES,), CAUSTIC_REF_PHOTONS, seed=seed)
@@ -394,15 +460,44 @@ def make_reference(name, resolution, pm: PhotonMap) -> dict:
     data = load_reference(name, resolution)
     msg = f"reference {name} {resolution[0]}x{resolution[1]}: {data['method']}, " \
           f"{data['seconds']:.0f} s, noise {data['noise']:.2g}"
-    if name == "caustic":
-        msg += f", Cycles vs SPPM relMSE {extra['cycles_vs_sppm']:.4f} " \
+    if name in ("caustic", "fog_caustic"):
+        msg += f", Cycles vs this reference relMSE {extra['cycles_vs_sppm']:.4f} " \
                f"(Cycles noise {extra['cycles_noise']:.4f}), mean ratio " \
                f"{extra['cycles_mean_ratio']:.3f}"
     print(msg, flush=True)
     return data
 
 
+def media_reference(name, resolution, make=True, force=False) -> dict:
+    """cycles_media_reference.py's cached Cycles render of fog scene ``name``, with the keys
+    the other references have (image_a and image_b are its odd and even seeds)."""
+    command = f".venv/bin/python tests/blender/cycles_media_reference.py {name}"
+    try:
+        data = None if force else media_ref.load_reference(name)
+    except AssertionError:  # missing, or made by other scene code
+        data = None
+    if data is None:
+        if not make:
+            raise SystemExit(f"missing or stale reference {media_ref.reference_path(name)}; "
+                             f"regenerate it with: {command}")
+        media_ref.main([name])
+        data = media_ref.load_reference(name)
+    if "image_a" not in data:
+        raise SystemExit(f"{media_ref.reference_path(name)} has no halves; regenerate it with: "
+                         f"{command}")
+    data["noise"] = noise_floor(data["image_a"], data["image_b"])
+    data["method"] = np.str_(f"Cycles {int(data['samples']):,} samples "
+                             f"({media_ref.CYCLES_SEEDS} seeds), {media_ref.BOUNCES} bounces")
+    data["command"] = np.str_(command)
+    return data
+
+
 def reference(name, resolution, pm, make=True, force=False) -> dict:
+    if name in MEDIA_SCENES and tuple(resolution) != tuple(media_ref.RESOLUTION):
+        raise SystemExit(f"{name} has a reference at {media_ref.RESOLUTION[0]}x"
+                         f"{media_ref.RESOLUTION[1]} only, not {resolution[0]}x{resolution[1]}")
+    if name == "fog_spot":
+        return media_reference(name, resolution, make, force)
     data = None if force else load_reference(name, resolution)
     if data is None:
         if not make:
@@ -419,15 +514,19 @@ def measure_scene(name, resolution, pm, qualities, sppm_marks, cycles_samples, r
     scene = SCENES[name](resolution)
     image = ref["image"].astype(np.float64)
     rows = []
+    configure = media_ref.configure_cycles_media if name in MEDIA_SCENES else configure_cycles_full
+    if name in MEDIA_SCENES:
+        sppm_marks = ()  # the progressive mode refuses a scene with a medium
+        cycles_samples = MEDIA_CYCLES_SAMPLES
 
     def add(method, label, img, wall, **extra):
         row = dict(scene=name, method=method, label=label, wall=wall,
-                   relmse=rel_mse(img, image), ratio=mean_ratio(img, image), **extra)
+                   relmse=rel_mse(img, image), ratio=mean_ratio(img, image), image=img, **extra)
         rows.append(row)
         print(f"| {name} | {label} | {wall:.2f} | {row['relmse']:.4g} | {row['ratio']:.3f} |",
               flush=True)
 
-    cycles_render(scene, 1)  # Cycles' kernels and scene sync warm, like numba's
+    cycles_render(scene, 1, configure=configure)  # Cycles' kernels and scene sync warm, like numba's
     jobs = []
     for i in range(max(len(qualities), len(cycles_samples))):
         if i < len(qualities):
@@ -441,9 +540,10 @@ def measure_scene(name, resolution, pm, qualities, sppm_marks, cycles_samples, r
                 photons=int(stats.get("global_photons_stored", 0) +
                             stats.get("caustic_photons_stored", 0)))
         else:
-            img, wall = cycles_render(scene, value)
+            img, wall = cycles_render(scene, value, configure=configure)
             add("cycles", f"Cycles {value} spp", img, wall, samples=value)
-    for passes, (img, wall) in sorted(pm.progressive(sppm_marks, SPPM_PHOTONS).items()):
+    found = pm.progressive(sppm_marks, SPPM_PHOTONS) if sppm_marks else {}
+    for passes, (img, wall) in sorted(found.items()):
         add("sppm", f"SPPM {passes} passes", img, wall, passes=passes)
     return rows
 
@@ -512,6 +612,39 @@ def figure(rows, name, ref, path):
     plt.close(fig)
 
 
+def equal_time_strip(rows, name, ref, path):
+    """Each preset's image above Cycles' render nearest to it in wall time, and the
+    reference; the same exposure for all (the reference's 99th percentile -> white, gamma
+    2.2), nearest-neighbour pixels."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    presets = [r for r in rows if r["scene"] == name and r["method"] == "preset"]
+    cycles = [r for r in rows if r["scene"] == name and r["method"] == "cycles"]
+    if not presets or not cycles:
+        return
+    pairs = [(p, min(cycles, key=lambda c: abs(math.log(c["wall"] / p["wall"]))))
+             for p in presets]
+    white = float(np.percentile(ref["image"], 99))
+    fig, axs = plt.subplots(2, len(pairs) + 1, squeeze=False,
+                            figsize=(2.6 * (len(pairs) + 1), 4.6))
+    for col, (p, c) in enumerate(pairs):
+        for ax, r, who in ((axs[0, col], p, "Photon Map "), (axs[1, col], c, "")):
+            ax.imshow(np.clip(r["image"] / white, 0, 1) ** (1 / 2.2), interpolation="nearest")
+            ax.set_title(f"{who}{r['label']}\n{r['wall']:.1f} s, relMSE {r['relmse']:.3g}",
+                         fontsize=7)
+            ax.axis("off")
+    axs[0, -1].imshow(np.clip(ref["image"] / white, 0, 1) ** (1 / 2.2), interpolation="nearest")
+    axs[0, -1].set_title("reference\n" + textwrap.fill(str(ref["method"]), 40), fontsize=6)
+    for ax in axs[:, -1]:
+        ax.axis("off")
+    fig.tight_layout()
+    fig.savefig(path, dpi=80)
+    plt.close(fig)
+
+
 def preset_strip(names, res, pm, path):
     """One row per scene: every preset's image and the reference, the same exposure
     (the reference's 99th percentile -> white, gamma 2.2), nearest-neighbour pixels."""
@@ -564,7 +697,7 @@ def write_docs(rows, refs, command, seconds):
         line = f"- {name} ({w}x{h}): {ref['method']}, noise {float(ref['noise']):.2g} " \
                f"(`{ref['command']}`)"
         if "cycles_vs_sppm" in ref:
-            line += f"; cross-check, Cycles 2 x {REF_SAMPLES} samples vs this SPPM reference: " \
+            line += f"; cross-check, Cycles vs this reference: " \
                     f"relMSE {float(ref['cycles_vs_sppm']):.4f} (Cycles' own noise " \
                     f"{float(ref['cycles_noise']):.4f}), mean ratio " \
                     f"{float(ref['cycles_mean_ratio']):.3f}"
@@ -599,6 +732,8 @@ def main(argv=None):
     ap.add_argument("--no-make", action="store_true", help="fail on a missing/stale reference")
     ap.add_argument("--write-docs", action="store_true",
                     help="write docs/tradeoff.md's table and docs/images/tradeoff_*.png")
+    ap.add_argument("--pictures", action="store_true",
+                    help="write only docs/images/tradeoff_<scene>*.png, not docs/tradeoff.md")
     ap.add_argument("--json", default=None, help="also save the rows as JSON here")
     ap.add_argument("--strip", action="store_true",
                     help="only draw docs/images/tradeoff_presets.png (each preset's image "
@@ -634,14 +769,20 @@ def main(argv=None):
     print(table(rows))
     for n, ref in refs.items():
         print(f"{n}: reference {ref['method']}, noise {float(ref['noise']):.2g}"
-              + (f", Cycles vs SPPM reference relMSE {float(ref['cycles_vs_sppm']):.4f}"
+              + (f", Cycles vs this reference relMSE {float(ref['cycles_vs_sppm']):.4f} "
+                 f"(its noise {float(ref['cycles_noise']):.4f}), mean ratio "
+                 f"{float(ref['cycles_mean_ratio']):.3f}"
                  if "cycles_vs_sppm" in ref else ""))
     if args.json:
-        pathlib.Path(args.json).write_text(json.dumps(rows, indent=1))
-    if args.write_docs:
+        pathlib.Path(args.json).write_text(json.dumps(
+            [{k: v for k, v in r.items() if k != "image"} for r in rows], indent=1))
+    if args.write_docs or args.pictures:
         (DOCS / "images").mkdir(parents=True, exist_ok=True)
         for n, ref in refs.items():
             figure(rows, n, ref, DOCS / "images" / f"tradeoff_{n}.png")
+            if n in MEDIA_SCENES:
+                equal_time_strip(rows, n, ref, DOCS / "images" / f"tradeoff_{n}_images.png")
+    if args.write_docs:
         command = ".venv/bin/python benchmarks/tradeoff.py " + " ".join(
             argv if argv is not None else sys.argv[1:])
         write_docs(rows, refs, command.strip(), time.perf_counter() - started)

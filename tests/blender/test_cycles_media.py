@@ -49,10 +49,11 @@ def test_spot_lit_fog_channel_means_match_cycles(fog_spot):
     combined = fog_spot["Combined"][..., :3].mean()
     assert fog_spot["Volume Direct"][..., :3].mean() > 0.1 * combined
     assert fog_spot["Volume Indirect"][..., :3].mean() > 0.1 * combined
-    assert np.all(np.abs(f["channel"]) < 0.03), f["channel"]  # measured +2.1 %
+    assert np.all(np.abs(f["channel"]) < 0.03), f["channel"]  # measured +1.93 %
 
 
-@pytest.mark.xfail(reason="measured: worst 8 x 8 block +13.8 % (median |block| 4.0 %); the "
+@pytest.mark.xfail(reason="measured: worst 8 x 8 block +12.9 % (median |block| 3.8 %; "
+                          "against 32 x 2048 Cycles samples, 2 x 2048 gave +13.8 %); the "
                           "dim upper blocks are the volume photon map's noise (left-right "
                           "mirror blocks differ by 10 %), the dim side blocks +7 % its blur",
                    strict=False)
@@ -61,12 +62,33 @@ def test_spot_lit_fog_block_means_match_cycles(fog_spot):
     assert f["worst_block"] < 0.10, f["blocks"]
 
 
-@pytest.mark.xfail(reason="measured: channel means +19.5 %, worst block +107 %. Adding the "
-                          "glass sphere darkens Cycles' image by 17 % but Photon Map's by "
-                          "2.5 % (clear glass only loses its Fresnel reflection, which stays "
-                          "in the fog): at 2 x 2048 spp Cycles still misses much of the "
-                          "light -> glass -> fog light, which it finds only by phase-sampled "
-                          "rays through the sphere hitting the 0.1 m light", strict=False)
+def test_an_index_matched_glass_sphere_changes_nothing_in_fog(fog_spot):
+    """A glass sphere of IOR 1 neither reflects nor bends light, so the fog_caustic scene with
+    it must render the fog_spot scene: the fog inside the sphere, the light through it into
+    the fog and onto the floor, the camera's view through it (now the Specular pass)."""
+    plain = fog_spot["Combined"][..., :3]
+    scene = media.SCENES["fog_caustic"]()
+    bpy.data.materials["Glass"].node_tree.nodes["Glass BSDF"].inputs["IOR"].default_value = 1.0
+    scenes.use_photon_map(scene, **SETTINGS)
+    matched = scenes.render_passes(scene)["Combined"][..., :3]
+    # 12 x 12 blocks within 12 %: at 100k photons the volume photons' noise alone moves
+    # the dim outer blocks by up to 10 % (their paths change where photons meet the sphere);
+    # measured -0.65 % in the means, worst block -8.4 % (the outer ones; those below the
+    # sphere, in its shadow cone and its light, within 2 %).
+    f = ref.compare(matched, plain, block=12)
+    print(f"\nIOR 1 sphere / no sphere - 1: channel means {np.round(100 * f['channel'], 2)} %, "
+          f"worst 12 x 12 block {100 * f['worst_block']:.1f} %")
+    assert np.all(np.abs(f["channel"]) < 0.02), f["channel"]
+    assert f["worst_block"] < 0.12, f["blocks"]
+
+
+@pytest.mark.xfail(reason="Cycles is no reference here (measured with the 32 x 2048 spp "
+                          "reference: channel means +10 %, see docs/volumes.md): Cycles finds "
+                          "light -> glass -> fog only by phase-sampled rays through the sphere "
+                          "that hit the 0.1 m light, and even an index-matched sphere (IOR 1) "
+                          "darkens its image by 13 % at 8 x 2048 spp (0.01150 +- 0.00016 "
+                          "against 0.01320 without the sphere), where Photon Map's changes by "
+                          "0.9 % (the test above)", strict=False)
 def test_volumetric_caustic_matches_cycles():
     passes = _render("fog_caustic")
     f = _figures("fog_caustic", passes)
