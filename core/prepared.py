@@ -184,7 +184,7 @@ class HitShader:
         n_mat, n_cl = tab.first.shape[0], tab.kind.shape[0]
         ins, _ = self.inputs(prim[hit], u[hit], v[hit], np.asarray(d)[hit])
         rows = np.array(mat, np.int32, copy=True)
-        kinds, weights, params, textures, firsts, counts = [], [], [], [], [], []
+        kinds, weights, params, textures, firsts, counts, abbes = [], [], [], [], [], [], []
         done = 0
         next_closure = n_cl
         for m in np.unique(mat[hit]):
@@ -197,6 +197,7 @@ class HitShader:
             weights.append(np.tile(tab.weight[f:f + k], (h, 1)))
             params.append(out["params"].reshape(h * k, -1).astype(np.float64))
             textures.append(np.tile(tab.texture[f:f + k], h))
+            abbes.append(np.tile(tab.abbe[f:f + k], h))
             firsts.append(next_closure + k * np.arange(h, dtype=np.int32))
             counts.append(np.full(h, k, np.int32))
             rows[hit[sel]] = n_mat + done + np.arange(h, dtype=np.int32)
@@ -209,7 +210,8 @@ class HitShader:
             params=np.ascontiguousarray(cat([tab.params, *params])),
             texture=cat([tab.texture, *textures]).astype(np.int32),
             first=cat([tab.first, *firsts]).astype(np.int32),
-            count=cat([tab.count, *counts]).astype(np.int32))
+            count=cat([tab.count, *counts]).astype(np.int32),
+            abbe=np.ascontiguousarray(cat([tab.abbe, *abbes])))
         return batch, rows
 
 

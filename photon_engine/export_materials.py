@@ -190,6 +190,9 @@ def read_material(mat, warnings: list[str], images: "ImageTable | None" = None) 
     for lobe in ("diffuse", "specular", "transmission"):
         row[lobe] = np.minimum(row[lobe], 1.0)  # the opacity division must not create energy
     row["program"] = program
+    settings = getattr(mat, "photon_map", None)  # None: the extension's properties absent
+    if settings is not None and settings.dispersion != 0.0:
+        row["dispersion"] = float(settings.dispersion)
     return row
 
 

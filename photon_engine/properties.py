@@ -18,6 +18,7 @@ from bpy.props import (BoolProperty, EnumProperty, FloatProperty, IntProperty, P
                        StringProperty)
 
 from ..core.presets import DEFAULT_QUALITY, PRESET_FIELDS, PRESETS, QUALITIES
+from ..core.scene.contract import MIN_ABBE
 from . import overlay
 
 INDIRECT_MODE_ITEMS = [
@@ -406,7 +407,33 @@ for _name in PRESET_FIELDS:
         **_deferred.keywords, update=_governed_edited)
 del _name, _deferred
 
-classes = (PhotonMapRenderSettings,)
+class PhotonMapMaterialSettings(bpy.types.PropertyGroup):
+    """Per-material Photon Map settings: ``material.photon_map``."""
+
+    dispersion: FloatProperty(
+        name="Dispersion",
+        description="Abbe number V_d of the material's transmission (Glass, Refraction, "
+                    "Principled Transmission): the IOR is the value at 587.6 nm and varies "
+                    "with the wavelength, splitting white light into a rainbow. Smaller "
+                    "disperses more (crown glass 64, flint glass 36, diamond 55); 0 is off. "
+                    f"Values between 0 and {MIN_ABBE:g} are refused",
+        min=0.0, soft_max=100.0, default=0.0,
+    )
+
+    @classmethod
+    def register(cls):
+        bpy.types.Material.photon_map = PointerProperty(
+            name="Photon Map Material Settings",
+            description="Photon Map material settings",
+            type=cls,
+        )
+
+    @classmethod
+    def unregister(cls):
+        del bpy.types.Material.photon_map
+
+
+classes = (PhotonMapRenderSettings, PhotonMapMaterialSettings)
 
 
 def to_core_settings(props):

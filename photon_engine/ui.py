@@ -201,6 +201,23 @@ class PHOTON_MAP_OBJECT_PT_visibility(PhotonMapPanel, bpy.types.Panel):
             col.prop(obj, "visible_shadow", text="Shadow", toggle=False)
 
 
+class PHOTON_MAP_MATERIAL_PT_settings(PhotonMapPanel, bpy.types.Panel):
+    """The material's own Photon Map settings (docs/dispersion.md)."""
+
+    bl_label = "Photon Map"
+    bl_context = "material"
+
+    @classmethod
+    def poll(cls, context):
+        return context.material is not None and context.engine in cls.COMPAT_ENGINES
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        layout.prop(context.material.photon_map, "dispersion")
+
+
 classes = (
     PHOTON_MAP_RENDER_PT_sampling,
     PHOTON_MAP_RENDER_PT_progressive,
@@ -210,6 +227,7 @@ classes = (
     PHOTON_MAP_RENDER_PT_performance,
     PHOTON_MAP_RENDER_PT_debug,
     PHOTON_MAP_OBJECT_PT_visibility,
+    PHOTON_MAP_MATERIAL_PT_settings,
     PHOTON_MAP_VIEWLAYER_PT_passes,
 )
 

@@ -57,7 +57,7 @@ from numba import njit, prange
 from .. import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
 from .. import sampling
 from ..scene import closures as cl
-from . import albedo_tables, fresnel, lambert, microfacet, oren_nayar, sheen
+from . import albedo_tables, dispersion, fresnel, lambert, microfacet, oren_nayar, sheen
 
 LOBE_DELTA = 1      # a singular direction (mirror, smooth glass): pdf 0, no eval
 LOBE_GLOSSY = 2     # a rough microfacet lobe
@@ -78,6 +78,8 @@ class ClosureTable(NamedTuple):
     texture: (C,) int32 (-1 none); first, count: (M,) int32 closures of material m.
     The albedo look-up tables (float64, shapes in albedo_tables.py): ggx_E, ggx_Eavg,
     glass_E, glass_Eavg, schlick_s, schlick5_s, sheen.
+    abbe: (C,) float64, the Abbe number of each closure's material (``Materials.abbe``;
+    0 = no dispersion): the transmission lobes' IOR at a path's wavelength.
     """
     kind: np.ndarray
     weight: np.ndarray
@@ -92,6 +94,7 @@ class ClosureTable(NamedTuple):
     schlick_s: np.ndarray
     schlick5_s: np.ndarray
     sheen: np.ndarray
+    abbe: np.ndarray
 
 
 _TABLES = None
@@ -104,6 +107,9 @@ def table(materials) -> ClosureTable:
     if _TABLES is None:
         _TABLES = albedo_tables.load()
     t = materials.closure_table()
+    abbe = np.zeros(t["kind"].shape[0])
+    for m, v in enumerate(materials.abbe()):
+        abbe[t["first"][m]:t["first"][m] + t["count"][m]] = v
     return ClosureTable(
         kind=np.ascontiguousarray(t["kind"], np.int32),
         weight=np.ascontiguousarray(t["weight"], np.float64).reshape(-1, 3),
@@ -111,6 +117,7 @@ def table(materials) -> ClosureTable:
         texture=np.ascontiguousarray(t["texture"], np.int32),
         first=np.ascontiguousarray(t["first"], np.int32),
         count=np.ascontiguousarray(t["count"], np.int32),
+        abbe=abbe,
         **{k: _TABLES[k] for k in albedo_tables.NAMES})
 
 
@@ -304,8 +311,9 @@ def _diffuse(L, n, w0, w1, w2, sigma, r0, r1, r2):
 
 
 @njit(cache=True, error_model="numpy")
-def _principled(tab, L, n, W0, W1, W2, p, b0, b1, b2, wox, woy, woz, entering):
-    """Principled BSDF v2 (svm_node_closure_bsdf, CLOSURE_BSDF_PRINCIPLED_ID)."""
+def _principled(tab, L, n, W0, W1, W2, p, b0, b1, b2, wox, woy, woz, entering, abbe, lam):
+    """Principled BSDF v2 (svm_node_closure_bsdf, CLOSURE_BSDF_PRINCIPLED_ID); abbe, lam:
+    the transmission's dispersion at the path's wavelength (``transmission_ior``)."""
     mu = woz
     multi = int(p[cl.DISTRIBUTION]) == cl.DISTRIBUTION_MULTI_GGX
     # Sheen on top
@@ -376,8 +384,9 @@ def _principled(tab, L, n, W0, W1, W2, p, b0, b1, b2, wox, woy, woz, entering):
             n = _thin_glass(tab, L, n, tw * W0, tw * W1, tw * W2, rough * rough, ior,
                             (st0, st1, st2), (cb0, cb1, cb2), mu)
         else:
-            eta = ior if entering else 1.0 / ior
-            f0 = fresnel.f0_from_ior(ior)
+            tior = transmission_ior(ior, abbe, lam)
+            eta = tior if entering else 1.0 / tior
+            f0 = fresnel.f0_from_ior(tior)
             n = _glass_lobe(tab, L, n, tw * W0, tw * W1, tw * W2, rough * rough, eta, False,
                             (min(f0 * st0, 1.0), min(f0 * st1, 1.0), min(f0 * st2, 1.0)),
                             (1.0, 1.0, 1.0), (np.sqrt(cb0), np.sqrt(cb1), np.sqrt(cb2)), mu,
@@ -460,8 +469,9 @@ def _thin_glass(tab, L, n, w0, w1, w2, alpha, ior, rtint, ttint, mu):
 
 
 @njit(cache=True, error_model="numpy")
-def _lobes(tab, m, c0, c1, c2, wox, woy, woz, entering):
-    """The lobe rows (n, NL) of material m for wo (local frame, wo.z > 0)."""
+def _lobes(tab, m, c0, c1, c2, wox, woy, woz, entering, lam=0.0):
+    """The lobe rows (n, NL) of material m for wo (local frame, wo.z > 0); lam the path's
+    wavelength in nm (0: RGB, the transmission lobes at their IOR)."""
     first = tab.first[m]
     count = tab.count[m]
     L = np.empty((max(count, 1) * MAX_LOBES, NL))
@@ -483,7 +493,8 @@ def _lobes(tab, m, c0, c1, c2, wox, woy, woz, entering):
         rough = min(max(p[cl.ROUGHNESS], 0.0), 1.0)
         multi = int(p[cl.DISTRIBUTION]) == cl.DISTRIBUTION_MULTI_GGX
         if kind == cl.CLOSURE_PRINCIPLED:
-            n = _principled(tab, L, n, W0, W1, W2, p, b0, b1, b2, wox, woy, woz, entering)
+            n = _principled(tab, L, n, W0, W1, W2, p, b0, b1, b2, wox, woy, woz, entering,
+                            tab.abbe[c], lam)
         elif kind == cl.CLOSURE_DIFFUSE:
             n = _diffuse(L, n, W0 * col0, W1 * col1, W2 * col2, rough,
                          min(col0, 1.0), min(col1, 1.0), min(col2, 1.0))
@@ -536,7 +547,7 @@ def _lobes(tab, m, c0, c1, c2, wox, woy, woz, entering):
                 n, _, _ = _ggx_lobe(tab, L, n, W0, W1, W2, ax, ay, rc, rs, FR_F82, f0, q, 1.0,
                                     mu, multi, fss)
         elif kind == cl.CLOSURE_GLASS or kind == cl.CLOSURE_REFRACTION:
-            ior = max(p[cl.IOR], 1e-5)
+            ior = transmission_ior(max(p[cl.IOR], 1e-5), tab.abbe[c], lam)
             eta = ior if entering else 1.0 / ior
             if kind == cl.CLOSURE_GLASS:
                 f0 = fresnel.f0_from_ior(ior)
@@ -549,6 +560,33 @@ def _lobes(tab, m, c0, c1, c2, wox, woy, woz, entering):
                                 mu, False)
     return L[:n]
 
+
+
+@njit(cache=True, error_model="numpy")
+def transmission_ior(ior, abbe, lam):
+    """A transmission lobe's IOR at wavelength lam nm (``dispersion.ior_at``, kept above
+    1e-5 as the lobes keep the IOR slot); ior itself, bit for bit, for an RGB path (lam 0)
+    or a material without dispersion (abbe 0)."""
+    if lam > 0.0 and abbe > 0.0:
+        return max(dispersion.ior_at(ior, abbe, lam), 1e-5)
+    return ior
+
+
+@njit(cache=True, error_model="numpy")
+def dispersive(tab, m):
+    """Material row m has a transmission lobe with dispersion (a Glass or Refraction
+    closure, or a Principled one with Transmission and no Thin Wall, of Abbe number > 0):
+    a path meeting it picks its wavelength there (docs/dispersion.md)."""
+    for c in range(tab.first[m], tab.first[m] + tab.count[m]):
+        if tab.abbe[c] <= 0.0:
+            continue
+        kind = tab.kind[c]
+        if kind == cl.CLOSURE_GLASS or kind == cl.CLOSURE_REFRACTION:
+            return True
+        if (kind == cl.CLOSURE_PRINCIPLED and tab.params[c, cl.TRANSMISSION] > CUTOFF
+                and not tab.params[c, cl.THIN_WALL] > 0.5):
+            return True
+    return False
 
 
 @njit(cache=True, error_model="numpy")
@@ -843,17 +881,18 @@ def eval_parts(tab, m, c0, c1, c2, wox, woy, woz, wix, wiy, wiz, nsx, nsy, nsz,
 
 @njit(cache=True, error_model="numpy")
 def sample_bsdf(tab, m, c0, c1, c2, wox, woy, woz, nsx, nsy, nsz, ngx, ngy, ngz,
-                tx, ty, tz, entering, u_lobe, u1, u2):
+                tx, ty, tz, entering, u_lobe, u1, u2, lam=0.0):
     """Sample wi for material m: (wix, wiy, wiz, w0, w1, w2, pdf, flags), w = f |cos| / pdf
     (path weight, RGB), pdf 0 for a delta lobe, flags LOBE_* (0: no direction). u_lobe
-    picks the lobe (and, rescaled, a dielectric's reflection vs refraction)."""
+    picks the lobe (and, rescaled, a dielectric's reflection vs refraction). lam: the
+    path's wavelength in nm, 0 for an RGB path (``transmission_ior``)."""
     ux, uy, uz, bx, by, bz, nx, ny, nz = _local(nsx, nsy, nsz, ngx, ngy, ngz, tx, ty, tz,
                                                 wox, woy, woz)
     lox, loy, loz = wox * ux + woy * uy + woz * uz, wox * bx + woy * by + woz * bz, \
         wox * nx + woy * ny + woz * nz
     if loz <= 0.0:
         return 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0
-    L = _lobes(tab, m, c0, c1, c2, lox, loy, loz, entering)
+    L = _lobes(tab, m, c0, c1, c2, lox, loy, loz, entering, lam)
     total = 0.0
     for k in range(L.shape[0]):
         total += L[k, SW]
@@ -951,22 +990,23 @@ def diffuse_albedo(tab: ClosureTable, rows, texel, d, ns) -> np.ndarray:
 # --- vectorised wrappers (tests, tools) ----------------------------------------------------------
 
 @njit(cache=True, error_model="numpy")
-def _vec_sample(tab, m, wo, ns, ng, t, entering, u, out):
+def _vec_sample(tab, m, wo, ns, ng, t, entering, u, lam, out):
     for i in range(u.shape[0]):
         r = sample_bsdf(tab, m, 1.0, 1.0, 1.0, wo[0], wo[1], wo[2], ns[0], ns[1], ns[2],
                         ng[0], ng[1], ng[2], t[0], t[1], t[2], entering, u[i, 0], u[i, 1],
-                        u[i, 2])
+                        u[i, 2], lam)
         out[i, 0], out[i, 1], out[i, 2], out[i, 3] = r[0], r[1], r[2], r[3]
         out[i, 4], out[i, 5], out[i, 6], out[i, 7] = r[4], r[5], r[6], r[7]
 
 
-def sample_many(tab: ClosureTable, m: int, wo, ns, ng, t, entering: bool, u) -> np.ndarray:
-    """``sample_bsdf`` for uniforms u (N, 3) (u_lobe, u1, u2) at one hit (texel colour 1):
-    (N, 8) float64 rows wi (3), w (3), pdf, flags."""
+def sample_many(tab: ClosureTable, m: int, wo, ns, ng, t, entering: bool, u,
+                lam: float = 0.0) -> np.ndarray:
+    """``sample_bsdf`` for uniforms u (N, 3) (u_lobe, u1, u2) at one hit (texel colour 1)
+    of a path of wavelength lam nm (0: RGB): (N, 8) float64 rows wi (3), w (3), pdf, flags."""
     u = np.ascontiguousarray(u, np.float64).reshape(-1, 3)
     out = np.empty((u.shape[0], 8))
     _vec_sample(tab, int(m), *(np.asarray(v, np.float64) for v in (wo, ns, ng, t)),
-                bool(entering), u, out)
+                bool(entering), u, float(lam), out)
     return out
 
 

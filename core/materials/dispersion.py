@@ -16,6 +16,7 @@ import numpy as np
 from numba import njit
 
 from .. import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
+from ..scene.contract import MIN_ABBE
 
 LAMBDA_D = 0.5876  # um, helium d line
 LAMBDA_F = 0.4861  # um, hydrogen F line
@@ -50,12 +51,13 @@ def _vec_ior(n_d, abbe, lam, out):
 
 
 def check(n_d: float, abbe: float, name: str = "material") -> None:
-    """Raise ValueError naming the material unless n_d > 0 and abbe is 0 or > 0, finite."""
+    """Raise ValueError naming the material unless n_d > 0 and abbe is 0 or >= MIN_ABBE
+    (the scene contract's rule), finite."""
     if not (np.isfinite(n_d) and n_d > 0):
         raise ValueError(f"{name}: IOR must be finite and > 0, got {n_d}")
-    if not (np.isfinite(abbe) and abbe >= 0):
-        raise ValueError(f"{name}: Dispersion (Abbe number V_d) must be 0 (off) or > 0, "
-                         f"got {abbe}")
+    if not (np.isfinite(abbe) and (abbe == 0 or abbe >= MIN_ABBE)):
+        raise ValueError(f"{name}: Dispersion (Abbe number V_d) must be 0 (off) or "
+                         f">= {MIN_ABBE:g}, got {abbe}")
 
 
 def ior(n_d: float, abbe: float, lam_nm) -> np.ndarray:

@@ -18,6 +18,13 @@ One numba kernel handles a whole wavefront (all photons of one bounce). Per phot
    and its flux is multiplied by w / p per channel: a grey surface of albedo a keeps the
    photon's flux unchanged and absorbs it with probability 1 - a.
 
+Dispersion (docs/dispersion.md): a photon is RGB (wavelength 0) until it meets a material
+with a dispersive transmission lobe (``closure.dispersive``); there, before its bounce, it
+picks one wavelength (``spectral.sample_wavelength``, stream ``sampling.WAVELENGTH``), its
+flux is multiplied by that wavelength's RGB weight (mean (1, 1, 1) per channel), and from
+then on every transmission lobe it meets refracts it with the IOR at its wavelength. The
+flux stored is that RGB, so the maps and estimates are unchanged.
+
 Glossy bounces count as specular for the path type, like Jensen's caustic paths.
 Textures: the texel colour multiplies the textured closures' colour (roulette and bounce
 weight); storage depends on the material having a diffuse lobe, not on the texel.
@@ -39,6 +46,7 @@ from ..materials import bsdf
 from ..materials import closure
 from ..scene import geometry
 from .. import sampling
+from .. import spectral
 
 from .store import MODE_CAUSTIC, stores
 
@@ -55,8 +63,8 @@ def _max3(a, b, c):
 
 @njit(cache=True, error_model="numpy")
 def _scatter_range(tri_v, tri_n, tri_mat, extent, tab, has_diffuse, has_specular, texel, rows,
-                   opacity, prim, hu, hv, d, flux, pid, n_diff, n_spec, seed, dims, bounce, mode,
-                   store_rule, last,
+                   opacity, prim, hu, hv, d, flux, pid, n_diff, n_spec, lam, seed, dims, bounce,
+                   mode, store_rule, last,
                    store, s_pos, s_flux, s_dir, alive, o_new, d_new, f_new, lo, hi):
     """Photons [lo, hi) of scatter_kernel, as a plain serial loop: numba compiles it
     about twice as fast as the same body inside a prange loop."""
@@ -111,15 +119,23 @@ def _scatter_range(tri_v, tri_n, tri_mat, extent, tab, has_diffuse, has_specular
             f_new[i, 0], f_new[i, 1], f_new[i, 2] = f0, f1, f2
             alive[i] = True
             continue
+        row = rows[i] if rows.shape[0] else m
+        li = lam[i]
+        if li == 0.0 and closure.dispersive(tab, row):
+            # The first dispersive surface: the photon picks its wavelength, its flux
+            # becomes that wavelength's RGB (E[weight] = 1 per channel: white stays white).
+            li, _, s0, s1, s2 = spectral.sample_wavelength(
+                sampling.hash_uniform(seed, pid[i], bounce, dims[4]))
+            f0, f1, f2 = f0 * s0, f1 * s1, f2 * s2
+            lam[i] = li
         u1 = sampling.hash_uniform(seed, pid[i], bounce, dims[1])
         u2 = sampling.hash_uniform(seed, pid[i], bounce, dims[2])
         u_lobe = sampling.hash_uniform(seed, pid[i], bounce, dims[3])
         # The bounce: the camera paths' sampler (one per lobe), wo towards where the
         # photon came from.
         ox, oy, oz, w0, w1, w2, pdf, flags = closure.sample_bsdf(
-            tab, rows[i] if rows.shape[0] else m, c0, c1, c2, -dx, -dy, -dz, sx, sy, sz,
-            gx, gy, gz,
-            TANGENT[0], TANGENT[1], TANGENT[2], entering, u_lobe, u1, u2)
+            tab, row, c0, c1, c2, -dx, -dy, -dz, sx, sy, sz, gx, gy, gz,
+            TANGENT[0], TANGENT[1], TANGENT[2], entering, u_lobe, u1, u2, li)
         if flags == 0:
             continue  # absorbed: no direction
         if flags & closure.LOBE_DIFFUSE:
@@ -151,8 +167,8 @@ def _scatter_range(tri_v, tri_n, tri_mat, extent, tab, has_diffuse, has_specular
 
 @njit(cache=True, parallel=True, error_model="numpy")
 def scatter_kernel(tri_v, tri_n, tri_mat, extent, tab, has_diffuse, has_specular, texel, rows,
-                   opacity, prim, hu, hv, d, flux, pid, n_diff, n_spec, seed, dims, bounce, mode,
-                   store_rule, last,
+                   opacity, prim, hu, hv, d, flux, pid, n_diff, n_spec, lam, seed, dims, bounce,
+                   mode, store_rule, last,
                    store, s_pos, s_flux, s_dir, alive, o_new, d_new, f_new):
     """Store and scatter one wavefront of N photons (see the module doc).
 
@@ -165,7 +181,9 @@ def scatter_kernel(tri_v, tri_n, tri_mat, extent, tab, has_diffuse, has_specular
     for the triangles' materials; prim (N,) int32 (-1 =
     missed), hu, hv (N,) float32 barycentrics, d (N, 3) float32 unit directions of travel,
     flux (N, 3) float64 W, pid (N,) int64 photon ids (random counters), n_diff / n_spec
-    (N,) int32 bounces so far (updated in place), dims (4,) int64 random dimensions,
+    (N,) int32 bounces so far, lam (N,) float64 each photon's wavelength in nm, 0 for RGB
+    (all three updated in place), dims (5,) int64 random dimensions (roulette, the two
+    direction uniforms, the lobe, the wavelength),
     bounce: this hit's index (the counter's "sample").
     Outputs: store (N,) bool with s_pos (N, 3), s_flux (N, 3) W, s_dir (N, 3) unit
     towards where the photon came from (float32); alive (N,) bool with the new origin
@@ -175,13 +193,14 @@ def scatter_kernel(tri_v, tri_n, tri_mat, extent, tab, has_diffuse, has_specular
     blocks = (n + _BLOCK - 1) // _BLOCK
     for b in prange(blocks):
         _scatter_range(tri_v, tri_n, tri_mat, extent, tab, has_diffuse, has_specular, texel, rows,
-                       opacity, prim, hu, hv, d, flux, pid, n_diff, n_spec, seed, dims, bounce,
-                       mode, store_rule, last, store, s_pos, s_flux, s_dir, alive, o_new,
+                       opacity, prim, hu, hv, d, flux, pid, n_diff, n_spec, lam, seed, dims,
+                       bounce, mode, store_rule, last, store, s_pos, s_flux, s_dir, alive, o_new,
                        d_new, f_new, b * _BLOCK, min(n, (b + 1) * _BLOCK))
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
-def _gather_alive(idx, o, d, f, pid, n_diff, n_spec, o_out, d_out, f_out, pid_out, nd_out, ns_out):
+def _gather_alive(idx, o, d, f, pid, n_diff, n_spec, lam, o_out, d_out, f_out, pid_out, nd_out,
+                  ns_out, lam_out):
     for j in prange(idx.shape[0]):
         i = idx[j]
         for k in range(3):
@@ -191,15 +210,17 @@ def _gather_alive(idx, o, d, f, pid, n_diff, n_spec, o_out, d_out, f_out, pid_ou
         pid_out[j] = pid[i]
         nd_out[j] = n_diff[i]
         ns_out[j] = n_spec[i]
+        lam_out[j] = lam[i]
 
 
-def compact_alive(alive, o, d, f, pid, n_diff, n_spec):
-    """The surviving photons' arrays, in order (one parallel pass instead of six numpy
+def compact_alive(alive, o, d, f, pid, n_diff, n_spec, lam):
+    """The surviving photons' arrays, in order (one parallel pass instead of seven numpy
     boolean indexings, which cost ~30 ns per (N, 3) row)."""
     idx = np.flatnonzero(alive)
     m = idx.shape[0]
     out = (np.empty((m, 3), o.dtype), np.empty((m, 3), d.dtype), np.empty((m, 3), f.dtype),
-           np.empty(m, pid.dtype), np.empty(m, n_diff.dtype), np.empty(m, n_spec.dtype))
+           np.empty(m, pid.dtype), np.empty(m, n_diff.dtype), np.empty(m, n_spec.dtype),
+           np.empty(m, lam.dtype))
     if m:
-        _gather_alive(idx, o, d, f, pid, n_diff, n_spec, *out)
+        _gather_alive(idx, o, d, f, pid, n_diff, n_spec, lam, *out)
     return out

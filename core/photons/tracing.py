@@ -124,7 +124,9 @@ def _trace_chunk(prepared: PreparedScene, em: emission.Emitted, pid: np.ndarray,
         f, pid = em.flux[idx], pid[idx]
     n_diff = np.zeros(o.shape[0], np.int32)
     n_spec = np.zeros(o.shape[0], np.int32)
-    dims = np.array([sampling.stream(sampling.PHOTON, 1 + map_id, k) for k in range(4)], np.int64)
+    lam = np.zeros(o.shape[0])  # nm; 0 = RGB, until a dispersive surface (scatter.py)
+    dims = np.array([sampling.stream(sampling.PHOTON, 1 + map_id, k) for k in range(4)]
+                    + [sampling.stream(sampling.WAVELENGTH, 1 + map_id)], np.int64)
     accel = prepared.accel
     for bounce in range(max_bounces + 1):
         n = o.shape[0]
@@ -156,7 +158,7 @@ def _trace_chunk(prepared: PreparedScene, em: emission.Emitted, pid: np.ndarray,
                                prepared.specular_material,
                                prepared.texels.photon_albedo(prim, hits.u, hits.v), rows,
                                surf.photon_opacity(prim, hits.u, hits.v),
-                               prim, hits.u, hits.v, d, f, pid, n_diff, n_spec,
+                               prim, hits.u, hits.v, d, f, pid, n_diff, n_spec, lam,
                                np.int64(seed), dims, np.int64(bounce), mode,
                                np.int64(store_rule), bounce == max_bounces, s_flag, s_pos,
                                s_flux, s_dir, alive, o2, d2, f2)
@@ -164,7 +166,8 @@ def _trace_chunk(prepared: PreparedScene, em: emission.Emitted, pid: np.ndarray,
             alive = np.where(collided, v_alive, alive)
             o2[collided], d2[collided], f2[collided] = v_o[collided], v_d[collided], v_f[collided]
         store.add(*compact_stored(s_flag, s_pos, s_flux, s_dir))
-        o, d, f, pid, n_diff, n_spec = scatter.compact_alive(alive, o2, d2, f2, pid, n_diff, n_spec)
+        o, d, f, pid, n_diff, n_spec, lam = scatter.compact_alive(alive, o2, d2, f2, pid, n_diff,
+                                                                  n_spec, lam)
         counters["time_scatter"] += time.perf_counter() - t1
 
 

@@ -38,6 +38,11 @@ LIGHT_KIND_NAMES = {LIGHT_POINT: "POINT", LIGHT_SPOT: "SPOT", LIGHT_SUN: "SUN", 
 AREA_RECTANGLE = 0
 AREA_ELLIPSE = 1
 
+MIN_ABBE = 5.0
+"""The smallest Abbe number V_d a dispersive material may have (0 = off). The most
+dispersive transparent solids known are near 10 (rutile 9.8); below 5 the Cauchy fit's
+IOR runs far outside any glass over 380-780 nm."""
+
 CAMERA_PERSPECTIVE = 0
 CAMERA_ORTHOGRAPHIC = 1
 
@@ -123,6 +128,9 @@ class Materials:
         probability alpha and a straight pass-through (no refraction, no Fresnel, no
         bounce) with probability 1 - alpha.
     alpha_texture: (M,) int32, texture whose texel ALPHA channel multiplies ``alpha``; -1 = none.
+    dispersion: (M,) float32, the Abbe number V_d of the material's transmission lobes
+        (Glass, Refraction, Principled transmission; docs/dispersion.md): 0 = no dispersion,
+        else >= ``MIN_ABBE``; their IOR is then the d-line (587.6 nm) value of a Cauchy fit.
 
     The closure table (core/scene/closures.py; None = derived from the lobes above by
     ``closure_table()``): material m is the weighted sum of closures
@@ -157,6 +165,7 @@ class Materials:
     closure_first: np.ndarray | None = None
     closure_count: np.ndarray | None = None
     programs: tuple | None = None
+    dispersion: np.ndarray | None = None
 
     @property
     def count(self) -> int:
@@ -214,6 +223,12 @@ class Materials:
             return np.full(self.count, -1, np.int32)
         return np.asarray(self.alpha_texture, np.int32)
 
+    def abbe(self) -> np.ndarray:
+        """(M,) float64 Abbe numbers (0 = no dispersion; all 0 where ``dispersion`` is None)."""
+        if self.dispersion is None:
+            return np.zeros(self.count)
+        return np.asarray(self.dispersion, np.float64)
+
     def opacity(self) -> np.ndarray:
         """(M,) float64 constant opacity (1 where ``alpha`` is None)."""
         if self.alpha is None:
@@ -225,7 +240,8 @@ class Materials:
         """Build from dicts with any of the keys above (missing lobes are zero).
 
         Defaults: ior 1.5, roughness 0, name "Material.<i>", diffuse_texture -1,
-        alpha 1, alpha_texture -1 (the optional fields are None when no row sets them).
+        alpha 1, alpha_texture -1, dispersion 0 (the optional fields are None when no row
+        sets them).
 
         A row may instead give ``closures``: a list of dicts with ``kind`` (CLOSURE_*),
         ``weight`` (3,) (default 1), ``params`` (a (PARAM_COUNT,) row or a dict for
@@ -256,6 +272,8 @@ class Materials:
             alpha=(col("alpha", 0, 1.0) if any("alpha" in r for r in rows) else None),
             alpha_texture=(np.array([r.get("alpha_texture", -1) for r in rows], np.int32)
                            .reshape(m) if any("alpha_texture" in r for r in rows) else None),
+            dispersion=(col("dispersion", 0, 0.0) if any("dispersion" in r for r in rows)
+                        else None),
         )
         if any(r.get("program") is not None for r in rows):
             lobes = replace(lobes, programs=tuple(r.get("program") for r in rows))
@@ -658,6 +676,15 @@ def _validate_materials(m: Materials, texture_count: int = 0) -> None:
     if n and np.any(m.ior <= 0):
         i = int(np.argmax(m.ior <= 0))
         raise SceneError(f"materials.ior{label(names, i)} must be > 0, got {m.ior[i]}")
+    if m.dispersion is not None:
+        check_array("materials.dispersion", m.dispersion, (n,), dtype=np.float32,
+                     labels=names)
+        v = m.dispersion
+        bad = ~((v == 0) | (v >= MIN_ABBE))
+        if n and np.any(bad):
+            i = int(np.argmax(bad))
+            raise SceneError(f"materials.dispersion{label(names, i)}: Dispersion (Abbe number "
+                             f"V_d) must be 0 (off) or >= {MIN_ABBE:g}, got {v[i]}")
 
 
 def _validate_closures(m: Materials, texture_count: int, names) -> None:

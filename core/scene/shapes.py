@@ -63,6 +63,25 @@ def box(lo, hi, inward: bool = False) -> Part:
     return _flat(corners)
 
 
+def prism(center, side: float, length: float, apex_angle: float = np.pi / 3) -> Part:
+    """A closed triangular prism, normals outward: its cross-section in the x-z plane is an
+    isosceles triangle with the apex (angle ``apex_angle`` rad) at the top and two faces
+    of length ``side`` m meeting there; it extends ``length`` m along y, ``center`` (3,)
+    the middle of its base edge's centre line. The refracting faces are the two that
+    meet at the apex (a 60-degree apex: the equilateral dispersing prism)."""
+    c = np.asarray(center, np.float64)
+    h = side * np.cos(apex_angle / 2)
+    b = side * np.sin(apex_angle / 2)
+    tri = np.array([[-b, 0.0, 0.0], [b, 0.0, 0.0], [0.0, 0.0, h]])  # x-z cross-section
+    y0, y1 = np.array([0.0, -length / 2, 0.0]), np.array([0.0, length / 2, 0.0])
+    f = [c + tri[i] + y0 for i in range(3)]   # the -y cap's corners
+    k = [c + tri[i] + y1 for i in range(3)]   # the +y cap's
+    corners = [[f[0], f[1], f[2]], [k[0], k[2], k[1]]]
+    for i, j in ((0, 1), (1, 2), (2, 0)):  # sides, counter-clockwise from outside
+        corners += [[f[i], k[j], f[j]], [f[i], k[i], k[j]]]
+    return _flat(np.array(corners))
+
+
 def uv_sphere(center, radius: float, rings: int = 16, segments: int = 32,
               smooth: bool = True) -> Part:
     """Sphere of rings x segments quads (2 triangles each), smooth per-corner normals."""

@@ -153,12 +153,16 @@ def _context(engine, **data):
 def test_own_panels_poll_only_for_photon_map(pm):
     from photon_map.photon_engine import ui
 
-    obj = scenes.add_plane()
+    mat = scenes.diffuse_material()
+    obj = scenes.add_plane(material=mat)
     for panel in ui.classes:
         assert panel.__name__.startswith("PHOTON_MAP_")
-        assert panel.poll(_context('PHOTON_MAP', scene=bpy.context.scene, object=obj))
-        assert not panel.poll(_context('CYCLES', scene=bpy.context.scene, object=obj))
-        assert not panel.poll(_context(scenes.eevee_id(), scene=bpy.context.scene, object=obj))
+        assert panel.poll(_context('PHOTON_MAP', scene=bpy.context.scene, object=obj,
+                                   material=mat))
+        assert not panel.poll(_context('CYCLES', scene=bpy.context.scene, object=obj,
+                                       material=mat))
+        assert not panel.poll(_context(scenes.eevee_id(), scene=bpy.context.scene, object=obj,
+                                       material=mat))
 
 
 LIGHT_PANELS = ("DATA_PT_context_light", "DATA_PT_EEVEE_light", "DATA_PT_spot")
@@ -247,10 +251,12 @@ def test_panels_draw_every_setting(pm):
 
     scene = bpy.context.scene
     light = scenes.add_light('POINT')
+    mat = scenes.diffuse_material()
     drawn = []
     for panel in ui.classes:
-        context = _context('PHOTON_MAP', scene=scene, object=light)
+        context = _context('PHOTON_MAP', scene=scene, object=light, material=mat)
         panel.draw(types.SimpleNamespace(layout=RecordingLayout(drawn)), context)
+    assert (mat.photon_map, "dispersion") in drawn  # the Material panel's one setting
     shown = {name for data, name in drawn if data == scene.photon_map}
     assert shown == set(setting_names()) | set(VIEWPORT_ONLY) | set(UI_ONLY)
     assert {"visible_camera", "visible_diffuse", "visible_glossy"} <= {n for _, n in drawn}

@@ -1,7 +1,7 @@
 """Scenes built by hand for core tests and benchmarks (plain arrays, no Blender)."""
 
 from core.scene import shapes
-from core.scene.contract import LIGHT_POINT, Lights, Materials, Scene
+from core.scene.contract import LIGHT_POINT, LIGHT_SPOT, Lights, Materials, Scene
 
 
 def caustic_scene(scale=1.0, width=32, height=32) -> Scene:
@@ -17,4 +17,31 @@ def caustic_scene(scale=1.0, width=32, height=32) -> Scene:
     lights = Lights.from_list([{"kind": LIGHT_POINT, "position": [0.3 * s, 0, 2.5 * s],
                                 "power": 200.0 * s * s}])
     cam = shapes.pinhole([0, -3.0 * s, 2.5 * s], [0, 0, 0.3 * s], width, height, 0.9)
+    return Scene(mesh, mats, lights, cam).validate()
+
+
+PRISM_LIGHT = [-3.07, 0.0, 0.407]
+"""Where prism_scene's spot light sits: 3 m before the prism's left face, aiming up at 20
+degrees so the light meets it near minimum deviation (incidence ~50 degrees)."""
+
+
+def prism_scene(abbe: float | None = 64.17, width=64, height=48, spot_size=0.35,
+                power=2000.0, color=(1.0, 1.0, 1.0)) -> Scene:
+    """A 60-degree BK7 prism (n_d 1.5168, Dispersion V_d ``abbe``; None: the setting
+    absent) 1 m above a 12 x 4 m white floor (albedo 0.8), lit by a narrow white spot light
+    (``spot_size`` rad, about the face's width, ``power`` W) through its left face: the light leaves the right face
+    heading down at ~19 degrees and spreads into the rainbow caustic on the floor near
+    x = 4.4 m. The camera looks down at that strip. The scene of
+    tests/core/photons/test_dispersion_tracing.py and tools/prism_picture.py."""
+    mesh = shapes.assemble([(shapes.quad([3.0, 0, 0], [6.0, 0, 0], [0, 2.0, 0]), 0),
+                            (shapes.prism([0, 0, 1.0], 1.0, 1.2), 1)])
+    glass = {"transmission": [1, 1, 1], "ior": 1.5168}
+    if abbe is not None:
+        glass["dispersion"] = abbe
+    mats = Materials.from_list([{"diffuse": [0.8] * 3}, glass])
+    face = [-0.25, 0.0, 1.433]  # the left face's centre
+    lights = Lights.from_list([{"kind": LIGHT_SPOT, "to_world": shapes.look_at(PRISM_LIGHT, face),
+                                "power": power, "spot_size": spot_size, "spot_blend": 0.0,
+                                "color": list(color)}])
+    cam = shapes.pinhole([4.4, -2.2, 2.0], [4.3, 0, 0], width, height, 0.9)
     return Scene(mesh, mats, lights, cam).validate()

@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+from scipy import stats
 
 from core import spectral
 
@@ -54,3 +55,24 @@ def test_sampled_wavelengths_follow_the_pdf():
 def test_a_wavelength_has_its_hue(nm, channel):
     w = spectral.basis_at([nm])[0]
     assert np.argmax(w) == channel
+
+
+def test_wavelength_sampling_passes_chi_square_against_its_pdf():
+    # Pearson's chi-square over 40 bins of 10 nm (Mitsuba's chi2 test: the sampler against
+    # the integral of its own pdf), significance 1 %.
+    n = 200_000
+    lam, pdf, _ = spectral.sample_wavelengths(np.random.default_rng(11).random(n))
+    observed = np.histogram(lam, np.linspace(spectral.LAMBDA_MIN, spectral.LAMBDA_MAX, 41))[0]
+    expected = n * (spectral.BASIS.sum(axis=1) / 3 * spectral.BIN_WIDTH).reshape(40, -1).sum(axis=1)
+    # Cells expected to hold fewer than 5 samples (the far red) pool into one, as Mitsuba's
+    # chi2 test does, so the statistic is chi-square distributed.
+    low = expected < 5
+    observed = np.append(observed[~low], observed[low].sum())
+    expected = np.append(expected[~low], expected[low].sum())
+    assert expected[-1] >= 5 and observed.size > 30
+    chi2 = np.sum((observed - expected) ** 2 / expected)
+    assert stats.chi2.sf(chi2, df=observed.size - 1) > 0.01, chi2
+    # And the pdf returned is the density sampled from: its integral over each bin.
+    np.testing.assert_allclose(pdf, spectral.BASIS.sum(axis=1)[
+        np.minimum(((lam - spectral.LAMBDA_MIN) / spectral.BIN_WIDTH).astype(int),
+                   spectral.BINS - 1)] / 3, rtol=1e-12)

@@ -285,7 +285,7 @@ def test_photons_pass_a_cutout_straight_without_becoming_caustic():
                                np.zeros(n, np.int32),
                                np.full(n, 0.3, np.float32), np.full(n, 0.3, np.float32), d,
                                np.ones((n, 3)), np.arange(n, dtype=np.int64), n_diff, n_spec,
-                               np.int64(5), np.arange(4, dtype=np.int64), np.int64(0), mode,
+                               np.zeros(n), np.int64(5), np.arange(5, dtype=np.int64), np.int64(0), mode,
                                store.STORE_ALL, False, *out)
         stored, alive, o_new, d_new, f_new = out[0], out[4], out[5], out[6], out[7]
         straight = alive & np.all(d_new == d, axis=1)

@@ -25,7 +25,8 @@ _V = np.cross(_N, _U)
 PLANE = shapes.quad([0.5, -0.2, 0.1], _U, _V)
 assert np.allclose(PLANE.normals[0, 0], _N)
 NORMAL = _N
-DIMS = np.array([sampling.stream(sampling.PHOTON, 1, k) for k in range(4)], np.int64)
+DIMS = np.array([sampling.stream(sampling.PHOTON, 1, k) for k in range(4)]
+                + [sampling.stream(sampling.WAVELENGTH, 1)], np.int64)
 
 
 def _directions(rng, n, side=-1.0, min_cos=0.05, max_cos=1.0):
@@ -65,7 +66,7 @@ def scatter_wavefront(rows, d, *, flux=None, mode=MODE_GLOBAL, store_rule=STORE_
     scatter.scatter_kernel(tri_v, tri_n, tri_mat, 2.0, closure.table(mats),
                            np.any(m["diffuse"] > 0, axis=1), has_specular, np.zeros((0, 3)),
                            np.zeros(0, np.int32), np.zeros(0), prim, b[:, 0].copy(), b[:, 1].copy(), d32, flux,
-                           np.arange(n, dtype=np.int64), nd, ns, np.int64(seed), DIMS,
+                           np.arange(n, dtype=np.int64), nd, ns, np.zeros(n), np.int64(seed), DIMS,
                            np.int64(bounce), mode, np.int64(store_rule), last,
                            out["store"], out["s_pos"], out["s_flux"], out["s_dir"],
                            out["alive"], out["o_new"], out["d_new"], out["f_new"])

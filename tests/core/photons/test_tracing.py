@@ -406,7 +406,8 @@ def _scatter_once(material, theta, n=200_000):
                            np.zeros(n, np.int32),
                            np.full(n, 0.3, np.float32), np.full(n, 0.3, np.float32), d,
                            np.ones((n, 3)), np.arange(n, dtype=np.int64), np.zeros(n, np.int32),
-                           np.zeros(n, np.int32), np.int64(5), np.arange(4, dtype=np.int64),
+                           np.zeros(n, np.int32), np.zeros(n), np.int64(5),
+                           np.arange(5, dtype=np.int64),
                            np.int64(0), store.MODE_GLOBAL, store.STORE_ALL, False, *out)
     alive, d_new, f_new = out[4], out[6].astype(np.float64), out[7]
     return alive, d_new, np.where(alive[:, None], f_new, 0.0)
@@ -508,7 +509,7 @@ def test_global_store_rules_by_path(rule, stored_for):
                            np.zeros((0, 3)), np.zeros(0, np.int32), np.zeros(0),
                            np.zeros(n, np.int32), np.full(n, 0.3, np.float32),
                            np.full(n, 0.3, np.float32), d, np.ones((n, 3)),
-                           np.arange(n, dtype=np.int64), n_diff, n_spec, np.int64(5),
-                           np.arange(4, dtype=np.int64), np.int64(0), store.MODE_GLOBAL,
+                           np.arange(n, dtype=np.int64), n_diff, n_spec, np.zeros(n), np.int64(5),
+                           np.arange(5, dtype=np.int64), np.int64(0), store.MODE_GLOBAL,
                            np.int64(rule), False, *out)
     assert {p for p, s in zip(paths, out[0]) if s} == stored_for
