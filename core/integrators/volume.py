@@ -178,11 +178,17 @@ def _single_scattering(vt: VolumeTerms, origins, dirs, seg_t, thr, sigma_s, sigm
 
 
 def add_segments(vt: VolumeTerms, origins, dirs, seg_t, thr, rows, pixel, sample, depth,
-                 direct_target, indirect_target, emission_target, stats) -> np.ndarray:
+                 direct_target, indirect_target, emission_target, stats,
+                 n_inside=None) -> np.ndarray:
     """Add the volume terms of N camera segments (origins, unit dirs (N, 3), lengths
     seg_t (N,) metres, inf for escaping rays; path weights thr (N, 3)) to the targets' rows
     (N,) (per-sample accumulators (R, 3) float64), and return thr times the segments'
     transmittance, the weight of what lies behind them.
+
+    n_inside (N,): the refractive index of the dielectric each segment lies in (None: 1).
+    The camera paths' refractions do not scale radiance by eta^2 (Cycles' convention), but
+    the beam estimate is the physical radiance there, n^2 times what the convention
+    carries: it is divided by n^2 (a smoke-filled glass sphere).
 
     pixel, sample (R,) int64 key the random numbers (with depth, the bounce)."""
     m = vt.medium
@@ -197,6 +203,9 @@ def add_segments(vt: VolumeTerms, origins, dirs, seg_t, thr, rows, pixel, sample
     s_thr = np.ascontiguousarray(thr[ray] * st.before)
     s_rows = rows[ray]
     sigma_t = np.ascontiguousarray(st.sigma_t)
+    s_photon = s_thr
+    if n_inside is not None and np.any(n_inside != 1.0):
+        s_photon = s_thr / (np.asarray(n_inside, np.float64)[ray] ** 2)[:, None]
     scat = np.flatnonzero(np.any(st.sigma_s > 0, axis=1))
     if scat.size:
         sl = scat if scat.size < ray.size else slice(None)
@@ -211,7 +220,7 @@ def add_segments(vt: VolumeTerms, origins, dirs, seg_t, thr, rows, pixel, sample
             if vmap is not None and len(vmap):
                 est = beam_estimate(vmap, s_o[scat], s_d[scat], s_len[scat], sigma_t[scat],
                                     st.g[scat])
-                np.add.at(indirect_target, s_rows[scat], s_thr[scat] * est)
+                np.add.at(indirect_target, s_rows[scat], s_photon[scat] * est)
         stats["time_volume_beam"] = stats.get("time_volume_beam", 0.0) + time.perf_counter() - t0
     if m.emits:
         np.add.at(emission_target, s_rows,

@@ -212,7 +212,7 @@ class Medium:
         idx = np.flatnonzero(need)
         if idx.size:
             contrib[idx] *= self.transmittance(origins[idx], directions[idx],
-                                               np.asarray(length, np.float64)[idx])
+                                               np.asarray(length)[idx].astype(np.float64))
 
 
 def renderable(media: Media, extent: float, threads: int = 0) -> Medium | None:
