@@ -273,6 +273,7 @@ def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> dict[str, np.ndarray]:
         if not first:
             ctx.stats["rays_specular"] += rows.shape[0]
         emit_target = acc["emission"] if first else acc["specular"]
+        thr_light = thr  # the lights along the rays are attenuated to themselves
         if ctx.volume is not None:  # the segments' medium: its light, then its transmittance
             thr = volume.add_segments(
                 ctx.volume, origins, dirs, np.where(hits.prim >= 0, hits.t, np.inf), thr,
@@ -282,10 +283,11 @@ def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> dict[str, np.ndarray]:
 
         # Lights seen along the rays (lights are not occluders), weighed against light
         # sampling after a rough lobe
-        hit, miss, shown, light_l = camera_paths.lights_along(pr, first, transmitted, origins,
-                                                              dirs, hits, prev_pdf, k_light)
+        hit, miss, shown, light_l = camera_paths.lights_along(
+            pr, first, transmitted, origins, dirs, hits, prev_pdf, k_light,
+            None if ctx.volume is None else ctx.volume.medium)
         if shown is not None:
-            _add(emit_target, rows[shown], thr[shown] * light_l[shown])
+            _add(emit_target, rows[shown], thr_light[shown] * light_l[shown])
 
         # Rays that escape see the world
         if np.any(pr.world > 0) and np.any(miss):

@@ -17,8 +17,8 @@ from core.media import regions
 from core.media.single_scatter import inscatter_rays
 from core.scene import camera as camera_mod
 from core.scene import shapes
-from core.scene.contract import (CAMERA_ORTHOGRAPHIC, LIGHT_POINT, Camera, Lights, Materials,
-                                 Mesh, Scene, SceneError, World)
+from core.scene.contract import (CAMERA_ORTHOGRAPHIC, LIGHT_AREA, LIGHT_POINT, Camera, Lights,
+                                 Materials, Mesh, Scene, SceneError, World)
 from core.scene.media import Media
 from core.settings import RenderSettings
 
@@ -192,3 +192,32 @@ def test_a_closed_albedo_one_medium_in_a_white_furnace_conserves_energy():
     assert np.all(np.isfinite(comb)) and comb.min() >= 0
     np.testing.assert_allclose(comb.reshape(-1, 3).mean(axis=0), 1.0, rtol=0.02)
     np.testing.assert_allclose(out["environment"], np.exp(-3.0), rtol=1e-4)
+
+
+@pytest.mark.parametrize("where", ["world fog", "fog box"])
+def test_a_light_seen_through_fog_is_attenuated_to_the_light(where):
+    """An area light (4 m x 4 m, facing down) seen from below through absorbing fog, with
+    nothing behind it (the ray escapes): Emission = L exp(-sigma_t d), d the distance from
+    the rays' start to the light (World fog) or the 1 m of a fog box in front of the light
+    (it goes on 2 m behind it): not the transmittance to the escaping ray's end (0 in World
+    fog, exp(-3 sigma_t) through the box) as before."""
+    sigma = np.array([0.05, 0.2, 0.6])
+    power, size = 100.0, 4.0
+    lights = Lights.from_list([{"kind": LIGHT_AREA, "position": [0.0, 0.0, 0.0],
+                                "power": power, "size": [size, size],
+                                "visible_to_camera": True}])
+    if where == "world fog":
+        media = Media.from_list([{"sigma_a": sigma, "name": "Fog"}])
+    else:
+        # from 1 m in front of the light to 2 m behind it: only the first metre counts
+        media = Media.from_list([_box_medium([-3, -3, -1], [3, 3, 2], sigma_a=sigma)])
+    cam = Camera(to_world=shapes.look_at([0, 0, -CAM_HEIGHT], [0, 0, 0], (0, 1, 0)), width=8,
+                 height=8, film_size=np.array([1.0, 1.0]), kind=CAMERA_ORTHOGRAPHIC)
+    mesh = dataclasses.replace(Mesh.empty(), object_names=("Box",))
+    scene = Scene(mesh, Materials.from_list([{"diffuse": [0, 0, 0]}]), lights, cam,
+                  media=media).validate()
+    out = photon_mapping.render(scene, RenderSettings(**FAST)).passes
+    d = CAM_HEIGHT - scene.camera.clip_start if where == "world fog" else 1.0
+    radiance = power / (np.pi * size * size)
+    np.testing.assert_allclose(out["emission"], np.broadcast_to(radiance * np.exp(-sigma * d),
+                                                                (8, 8, 3)), rtol=1e-5)
