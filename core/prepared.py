@@ -25,6 +25,9 @@ render's thread count (numba and Embree) and builds:
   ``diffuse_area`` (m^2 of triangles with a diffuse lobe);
 - ``accel``: the Embree accelerator over the triangles. ``close()`` releases it (the
   prepared scene is a context manager);
+- ``medium``: the scene's media as the renderer integrates them (core/media/regions.py:
+  the World's and the mesh media, with their boundary's own Embree scene), or None without
+  a medium that has an effect;
 - ``hit_shader``: the ``HitShader`` running the materials' shader programs at hits
   (``closures_at``: a per-batch ClosureTable and each hit's row in it).
 """
@@ -38,6 +41,7 @@ import numpy as np
 from .lights.light_set import EmissiveTriangles, LightSet
 from .materials import bsdf, closure
 from .materials.textures import SurfaceTextures
+from .media import regions
 from .scene import geometry
 from .shading import interpreter
 from .shading.inputs import ShadingInputs
@@ -77,10 +81,13 @@ class PreparedScene:
     specular_objects: np.ndarray
     diffuse_area: float
     hit_shader: "HitShader"
+    medium: regions.Medium | None = None
 
     def close(self) -> None:
-        """Release the Embree scene (idempotent)."""
+        """Release the Embree scenes (idempotent)."""
         self.accel.close()
+        if self.medium is not None:
+            self.medium.close()
 
     def __enter__(self) -> "PreparedScene":
         return self
@@ -277,9 +284,13 @@ def prepare(scene: Scene, threads: int = 0) -> PreparedScene:
     tri_material = np.ascontiguousarray(mesh.material_index, np.int32)
     tri_normals = np.ascontiguousarray(mesh.normals, np.float32)
     lo, hi = scene.bounds()
-    if mesh.vertices.size:
-        glo = mesh.vertices.min(axis=0).astype(np.float64)
-        ghi = mesh.vertices.max(axis=0).astype(np.float64)
+    # The sphere photons from the sun and the world start on holds the media too (a fog
+    # box need not be a surface).
+    geo = np.concatenate([mesh.vertices.reshape(-1, 3),
+                          scene.media.boundary.reshape(-1, 3)]).astype(np.float64)
+    if geo.size:
+        glo = geo.min(axis=0)
+        ghi = geo.max(axis=0)
     else:
         glo = ghi = np.zeros(3)
     centre, radius = bounding_sphere(glo, ghi)
@@ -311,4 +322,5 @@ def prepare(scene: Scene, threads: int = 0) -> PreparedScene:
         specular_objects=specular_objects,
         diffuse_area=diffuse_area(tri_vertices, tri_material, has_diffuse),
         hit_shader=HitShader(scene, closures, tri_vertices, tri_normals, tri_material,
-                             geometry.scene_extent(lo, hi)))
+                             geometry.scene_extent(lo, hi)),
+        medium=regions.renderable(scene.media, geometry.scene_extent(lo, hi), workers))

@@ -29,7 +29,7 @@ from .export_camera import export_camera, relative_camera, relative_matrix, rend
 from .export_errors import ExportError, NoCameraError  # noqa: F401  (re-exported)
 from .export_lights import light_row
 from .export_materials import ImageTable, default_row, read_material, read_world, volume_only
-from .export_volumes import world_medium
+from .export_volumes import material_medium, world_medium
 from .export_warnings import scene_warnings
 
 _VISIBILITY_FLAGS = ("visible_camera", "visible_diffuse", "visible_glossy",
@@ -81,14 +81,15 @@ def export_scene(depsgraph, camera=None, origin=None) -> ExportResult:
         else:
             geometry.add(obj, inst.matrix_world, name, materials)
 
+    mesh, mesh_media = geometry.build(origin, materials.left_out, materials.volumes)
     scene = Scene(
-        mesh=geometry.build(origin, materials.left_out),
+        mesh=mesh,
         materials=Materials.from_list(materials.rows),
         lights=Lights.from_list(light_rows),
         camera=camera,
         world=_export_world(depsgraph, warnings),
         textures=materials.images.textures(),
-        media=_export_media(depsgraph, warnings),
+        media=_export_media(depsgraph, warnings, mesh_media),
     )
     scene.validate()
     warnings.extend(scene_warnings(depsgraph, scene))
@@ -130,11 +131,11 @@ def _export_world(depsgraph, warnings) -> World:
     return World(radiance=np.asarray(radiance, np.float32), visible_to_camera=visible)
 
 
-def _export_media(depsgraph, warnings) -> Media:
-    """The World's Volume as the scene's medium (photon_engine/export_volumes.py); media
-    inside meshes are reported by material (``_MaterialTable``) and not exported yet."""
+def _export_media(depsgraph, warnings, mesh_media) -> Media:
+    """The scene's media (photon_engine/export_volumes.py): the World's Volume and
+    ``mesh_media``, the rows of the media inside mesh objects (``_Geometry.build``)."""
     row = world_medium(depsgraph.scene.world, warnings)
-    return Media.from_list([row] if row is not None else [])
+    return Media.from_list(([row] if row is not None else []) + list(mesh_media))
 
 
 class _MaterialTable:
@@ -147,7 +148,10 @@ class _MaterialTable:
         self._warnings = warnings
         self.images = ImageTable(warnings)
         self.left_out: set[int] = set()
-        """Indices of volume-only materials: their faces are not exported."""
+        """Indices of volume-only materials: their faces are not surfaces (null
+        interfaces) and only bound their medium."""
+        self.volumes: dict[int, dict] = {}
+        """Material index -> its Volume's medium row (export_volumes.material_medium)."""
 
     def index(self, mat) -> int:
         if mat is None:
@@ -156,13 +160,12 @@ class _MaterialTable:
             mat = getattr(mat, "original", mat) or mat
             key = mat.as_pointer()
         if key not in self._index:
+            volume = None if mat is None else material_medium(mat, self._warnings)
+            if volume is not None:
+                self.volumes[len(self.rows)] = volume
             if mat is not None and volume_only(mat):
-                # Cycles renders it as a volume without a surface; an opaque black box
-                # would be wrong everywhere, leaving it out only misses the medium.
-                self._warnings.append(f'Material "{mat.name}" has only a Volume output '
-                                      f"(a Volume inside a mesh is not supported yet; only "
-                                      f"the World's Volume renders): the faces using it "
-                                      f"are left out of the render")
+                # Cycles renders it as a volume without a surface: its faces only bound
+                # the medium.
                 self.left_out.add(len(self.rows))
                 row = default_row(mat.name)
             else:
@@ -295,8 +298,6 @@ class _Geometry:
             self._warnings.append(f"Object '{name}': zero scale on an axis; skipped")
             return
         slots = materials.slots(obj)
-        if all(s in materials.left_out for s in slots):
-            return  # volume-only (reported once per material)
         self.names.append(name)
         self.matrices.append(m)
         me = obj.data
@@ -305,11 +306,14 @@ class _Geometry:
                                        np.float64))
         self._batches.setdefault((key, slots), []).append((m, len(self.names) - 1))
 
-    def build(self, origin, left_out=frozenset()) -> Mesh:
+    def build(self, origin, left_out=frozenset(), volumes=None) -> tuple[Mesh, list[dict]]:
         """The mesh in the render frame: world positions - ``origin`` (3,), in float64
-        until the float32 cast; faces of the materials in ``left_out`` are dropped."""
+        until the float32 cast; faces of the materials in ``left_out`` are dropped. And the
+        media inside the objects: one ``Media.from_list`` row per object and material of
+        ``volumes`` (material index -> medium row), bounded by that object's faces of the
+        material ("Smoke in Sphere")."""
         if not self._batches:
-            return Mesh.empty()
+            return Mesh.empty(), []
         parts = []
         base = 0
         for (key, slots), instances in self._batches.items():
@@ -319,11 +323,26 @@ class _Geometry:
             base += part[0].shape[0]
             parts.append(part)
         verts, tris, normals, uvs, mats, objs = (np.concatenate(col) for col in zip(*parts))
+        verts -= np.asarray(origin, np.float64)
+        media = []
+        for mat_index, row in sorted((volumes or {}).items()):
+            on = mats == mat_index
+            for obj in np.unique(objs[on]):
+                faces = on & (objs == obj)
+                name = f"{row['name']} in {self.names[obj]}"
+                open_edges = _open_edges(tris[faces])
+                if open_edges:
+                    self._warnings.append(
+                        f"Medium '{name}': the faces of material \"{row['name']}\" on object "
+                        f"'{self.names[obj]}' are not a closed mesh ({open_edges} open edges); "
+                        f"a ray that crosses it once stays in the medium for the rest of its "
+                        f"way, as in Cycles")
+                media.append({**row, "bounds": int(obj), "name": name,
+                              "boundary": verts[tris[faces]].astype(np.float32)})
         if left_out:  # faces of volume-only materials on objects with other slots too
             keep = ~np.isin(mats, list(left_out))
             tris, normals, uvs = tris[keep], normals[keep], uvs[keep]
             mats, objs = mats[keep], objs[keep]
-        verts -= np.asarray(origin, np.float64)
         f32, i32 = np.float32, np.int32
         return Mesh(vertices=verts.astype(f32), triangles=tris.astype(i32, copy=False),
                     normals=normals.astype(f32, copy=False), uvs=uvs.astype(f32, copy=False),
@@ -331,7 +350,15 @@ class _Geometry:
                     object_index=objs.astype(i32, copy=False), object_names=tuple(self.names),
                     object_to_world=np.stack(self.matrices).astype(np.float64),
                     object_texspace=np.stack(self.texspaces),
-                    origin=np.asarray(origin, np.float64).reshape(3))
+                    origin=np.asarray(origin, np.float64).reshape(3)), media
+
+
+def _open_edges(tris) -> int:
+    """How many edges of the triangles (T, 3) vertex indices belong to an odd number of
+    them (0 for a closed mesh: every edge has a triangle on each side)."""
+    edges = np.sort(np.concatenate([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [2, 0]]]), axis=1)
+    _, counts = np.unique(edges, axis=0, return_counts=True)
+    return int(np.count_nonzero(counts % 2))
 
 
 def _transform(local: _LocalMesh, matrices, object_ids, slots, base):

@@ -174,10 +174,6 @@ def read_material(mat, warnings: list[str], images: "ImageTable | None" = None) 
                         f"using the socket value of " + ", ".join(uses))
     warnings.extend(reader.notes)
     output = _active_output(tree, ("ShaderNodeOutputMaterial",))
-    if _linked(output.inputs.get("Volume")):
-        warnings.append(f'Material "{name}": a Volume inside a mesh is not supported yet; '
-                        f"ignored (the surface is rendered; only the World's Volume renders "
-                        f"as a medium)")
     notes = []
     for lobe in ("diffuse", "specular", "transmission"):
         v = getattr(closure, lobe)

@@ -13,9 +13,11 @@ svm_closure.h (and EEVEE's node_volume_* shaders, which follow it):
   sum is the sigma_s-weighted mean of its lobes' g (Cycles keeps the lobes apart: exact
   for equal g).
 A linked input (a texture giving heterogeneous density or colour) is reported by node and
-input and its own value is used. Only the World's Volume is rendered so far
-(core/media/world.py); a material's Volume output is reported by export_materials.py
-(beside a Surface) and export.py (alone: its faces are left out).
+input and its own value is used. The World's Volume fills all space (``world_medium``); a
+mesh material's Volume fills the inside of every object using it (``material_medium``;
+export.py makes one medium per object and material, bounded by that object's faces of the
+material, and leaves a volume-only material's faces out of the surfaces: they are null
+interfaces, as in Cycles).
 """
 
 from __future__ import annotations
@@ -139,8 +141,34 @@ def world_medium(world, warnings: list[str]) -> dict | None:
             "emission": m.emission, "bounds": WORLD, "name": world.name}
 
 
+def material_medium(mat, warnings: list[str]) -> dict | None:
+    """A material's Volume as a ``Media.from_list`` row without its bounds (the exporter
+    adds the object and its boundary), or None when its active Material Output has no
+    Volume linked."""
+    sock = _volume_socket(compat.node_tree(mat), "ShaderNodeOutputMaterial")
+    if sock is None:
+        return None
+    m = _read(sock, f'Material "{mat.name}"', warnings)
+    return {"sigma_a": m.sigma_a, "sigma_s": m.sigma_s, "anisotropy": m.anisotropy,
+            "emission": m.emission, "name": mat.name}
+
+
 def scene_has_medium(scene) -> bool:
-    """The scene's World has a Volume linked (the render then has the volume passes)."""
+    """The scene's World or a material of a visible mesh object has a Volume linked (the
+    render then has the volume passes)."""
     world = getattr(scene, "world", None)
-    return world is not None and _volume_socket(compat.node_tree(world),
-                                                "ShaderNodeOutputWorld") is not None
+    if world is not None and _volume_socket(compat.node_tree(world),
+                                            "ShaderNodeOutputWorld") is not None:
+        return True
+    seen = set()
+    for obj in scene.objects:
+        if obj.type != 'MESH' or obj.hide_render:
+            continue
+        for slot in obj.material_slots:
+            mat = slot.material
+            if mat is None or mat.name in seen:
+                continue
+            seen.add(mat.name)
+            if _volume_socket(compat.node_tree(mat), "ShaderNodeOutputMaterial") is not None:
+                return True
+    return False

@@ -64,7 +64,7 @@ def intersect(prepared: PreparedScene, seed: int, origins, dirs, tmax, rows, pix
 
 
 def lights_along(prepared: PreparedScene, first: bool, transmitted, origins, dirs, hits,
-                 bsdf_pdf=None, light_samples: int = 1):
+                 bsdf_pdf=None, light_samples: int = 1, medium=None):
     """The light surfaces a batch of rays passes in front of the geometry.
 
     first: the batch is the camera's own rays (lights visible to the camera), else rays
@@ -76,7 +76,8 @@ def lights_along(prepared: PreparedScene, first: bool, transmitted, origins, dir
     Returns (hit, miss, shown, radiance): hit (N,) bool, a surface is reached; miss (N,)
     bool, the ray escapes to the world; shown (N,) bool, the ray sees ``radiance`` (N, 3)
     W/(m^2 sr) from lights (light surfaces, sun discs on escaping rays), or None when no
-    light can be seen.
+    light can be seen. medium: the scene's media (core/media/regions.Medium) or None: the
+    lights' radiance is attenuated to each light (``lights.intersect_lights``).
     """
     ls = prepared.light_set
     hit = hits.prim >= 0
@@ -92,8 +93,15 @@ def lights_along(prepared: PreparedScene, first: bool, transmitted, origins, dir
         (np.flatnonzero(transmitted), ls.visible_transmission),
         (np.flatnonzero(~transmitted), ls.visible_glossy)]
     for sel, vis in groups:
+        trans = None
+        if medium is not None:
+            o_s, d_s = origins[sel], dirs[sel]
+
+            def trans(rows, t, o_s=o_s, d_s=d_s):
+                return medium.transmittance(o_s[rows], d_s[rows], t)
         seen[sel], light_l[sel] = lights.intersect_lights(ls, vis, origins[sel], dirs[sel],
-                                                          geo_t[sel], pdf[sel], light_samples)
+                                                          geo_t[sel], pdf[sel], light_samples,
+                                                          trans)
     return hit, ~hit, seen, light_l
 
 

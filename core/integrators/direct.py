@@ -31,7 +31,7 @@ from ..lights import kernels as light_kernels
 from ..lights import light_set as lights
 from .. import sampling
 from ..materials import textures
-from ..media import world as world_medium
+from ..media import regions
 from ..scene.accel import Accelerator
 from ..prepared import PreparedScene
 from ..settings import RenderSettings
@@ -191,7 +191,7 @@ class DirectLighting:
     stats: dict = field(default_factory=lambda: {"rays_shadow": 0, "time_shading": 0.0,
                                                  "time_shadow": 0.0})
     no_light: np.ndarray = field(default_factory=lambda: np.zeros(light_kernels.P_COUNT))
-    medium: world_medium.WorldMedium | None = None  # the World's fog every shadow ray crosses
+    medium: regions.Medium | None = None  # the media shadow rays cross (core/media/regions.py)
 
 
 class ShadingPoints(NamedTuple):
@@ -228,7 +228,7 @@ class ShadingPoints(NamedTuple):
 
 def prepare(settings: RenderSettings, prepared: PreparedScene, samples: int,
             stats: dict | None = None,
-            medium: world_medium.WorldMedium | None = None) -> DirectLighting:
+            medium: regions.Medium | None = None) -> DirectLighting:
     """The direct lighting of a render over the prepared scene's tables and accelerator:
     settings' seed and light_samples; ``samples`` sizes the sample index (the camera
     pass's samples per pixel, SPPM's pass count). ``stats``: the caller's counters to add
@@ -296,7 +296,7 @@ def shade(ctx: DirectLighting, hit: ShadingPoints, pixel, sample, depth, target)
                           k, k_count, bits, use_d, use_g,
                           ctx.extent, contrib, sh_o, sh_d, sh_t, need)
             if ctx.medium is not None:  # the shadow segment's transmittance
-                world_medium.attenuate(ctx.medium, contrib, need, sh_t)
+                ctx.medium.attenuate(contrib, need, sh_o, sh_d, sh_t)
             t1 = time.perf_counter()
             c = _compact_kernel(need, sh_o, sh_d, sh_t, idx, pk_o, pk_d, pk_t) if shadows else 0
             occ = np.zeros(0, bool)

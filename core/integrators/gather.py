@@ -44,11 +44,10 @@ from numba import njit, prange
 
 from .. import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
 from .. import sampling
-from ..media import world as world_medium
 from ..prepared import PreparedScene
 from ..scene import geometry
 from ..settings import RenderSettings
-from . import camera_paths
+from . import camera_paths, volume
 from ..materials import closure
 from ..photons.estimate import BsdfHits, radiance_estimate, radiance_estimate_sides
 from ..photons.photon_map import PhotonMap
@@ -226,7 +225,7 @@ class PhotonTerms:
     gather_rays: final-gather rays per camera sample. volume_map / volume_caustic_map:
     the volume photons (core/photons/beam.VolumePhotonMap) of a scene with a medium, read
     by core/integrators/volume.py; volume_gather_map (every collision) and medium (the
-    World's, core/media/world.py), read by the final-gather rays; None without.
+    core/media/regions.Medium), read by the final-gather rays; None without.
     """
 
     caustic_map: PhotonMap | None
@@ -247,7 +246,7 @@ class PhotonTerms:
     volume_map: object = None
     volume_caustic_map: object = None
     volume_gather_map: object = None
-    medium: object = None                     # core/media/world.WorldMedium or None
+    medium: object = None                     # core/media/regions.Medium or None
     stats: dict = field(default_factory=lambda: {"rays_gather": 0, "gather_queries": 0,
                                                  "caustic_queries": 0, "time_gather": 0.0,
                                                  "time_caustics": 0.0})
@@ -397,15 +396,21 @@ def final_gather(terms: PhotonTerms, prepared: PreparedScene, settings: RenderSe
 
 
 def _through_medium(terms: PhotonTerms, o, d, hits, thr, radiance, rows) -> np.ndarray:
-    """Final-gather segments in the World's medium: radiance[rows] += thr x the beam
-    estimate of every volume photon along them (single scattering included, as the global
-    map of final gathering holds direct photons); returns thr x their transmittance."""
+    """Final-gather segments through the scene's media: radiance[rows] += thr x the beam
+    estimate of every volume photon along their homogeneous stretches (single scattering
+    included, as the global map of final gathering holds direct photons); returns thr x
+    their transmittance."""
     seg = np.where(hits.prim >= 0, hits.t.astype(np.float64), np.inf)
-    m = terms.medium
+    st = terms.medium.stretches(o, d, seg)
     vmap = terms.volume_gather_map
-    if vmap is not None and len(vmap):
-        radiance[rows] += thr * vmap.radiance(o, d, np.minimum(seg, 1e30), m.sigma_t, m.g)
-    return thr * world_medium.transmittance(m, seg)
+    scat = np.flatnonzero(np.any(st.sigma_s > 0, axis=1))
+    if vmap is not None and len(vmap) and scat.size:
+        ray = st.ray[scat]
+        s_o = np.asarray(o, np.float64)[ray] + st.t0[scat, None] * np.asarray(d, np.float64)[ray]
+        est = volume.beam_estimate(vmap, s_o, np.asarray(d, np.float64)[ray], st.length[scat],
+                                   st.sigma_t[scat], st.g[scat])
+        np.add.at(radiance, rows[ray], thr[ray] * st.before[scat] * est)
+    return thr * st.through
 
 
 def _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sample,

@@ -251,6 +251,11 @@ def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> dict[str, np.ndarray]:
     prev_pdf = np.zeros(n)
     prev_ns = np.zeros((n, 3))
     glossy = np.zeros(n, bool)
+    # The refractive index of the dielectric each path is inside (1: none). Camera paths
+    # do not scale radiance by eta^2 at a refraction (Cycles' convention, exact for paths
+    # that leave every dielectric they enter); the photons' estimates inside a dielectric
+    # are physical radiance, so the volume terms divide them by n^2 (volume.add_segments).
+    n_inside = np.ones(n)
     ctx.stats["rays_camera"] += n
     ctx.stats["time_shading"] += time.perf_counter() - t0
 
@@ -268,18 +273,21 @@ def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> dict[str, np.ndarray]:
         if not first:
             ctx.stats["rays_specular"] += rows.shape[0]
         emit_target = acc["emission"] if first else acc["specular"]
+        thr_light = thr  # the lights along the rays are attenuated to themselves
         if ctx.volume is not None:  # the segments' medium: its light, then its transmittance
             thr = volume.add_segments(
                 ctx.volume, origins, dirs, np.where(hits.prim >= 0, hits.t, np.inf), thr,
                 rows, pixel, sample, depth, acc["volume_direct"] if first else acc["specular"],
-                acc["volume_indirect"] if first else acc["specular"], emit_target, ctx.stats)
+                acc["volume_indirect"] if first else acc["specular"], emit_target, ctx.stats,
+                n_inside)
 
         # Lights seen along the rays (lights are not occluders), weighed against light
         # sampling after a rough lobe
-        hit, miss, shown, light_l = camera_paths.lights_along(pr, first, transmitted, origins,
-                                                              dirs, hits, prev_pdf, k_light)
+        hit, miss, shown, light_l = camera_paths.lights_along(
+            pr, first, transmitted, origins, dirs, hits, prev_pdf, k_light,
+            None if ctx.volume is None else ctx.volume.medium)
         if shown is not None:
-            _add(emit_target, rows[shown], thr[shown] * light_l[shown])
+            _add(emit_target, rows[shown], thr_light[shown] * light_l[shown])
 
         # Rays that escape see the world
         if np.any(pr.world > 0) and np.any(miss):
@@ -295,7 +303,7 @@ def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> dict[str, np.ndarray]:
         # Shade the hits: geometry, emission seen
         h = np.flatnonzero(hit) if not hit.all() else slice(None)
         rows, thr, d, transmitted = rows[h], thr[h], dirs[h], transmitted[h]
-        prev_pdf, glossy = prev_pdf[h], glossy[h]
+        prev_pdf, glossy, n_inside = prev_pdf[h], glossy[h], n_inside[h]
         prim = hits.prim[h]
         pos, ngf, nsf, mat, eps, front = geometry.facing_surface_points(
             pr.tri_vertices, pr.tri_normals, pr.tri_material, prim, hits.u[h],
@@ -357,6 +365,13 @@ def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> dict[str, np.ndarray]:
             thr[sd], u2, u1, u3, u_rr, closures=tab)
         prev_ns = nsf[sd][keep]
         glossy = glossy[sd][keep] | ~was_delta
+        if ctx.volume is not None:  # entering a dielectric at its front face, leaving at its back
+            entered = transmitted & front[sd][keep]
+            left = transmitted & ~front[sd][keep]
+            n_inside = np.where(entered, mats["ior"][mat[sd][keep]],
+                                np.where(left, 1.0, n_inside[sd][keep]))
+        else:
+            n_inside = n_inside[sd][keep]
         rows = rs[keep]
         tmax = None
         ctx.stats["time_shading"] += time.perf_counter() - t0

@@ -15,7 +15,6 @@ from __future__ import annotations
 import numpy as np
 
 from ..materials import closure
-from ..media import world as world_medium
 from ..passes import ProgressFn, StopFn
 from ..photons import estimate, tracing
 from ..prepared import PreparedScene
@@ -62,7 +61,7 @@ def run(prepared: PreparedScene, settings: RenderSettings, maps,
         skipped["indirect"] = "indirect light switched off"
     elif st.global_photons == 0:
         skipped["indirect"] = "0 global photons"
-    if diffuse_area == 0.0:
+    if diffuse_area == 0.0 and not (prepared.medium is not None and prepared.medium.scatters):
         for term in ("caustics", "indirect"):
             skipped.setdefault(term, "no diffuse surface to receive photons")
     wanted = [t for t in ("caustics", "indirect") if t not in skipped]
@@ -116,7 +115,7 @@ def run(prepared: PreparedScene, settings: RenderSettings, maps,
     if np.any(lobes["non_lambert"] & used):
         terms.bsdf_materials = lobes["non_lambert"]
         terms.back_share = np.where(lobes["diffuse_transmits"], gather.BACK_SHARE, 0.0)
-    terms.medium = world_medium.renderable(prepared.scene.media)
+    terms.medium = prepared.medium
     if maps is not None and terms.medium is not None:
         indirect = "indirect" in wanted
         terms.volume_map = getattr(maps, "volume_map", None) if indirect else None

@@ -76,7 +76,6 @@ from numba import njit, prange
 from .. import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
 from .. import sampling
 from ..materials import bsdf
-from ..media import world as world_medium
 from ..passes import ProgressFn, RenderOutput, StopFn, TileFn
 from ..photons.hash_grid import HashGrid, within
 from ..photons.store import STORE_ALL, STORE_NOT_DIRECT
@@ -289,11 +288,11 @@ class PassRenderer:
     def __init__(self, prepared: PreparedScene, settings: RenderSettings):
         self.prepared, self.settings = prepared, settings
         scene = prepared.scene
-        medium = world_medium.renderable(scene.media)
+        medium = prepared.medium
         if medium is not None:
             raise SettingsError(
                 f'"integrator" is "progressive", which does not render participating media '
-                f"yet (the World's volume '{medium.name}'); use the \"photon_map\" integrator")
+                f"yet (the media {medium.name}); use the \"photon_map\" integrator")
         self.width, self.height = int(scene.camera.width), int(scene.camera.height)
         self.photons_per_pass = int(settings.photons_per_pass)
         self.alpha = float(settings.progressive_alpha)

@@ -1,7 +1,10 @@
-"""The camera pass's volume terms: what a camera segment through the World's medium
-(core/media/world.py) adds, and how it attenuates what lies behind it.
+"""The camera pass's volume terms: what a camera segment through the scene's media
+(core/media/regions.py: the World's and those inside closed meshes) adds, and how it
+attenuates what lies behind it.
 
-For a segment from o along the unit d to t_hit (inf for a ray that escapes):
+A segment from o along the unit d to t_hit (inf for a ray that escapes) is cut into its
+homogeneous stretches (``Medium.stretches``: where it crosses a medium's boundary); each
+stretch adds the terms below, weighted by the transmittance from o to its start:
 - transmittance exp(-sigma_t t_hit) multiplies everything behind (the surface hit, the
   world background: 0 through fog on an escaping ray, as in Cycles, whose homogeneous World
   volume extinguishes the background and the sun);
@@ -9,9 +12,10 @@ For a segment from o along the unit d to t_hit (inf for a ray that escapes):
   one equiangular distance towards the light's position (Kulla & Fajardo 2012;
   core/media/equiangular.py; area lights too, the pdf covers the whole segment) and a
   light sample from the scattering point (``lights.kernels.sample_light``) with its shadow
-  ray: sigma_s p(cos) exp(-sigma_t t) exp(-sigma_t r) L / (pdf_t pdf_light). Sun lights
-  and the world background add nothing in World fog (their light crosses infinite
-  medium); emissive triangles' single scattering comes from the volume photon map
+  ray: sigma_s p(cos) exp(-sigma_t t) T_shadow L / (pdf_t pdf_light), T_shadow the
+  transmittance of the shadow segment through every medium it crosses. Sun lights add
+  nothing in World fog (their light crosses infinite medium) but light a mesh medium;
+  emissive triangles' single scattering comes from the volume photon map
   (core/photons/tracing.py stores their first collisions);
 - Volume Indirect: the beam radiance estimate (core/photons/beam.py, Jarosz et al. 2008)
   of the volume photon map and of the volumetric caustic map along the segment;
@@ -30,7 +34,7 @@ from numba import njit, prange
 from .. import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
 from .. import sampling
 from ..lights import kernels as light_kernels
-from ..media import equiangular, world
+from ..media import equiangular, regions
 from ..media.phase import hg_eval
 from ..photons.beam import VolumePhotonMap
 from ..prepared import PreparedScene
@@ -46,7 +50,7 @@ the beam query take a finite end; the transmittance there is 0 in any fog)."""
 class VolumeTerms:
     """What the volume terms of a render read (``prepare``)."""
 
-    medium: world.WorldMedium
+    medium: regions.Medium
     prepared: PreparedScene
     seed: int
     light_samples: int
@@ -58,8 +62,8 @@ class VolumeTerms:
 def prepare(settings: RenderSettings, prepared: PreparedScene, samples: int) -> VolumeTerms | None:
     """The volume terms of a render, or None when the scene has no medium to integrate
     (then every image is exactly as without media). Raises SceneError for a medium the
-    renderer does not integrate yet (core/media/world.py)."""
-    medium = world.renderable(prepared.scene.media)
+    renderer does not integrate yet (core/media/regions.py)."""
+    medium = prepared.medium
     if medium is None:
         return None
     return VolumeTerms(medium=medium, prepared=prepared, seed=int(settings.seed),
@@ -69,10 +73,13 @@ def prepare(settings: RenderSettings, prepared: PreparedScene, samples: int) -> 
 
 @njit(cache=True, parallel=True, error_model="numpy")
 def _inscatter_kernel(q, origins, dirs, seg_t, thr, sigma_s, sigma_t, g, pixel, sample, seed,
-                      dim_t, dim_l, k, k_count, bits, extent, contrib, sh_o, sh_d, sh_t, need):
-    """One equiangular distance and one light sample per segment: the unshadowed single
-    scattering thr sigma_s p T(t) T(r) L / (pdf_t pdf_light) / k_count (contrib (N, 3))
-    and the shadow ray from the scattering point to the light (need[i])."""
+                      dim_t, dim_l, k, k_count, bits, extent, far_ok, contrib, sh_o, sh_d,
+                      sh_t, need):
+    """One equiangular distance and one light sample per homogeneous stretch (sigma_s,
+    sigma_t (N, 3), g (N,)): the single scattering thr sigma_s p T(t) L / (pdf_t pdf_light)
+    / k_count (contrib (N, 3)) without the shadow segment's transmittance, and the shadow
+    ray from the scattering point to the light (need[i]; 3e38 m towards a light at
+    infinity, taken only where ``far_ok``: no World medium extinguishes every channel)."""
     px, py, pz = q[light_kernels.P_POS], q[light_kernels.P_POS + 1], q[light_kernels.P_POS + 2]
     scale = 1.0 / k_count
     for i in prange(origins.shape[0]):
@@ -93,19 +100,21 @@ def _inscatter_kernel(q, origins, dirs, seg_t, thr, sigma_s, sigma_t, g, pixel, 
         u1, u2 = sampling.sobol2(sample[i] * k_count + k, bits,
                                  sampling.pattern(seed, pixel[i], dim_l))
         wx, wy, wz, r, l0, l1, l2, cl, ok = light_kernels.sample_light(q, xx, xy, xz, u1, u2)
-        if not ok or not (r < SEGMENT_FAR):
+        if not ok or not (r < SEGMENT_FAR or far_ok):
             continue
         # cos between the light's propagation (-w) and the scattered one towards the camera (-d)
-        ph = hg_eval(g, wx * dx + wy * dy + wz * dz)
+        ph = hg_eval(g[i], wx * dx + wy * dy + wz * dz)
         f = ph * scale / pdf_t
-        a = t + r
-        c0 = thr[i, 0] * sigma_s[0] * np.exp(-sigma_t[0] * a) * l0 * f
-        c1 = thr[i, 1] * sigma_s[1] * np.exp(-sigma_t[1] * a) * l1 * f
-        c2 = thr[i, 2] * sigma_s[2] * np.exp(-sigma_t[2] * a) * l2 * f
+        c0 = thr[i, 0] * sigma_s[i, 0] * np.exp(-sigma_t[i, 0] * t) * l0 * f
+        c1 = thr[i, 1] * sigma_s[i, 1] * np.exp(-sigma_t[i, 1] * t) * l1 * f
+        c2 = thr[i, 2] * sigma_s[i, 2] * np.exp(-sigma_t[i, 2] * t) * l2 * f
         if c0 <= 0.0 and c1 <= 0.0 and c2 <= 0.0:
             continue
-        qx, qy, qz = xx + wx * r, xy + wy * r, xz + wz * r
-        tf = r - geometry.offset_eps(qx, qy, qz, extent) / max(cl, 1e-3)
+        if r < SEGMENT_FAR:
+            qx, qy, qz = xx + wx * r, xy + wy * r, xz + wz * r
+            tf = r - geometry.offset_eps(qx, qy, qz, extent) / max(cl, 1e-3)
+        else:
+            tf = 3e38
         if tf <= 0.0:
             continue
         contrib[i, 0] = c0
@@ -121,12 +130,14 @@ def _inscatter_kernel(q, origins, dirs, seg_t, thr, sigma_s, sigma_t, g, pixel, 
         need[i] = True
 
 
-def _single_scattering(vt: VolumeTerms, origins, dirs, seg_t, thr, pixel, sample, depth,
-                       stats) -> np.ndarray:
-    """Volume Direct of N segments, (N, 3) float64 W/(m^2 sr), shadow rays included."""
+def _single_scattering(vt: VolumeTerms, origins, dirs, seg_t, thr, sigma_s, sigma_t, g, pixel,
+                       sample, depth, stats) -> np.ndarray:
+    """Volume Direct of N homogeneous stretches (coefficients sigma_s, sigma_t (N, 3), g
+    (N,)), (N, 3) float64 W/(m^2 sr), shadow rays and their transmittance included."""
     pr = vt.prepared
     ls = pr.light_set
     m = vt.medium
+    far_ok = not bool(np.all(m.world_sigma_t > 0))
     n = origins.shape[0]
     out = np.zeros((n, 3))
     contrib = np.empty((n, 3))
@@ -141,12 +152,13 @@ def _single_scattering(vt: VolumeTerms, origins, dirs, seg_t, thr, pixel, sample
             continue
         for k in range(vt.light_samples):
             t0 = time.perf_counter()
-            _inscatter_kernel(ls.params[i], o64, d64, seg_t, thr, m.sigma_s, m.sigma_t, m.g,
+            _inscatter_kernel(ls.params[i], o64, d64, seg_t, thr, sigma_s, sigma_t, g,
                               pixel, sample, vt.seed,
                               sampling.stream(sampling.VOLUME_DISTANCE, depth, i),
                               sampling.stream(sampling.VOLUME_LIGHT, depth, i), k,
-                              vt.light_samples, vt.sample_bits, float(pr.extent), contrib,
-                              sh_o, sh_d, sh_t, need)
+                              vt.light_samples, vt.sample_bits, float(pr.extent), far_ok,
+                              contrib, sh_o, sh_d, sh_t, need)
+            m.attenuate(contrib, need, sh_o, sh_d, sh_t)
             t1 = time.perf_counter()
             idx = np.flatnonzero(need)
             if idx.size and ls.cast_shadow[i]:
@@ -166,26 +178,66 @@ def _single_scattering(vt: VolumeTerms, origins, dirs, seg_t, thr, pixel, sample
 
 
 def add_segments(vt: VolumeTerms, origins, dirs, seg_t, thr, rows, pixel, sample, depth,
-                 direct_target, indirect_target, emission_target, stats) -> np.ndarray:
+                 direct_target, indirect_target, emission_target, stats,
+                 n_inside=None) -> np.ndarray:
     """Add the volume terms of N camera segments (origins, unit dirs (N, 3), lengths
     seg_t (N,) metres, inf for escaping rays; path weights thr (N, 3)) to the targets' rows
     (N,) (per-sample accumulators (R, 3) float64), and return thr times the segments'
     transmittance, the weight of what lies behind them.
 
+    n_inside (N,): the refractive index of the dielectric each segment lies in (None: 1).
+    The camera paths' refractions do not scale radiance by eta^2 (Cycles' convention), but
+    the beam estimate is the physical radiance there, n^2 times what the convention
+    carries: it is divided by n^2 (a smoke-filled glass sphere).
+
     pixel, sample (R,) int64 key the random numbers (with depth, the bounce)."""
     m = vt.medium
     seg_t = np.ascontiguousarray(seg_t, np.float64)
-    px, sm = pixel[rows], sample[rows]
-    if m.scatters:
+    st = m.stretches(origins, dirs, seg_t)
+    ray = st.ray
+    # Each stretch as a segment of its own: its start, its length, the weight reaching it
+    s_o = np.ascontiguousarray(np.asarray(origins, np.float64)[ray]
+                               + st.t0[:, None] * np.asarray(dirs, np.float64)[ray])
+    s_d = np.ascontiguousarray(np.asarray(dirs, np.float64)[ray])
+    s_len = np.ascontiguousarray(st.length)
+    s_thr = np.ascontiguousarray(thr[ray] * st.before)
+    s_rows = rows[ray]
+    sigma_t = np.ascontiguousarray(st.sigma_t)
+    s_photon = s_thr
+    if n_inside is not None and np.any(n_inside != 1.0):
+        s_photon = s_thr / (np.asarray(n_inside, np.float64)[ray] ** 2)[:, None]
+    scat = np.flatnonzero(np.any(st.sigma_s > 0, axis=1))
+    if scat.size:
+        sl = scat if scat.size < ray.size else slice(None)
         if vt.prepared.light_set.count:
-            direct_target[rows] += _single_scattering(vt, origins, dirs, seg_t, thr, px, sm,
-                                                      depth, stats)
+            out = _single_scattering(vt, s_o[sl], s_d[sl], s_len[sl], s_thr[sl],
+                                     np.ascontiguousarray(st.sigma_s[sl]), sigma_t[sl],
+                                     np.ascontiguousarray(st.g[sl]), pixel[s_rows[sl]],
+                                     sample[s_rows[sl]], depth, stats)
+            np.add.at(direct_target, s_rows[sl], out)
         t0 = time.perf_counter()
         for vmap in (vt.volume_map, vt.caustic_map):
             if vmap is not None and len(vmap):
-                est = vmap.radiance(origins, dirs, np.minimum(seg_t, SEGMENT_FAR), m.sigma_t, m.g)
-                indirect_target[rows] += thr * est
+                est = beam_estimate(vmap, s_o[scat], s_d[scat], s_len[scat], sigma_t[scat],
+                                    st.g[scat])
+                np.add.at(indirect_target, s_rows[scat], s_photon[scat] * est)
         stats["time_volume_beam"] = stats.get("time_volume_beam", 0.0) + time.perf_counter() - t0
-    if np.any(m.emission > 0):
-        emission_target[rows] += thr * world.emitted(m, seg_t)
-    return thr * world.transmittance(m, seg_t)
+    if m.emits:
+        np.add.at(emission_target, s_rows,
+                  s_thr * regions.emitted(st.emission, sigma_t, s_len))
+    return thr * st.through
+
+
+def beam_estimate(vmap: VolumePhotonMap, origins, dirs, length, sigma_t, g) -> np.ndarray:
+    """The beam radiance estimate (N, 3) float64 W/(m^2 sr) of N homogeneous stretches
+    (origins, unit dirs (N, 3), length (N,) metres, inf allowed; sigma_t (N, 3) 1/m, g
+    (N,)): one query per distinct medium, since the map's query takes one."""
+    out = np.zeros((origins.shape[0], 3))
+    coef = np.concatenate([sigma_t, np.asarray(g, np.float64)[:, None]], axis=1)
+    keys, inv = np.unique(coef, axis=0, return_inverse=True)
+    inv = inv.reshape(-1)
+    for j in range(keys.shape[0]):
+        sel = np.flatnonzero(inv == j) if keys.shape[0] > 1 else slice(None)
+        out[sel] = vmap.radiance(origins[sel], dirs[sel], np.minimum(length[sel], SEGMENT_FAR),
+                                 keys[j, :3], float(keys[j, 3]))
+    return out

@@ -258,11 +258,12 @@ def sample_emissive(tris: EmissiveTriangles, points: np.ndarray, u0: np.ndarray,
 # --- rays hitting lights (camera and specular paths) -----------------------------------------
 
 @njit(cache=True, parallel=True, error_model="numpy")
-def _intersect_kernel(q, o, d, tmax, bsdf_pdf, n_light, seen, l_out):
+def _intersect_kernel(q, o, d, tmax, bsdf_pdf, n_light, seen, l_out, t_out):
     """Add light q's radiance to every ray that meets it before tmax (lights are not
     occluders: a ray passes through every light in front of the geometry), weighted
     against light sampling by the power heuristic where the ray was BSDF-sampled with
-    solid-angle pdf bsdf_pdf > 0 (n_light light samples per light at that vertex)."""
+    solid-angle pdf bsdf_pdf > 0 (n_light light samples per light at that vertex);
+    t_out[i] the distance to the light where it is met."""
     for i in prange(o.shape[0]):
         t, l0, l1, l2 = lk.intersect_light(q, o[i, 0], o[i, 1], o[i, 2], d[i, 0], d[i, 1], d[i, 2])
         if not t < tmax[i]:
@@ -272,6 +273,7 @@ def _intersect_kernel(q, o, d, tmax, bsdf_pdf, n_light, seen, l_out):
             pl = lk.light_pdf(q, o[i, 0], o[i, 1], o[i, 2], d[i, 0], d[i, 1], d[i, 2], t)
             w = lk.power_heuristic(1.0, bsdf_pdf[i], n_light, pl)
         seen[i] = True
+        t_out[i] = t
         l_out[i, 0] += w * l0
         l_out[i, 1] += w * l1
         l_out[i, 2] += w * l2
@@ -300,7 +302,7 @@ def _sun_disc_kernel(q, d, escaped, bsdf_pdf, n_light, seen, acc):
 
 def intersect_lights(lights: LightSet, which: np.ndarray, origins: np.ndarray,
                      directions: np.ndarray, tmax: np.ndarray, bsdf_pdf: np.ndarray | None = None,
-                     light_samples: int = 1) -> tuple[np.ndarray, np.ndarray]:
+                     light_samples: int = 1, transmittance=None) -> tuple[np.ndarray, np.ndarray]:
     """The light surfaces each ray passes in front of the geometry (tmax) and their
     radiance: lights are not occluders, as in Cycles (a ray goes on through an area
     light's quad to the ceiling behind it), so every light in front counts.
@@ -313,6 +315,11 @@ def intersect_lights(lights: LightSet, which: np.ndarray, origins: np.ndarray,
     ``lk.light_pdf``. Returns seen (N,) bool and radiance (N, 3) float64 W/(m^2 sr) (0
     where none is seen). Point and spot lights of radius 0 are never hit; a sun disc only
     by rays that escape the geometry.
+
+    transmittance: None (vacuum) or a function (rows (K,) int64, t (K,) float64 metres)
+    -> (K, 3) the transmittance of the rays' media from their origins to distance t (inf:
+    a sun disc): each light's radiance is attenuated to the light itself, not to the
+    geometry behind it.
     """
     o = np.ascontiguousarray(origins, np.float64).reshape(-1, 3)
     d = np.ascontiguousarray(directions, np.float64).reshape(-1, 3)
@@ -324,13 +331,23 @@ def intersect_lights(lights: LightSet, which: np.ndarray, origins: np.ndarray,
         return seen, l_out
     pdf = np.zeros(n) if bsdf_pdf is None else np.ascontiguousarray(bsdf_pdf, np.float64)
     escaped = np.isinf(tm)
+    t_light = np.full(n, np.inf)
     for i in range(lights.count):
         if not which[i] or not np.any(lights.radiance[i] > 0):
             continue
+        # Through a medium each light goes to a buffer of its own, attenuated to its distance.
+        s_i, l_i = (seen, l_out) if transmittance is None else (np.zeros(n, bool), np.zeros((n, 3)))
         if int(lights.kind[i]) == LIGHT_SUN:
-            _sun_disc_kernel(lights.params[i], d, escaped, pdf, float(light_samples), seen, l_out)
+            _sun_disc_kernel(lights.params[i], d, escaped, pdf, float(light_samples), s_i, l_i)
+            t_light[:] = np.inf
         else:
-            _intersect_kernel(lights.params[i], o, d, tm, pdf, float(light_samples), seen, l_out)
+            _intersect_kernel(lights.params[i], o, d, tm, pdf, float(light_samples), s_i, l_i,
+                              t_light)
+        if transmittance is not None:
+            rows = np.flatnonzero(s_i)
+            if rows.size:
+                seen[rows] = True
+                l_out[rows] += l_i[rows] * transmittance(rows, t_light[rows])
     return seen, l_out
 
 

@@ -1,8 +1,11 @@
-"""Photons through the World's medium (core/media/world.py): one free flight per photon
+"""Photons through the scene's media (core/media/regions.py): one free flight per photon
 and bounce, before its surface hit is shaded (core/photons/tracing.py).
 
-Per photon of a wavefront with its surface hit at t_hit (inf: it escapes):
-- a spectral free flight (``free_flight.sample_distance``) over [0, t_hit]: passing, the
+Per photon of a wavefront with its surface hit at t_hit (inf: it escapes), over the
+homogeneous stretches of [0, t_hit] in order (``Medium.stretches``):
+- a spectral free flight (``free_flight.sample_distance``) over each stretch: passing it,
+  the flux takes its passing weight and the flight goes on in the next stretch (random
+  numbers keyed by the stretch too); passing them all, the
   flux takes the passing weight T / P(pass) and the surface hit is shaded as without a
   medium; colliding at t < t_hit, the flux takes the collision weight sigma_s T / pdf
   (absorption stays in the weight) and the photon scatters there by Henyey-Greenstein
@@ -34,18 +37,23 @@ from ..media.free_flight import sample_distance
 from ..media.phase import hg_sample
 from .store import MODE_CAUSTIC
 
+STRETCH_STEP = 1 << 20
+"""The random step counter of a flight's k-th stretch is bounce + k STRETCH_STEP (bounces
+stay far below it)."""
+
 
 @njit(cache=True, parallel=True, error_model="numpy")
-def fly_kernel(o, d, flux, pid, n_diff, n_spec, t_hit, sigma_a, sigma_s, g, seed, dims, bounce,
-               mode, caustic_apart, store_direct, last,
+def fly_kernel(o, d, flux, pid, n_diff, n_spec, start, t0, t1, sigma_a, sigma_s, g, seed, dims,
+               bounce, mode, caustic_apart, store_direct, last,
                collided, v_store, v_camera, v_pos, v_flux, v_dir, alive, o_new, d_new, f_new):
     """One free flight per photon (module doc).
 
     Inputs: o, d (N, 3) float32 origins and unit directions of travel; flux (N, 3)
     float64 W (updated in place for photons that pass: times the passing weight); pid (N,)
     int64 random counters; n_diff, n_spec (N,) int32 bounces so far (n_diff += 1 where a
-    photon scatters in the medium); t_hit (N,) float64 metres to the surface hit (inf);
-    sigma_a, sigma_s (3,) 1/m; g the anisotropy; dims (4,) int64 random dimensions;
+    photon scatters in the medium); the homogeneous stretches of each photon's flight to
+    its surface hit (regions.Stretches): start (N + 1,) int64, t0, t1 (S,) float64 metres,
+    sigma_a, sigma_s (S, 3) 1/m, g (S,) the anisotropy; dims (4,) int64 random dimensions;
     bounce the wavefront's index; mode MODE_GLOBAL / MODE_CAUSTIC.
     Outputs: collided (N,) bool; v_store (N,) bool, a volume photon is stored, v_camera
     (N,) bool, it belongs to the camera rays' map (the rules of the module doc; the
@@ -59,11 +67,23 @@ def fly_kernel(o, d, flux, pid, n_diff, n_spec, t_hit, sigma_a, sigma_s, g, seed
         v_store[i] = False
         v_camera[i] = mode == MODE_CAUSTIC
         alive[i] = False
-        u_c = sampling.hash_uniform(seed, pid[i], bounce, dims[0])
-        u_t = sampling.hash_uniform(seed, pid[i], bounce, dims[1])
-        t, scattered, w0, w1, w2 = sample_distance(sigma_a[0], sigma_a[1], sigma_a[2],
-                                                   sigma_s[0], sigma_s[1], sigma_s[2],
-                                                   t_hit[i], u_c, u_t)
+        scattered = False
+        t, w0, w1, w2, gs = 0.0, 1.0, 1.0, 1.0, 0.0
+        for k in range(start[i], start[i + 1]):
+            # The first stretch keeps the step counter of a flight in one medium.
+            step = bounce + (k - start[i]) * STRETCH_STEP
+            u_c = sampling.hash_uniform(seed, pid[i], step, dims[0])
+            u_t = sampling.hash_uniform(seed, pid[i], step, dims[1])
+            ts, scattered, v0, v1, v2 = sample_distance(
+                sigma_a[k, 0], sigma_a[k, 1], sigma_a[k, 2], sigma_s[k, 0], sigma_s[k, 1],
+                sigma_s[k, 2], t1[k] - t0[k], u_c, u_t)
+            w0 *= v0
+            w1 *= v1
+            w2 *= v2
+            if scattered:
+                t = t0[k] + ts
+                gs = g[k]
+                break
         if not scattered:
             flux[i, 0] *= w0
             flux[i, 1] *= w1
@@ -97,7 +117,7 @@ def fly_kernel(o, d, flux, pid, n_diff, n_spec, t_hit, sigma_a, sigma_s, g, seed
             continue
         u1 = sampling.hash_uniform(seed, pid[i], bounce, dims[3])
         u2 = sampling.hash_uniform(seed, pid[i], bounce, dims[3] + 1)
-        nx, ny, nz, _ = hg_sample(g, dx, dy, dz, u1, u2)
+        nx, ny, nz, _ = hg_sample(gs, dx, dy, dz, u1, u2)
         n_diff[i] = nd + 1
         o_new[i, 0], o_new[i, 1], o_new[i, 2] = px, py, pz
         d_new[i, 0], d_new[i, 1], d_new[i, 2] = nx, ny, nz

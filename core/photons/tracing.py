@@ -41,7 +41,7 @@ from ..passes import ProgressFn, StopFn
 from ..prepared import PreparedScene
 from ..scene.bounds import Targets
 from ..settings import RenderSettings
-from ..media import world as world_medium
+from ..media import regions
 from ..scene.contract import LIGHT_SUN
 from . import emission, importance, medium_flight, scatter
 from .beam import VolumePhotonMap, photon_radii
@@ -82,7 +82,7 @@ class _Medium:
     (a medium_flight.VolumeStore), ``caustic_apart`` (the caustic emission keeps light ->
     S+ -> V photons), ``store_direct`` (the source's first collisions are stored)."""
 
-    medium: world_medium.WorldMedium
+    medium: regions.Medium
     vstore: medium_flight.VolumeStore
     caustic_apart: bool
     store_direct: bool = False
@@ -96,13 +96,15 @@ def _fly(medium: _Medium, hits, o, d, f, pid, n_diff, n_spec, seed, map_id, boun
     n = o.shape[0]
     m = medium.medium
     t_hit = np.where(hits.prim >= 0, hits.t.astype(np.float64), np.inf)
+    st = m.stretches(o, d, t_hit)
     dims = np.array([sampling.stream(sampling.MEDIUM_FLIGHT, map_id, k) for k in (0, 1, 2, 3)],
                     np.int64)
     out = (np.empty(n, bool), np.empty(n, bool), np.empty(n, bool), np.empty((n, 3), np.float32),
            np.empty((n, 3), np.float32), np.empty((n, 3), np.float32), np.empty(n, bool),
            np.empty((n, 3), np.float32), np.empty((n, 3), np.float32), np.empty((n, 3)))
-    medium_flight.fly_kernel(o, d, f, pid, n_diff, n_spec, t_hit, m.sigma_a, m.sigma_s, m.g,
-                             np.int64(seed), dims, np.int64(bounce), mode,
+    medium_flight.fly_kernel(o, d, f, pid, n_diff, n_spec, st.start, st.t0, st.t1,
+                             np.ascontiguousarray(st.sigma_a), np.ascontiguousarray(st.sigma_s),
+                             st.g, np.int64(seed), dims, np.int64(bounce), mode,
                              medium.caustic_apart, medium.store_direct, last, *out)
     collided, v_store, v_camera, v_pos, v_flux, v_dir, alive, o_new, d_new, f_new = out
     medium.vstore.add(v_store, v_camera, v_pos, v_flux, v_dir)
@@ -219,7 +221,7 @@ def _trace_map(prepared, sources, counts, targets_per_source, mode, store_rule, 
                 flux_out[slot] += em.flux.sum(axis=0)
             if medium is not None and _from_infinity(src, prepared.light_set):
                 # Sun and world light cross infinite World fog: none arrives (Cycles).
-                em.flux[:, medium.medium.sigma_t > 0] = 0.0
+                em.flux[:, medium.medium.world_sigma_t > 0] = 0.0
             pid = np.arange(first_id + first, first_id + first + count, dtype=np.int64)
             t1 = time.perf_counter()
             _trace_chunk(prepared, em, pid, mode, store_rule, max_bounces, seed, map_id,
@@ -374,16 +376,18 @@ def trace_photons(prepared: PreparedScene, settings: RenderSettings,
         decisions.append(f"light '{name}': no photons, zero power or no geometry in reach")
 
     skip = dict(skip or {})
+    # A scattering medium receives photons (volume photons) even without a diffuse surface.
+    receives = diffuse_any or (prepared.medium is not None and prepared.medium.scatters)
     build_global = True
     if "global" in skip:
         build_global, why = False, skip["global"]
     elif settings.indirect_mode == "off":
         build_global, why = False, "indirect light is off"
-    elif not diffuse_any:
+    elif not receives:
         build_global, why = False, "no surface has a diffuse lobe (nothing can bounce)"
     elif n_global <= 0:
         build_global, why = False, "global_photons is 0"
-    elif not sources or scene.mesh.triangle_count == 0:
+    elif not sources or (scene.mesh.triangle_count == 0 and not receives):
         build_global, why = False, "no light reaches any geometry"
     if not build_global:
         decisions.append(f"global map: skipped, {why}")
@@ -395,7 +399,7 @@ def trace_photons(prepared: PreparedScene, settings: RenderSettings,
         build_caustic, why = False, "caustics are off"
     elif not spec_any:
         build_caustic, why = False, "no mirror, glass or glossy surface"
-    elif not diffuse_any:
+    elif not receives:
         build_caustic, why = False, "no diffuse surface to receive caustics"
     elif n_caustic <= 0:
         build_caustic, why = False, "caustic_photons is 0"
@@ -526,7 +530,7 @@ def trace_photons(prepared: PreparedScene, settings: RenderSettings,
             parts.append(text)
         if parts:
             decisions.append(f"{_source_label(src, ls)}: " + "; ".join(parts))
-    medium = world_medium.renderable(scene.media)
+    medium = prepared.medium
     g_medium = c_medium = None
     if medium is not None:
         g_medium = _Medium(medium, medium_flight.VolumeStore(), caustic_apart=build_caustic)
@@ -547,7 +551,7 @@ def trace_photons(prepared: PreparedScene, settings: RenderSettings,
     if medium is not None and not cancelled:
         volume_map, volume_gather_map = _volume_maps(g_medium, settings.global_k, counters)
         volume_caustic_map, _ = _volume_maps(c_medium, settings.caustic_k, counters)
-        decisions.append(f"volume photons in medium '{medium.name}': "
+        decisions.append(f"volume photons in media {medium.name}: "
                          f"{len(volume_map) if volume_map else 0:,} global "
                          f"({len(volume_gather_map) if volume_gather_map else 0:,} with the "
                          f"direct ones, for final gathering), "

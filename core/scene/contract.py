@@ -558,7 +558,8 @@ class Scene:
         return self
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        """(lo, hi) float64 (3,) of the geometry and the positional lights, metres.
+        """(lo, hi) float64 (3,) of the geometry, the media's boundaries and the positional
+        lights, metres.
 
         Falls back to the camera position when the scene has neither.
         """
@@ -567,6 +568,7 @@ class Scene:
         local = self.lights.kind != LIGHT_SUN
         pts.append(self.lights.to_world[local, :3, 3])
         pts.append(self.camera.to_world[None, :3, 3])
+        pts.append(self.media.boundary.reshape(-1, 3).astype(np.float64))
         allp = np.concatenate([p.reshape(-1, 3) for p in pts])
         return allp.min(axis=0), allp.max(axis=0)
 

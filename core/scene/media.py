@@ -18,7 +18,7 @@ sigma_s and emission together; ``density_texture == -1`` means homogeneous.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -44,6 +44,13 @@ class Media:
     bounds: (M,) int32, object index of the closed mesh that bounds the medium, or WORLD.
     density_texture: (M,) int32, -1 (homogeneous) until heterogeneous density lands.
     names: tuple of str, one per medium (the material or World name, for messages).
+    boundary: (B, 3, 3) float32, world-space corners (metres) of the triangles that bound
+        the mesh media, wound so that the geometric normal (v1 - v0) x (v2 - v0) points
+        out of the medium (Blender's face winding of a closed mesh); every medium with
+        ``bounds != WORLD`` needs at least one. The triangles bound the medium whether or
+        not they are also surfaces of ``Mesh`` (glass: yes; a volume-only material: no,
+        its faces are null interfaces rays pass straight through).
+    boundary_medium: (B,) int32, the medium row each boundary triangle bounds.
     """
 
     sigma_a: np.ndarray
@@ -53,6 +60,8 @@ class Media:
     bounds: np.ndarray
     density_texture: np.ndarray
     names: tuple = ()
+    boundary: np.ndarray = field(default_factory=lambda: np.zeros((0, 3, 3), np.float32))
+    boundary_medium: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int32))
 
     @property
     def count(self) -> int:
@@ -76,9 +85,10 @@ class Media:
     @staticmethod
     def from_list(rows: list[dict]) -> "Media":
         """Media from dicts with keys sigma_a, sigma_s (RGB, 1/m), anisotropy, emission,
-        bounds (object index or WORLD), density_texture, name; absent keys take the
-        defaults (no absorption, no scattering, isotropic, no emission, World,
-        homogeneous)."""
+        bounds (object index or WORLD), density_texture, name, boundary ((T, 3, 3)
+        metres: the mesh medium's boundary triangles); absent keys take the defaults (no
+        absorption, no scattering, isotropic, no emission, World, homogeneous, no
+        boundary)."""
         def col(key, width, default, dtype=np.float32):
             shape = (len(rows), width) if width else (len(rows),)
             return np.array([r.get(key, default) for r in rows], dtype).reshape(shape)
@@ -89,7 +99,14 @@ class Media:
                      emission=col("emission", 3, (0.0, 0.0, 0.0)),
                      bounds=col("bounds", 0, WORLD, np.int32),
                      density_texture=col("density_texture", 0, -1, np.int32),
-                     names=tuple(r.get("name", f"medium {i}") for i, r in enumerate(rows)))
+                     names=tuple(r.get("name", f"medium {i}") for i, r in enumerate(rows)),
+                     boundary=np.concatenate(
+                         [np.asarray(r.get("boundary", np.zeros((0, 3, 3))), np.float32)
+                          .reshape(-1, 3, 3) for r in rows] or [np.zeros((0, 3, 3), np.float32)]),
+                     boundary_medium=np.concatenate(
+                         [np.full(np.asarray(r.get("boundary", np.zeros((0, 3, 3)))).reshape(-1, 9)
+                                  .shape[0], i, np.int32) for i, r in enumerate(rows)]
+                         or [np.zeros(0, np.int32)]))
 
     def validate(self, object_count: int, texture_count: int = 0) -> "Media":
         """Check shapes, dtypes and ranges; raise SceneError naming the field and medium.
@@ -129,6 +146,24 @@ class Media:
             raise SceneError(f"media.density_texture of '{self._name(i)}' must be -1 or a "
                              f"texture index in [0, {texture_count}), got "
                              f"{self.density_texture[i]}")
+        check_array("media.boundary", self.boundary, (None, 3, 3), dtype=np.float32)
+        check_array("media.boundary_medium", self.boundary_medium, (self.boundary.shape[0],),
+                    dtype=np.int32)
+        bad = np.flatnonzero((self.boundary_medium < 0) | (self.boundary_medium >= m))
+        if bad.size:
+            raise SceneError(f"media.boundary_medium of triangle {int(bad[0])} must be a medium "
+                             f"row in [0, {m}), got {self.boundary_medium[bad[0]]}")
+        on_world = self.bounds[self.boundary_medium] == WORLD
+        if np.any(on_world):
+            i = int(self.boundary_medium[np.flatnonzero(on_world)[0]])
+            raise SceneError(f"media.boundary: the World's medium '{self._name(i)}' has no "
+                             f"boundary, got triangles for it")
+        counts = np.bincount(self.boundary_medium, minlength=m)
+        bad = np.flatnonzero((self.bounds != WORLD) & (counts == 0))
+        if bad.size:
+            i = int(bad[0])
+            raise SceneError(f"media.boundary: the medium '{self._name(i)}' inside object "
+                             f"{self.bounds[i]} has no boundary triangles")
         return self
 
     def _name(self, i: int) -> str:

@@ -2,7 +2,7 @@
 set by hand: each node kind's closure holds exactly the inputs in its slots
 (core/scene/closures.py), Mix / Add become weights, images the closure's texture; and the
 warnings of issue 11 (part 4): linked Normal inputs, IOR <= 0, values out of range,
-subsurface, thin film, volume-only materials (left out of the render). Runs on every
+subsurface, thin film, volume-only materials (their faces bound a medium, not a surface). Runs on every
 supported Blender (marker ``api``): inputs a version lacks are expected at their defaults.
 """
 
@@ -296,7 +296,7 @@ def test_thin_film_is_reported_and_ignored():
     assert "thin film" in msg and "ignored" in msg
 
 
-def test_volume_only_material_leaves_its_faces_out_with_a_warning():
+def test_volume_only_material_leaves_its_faces_out_of_the_surfaces():
     new_scene()
     smoke, tree, out = material("Smoke")
     volume = tree.nodes.new('ShaderNodeVolumePrincipled')
@@ -312,16 +312,16 @@ def test_volume_only_material_leaves_its_faces_out_with_a_warning():
     cube.data.materials.append(smoke)
     cube.data.polygons.foreach_set("material_index", [0, 1, 1, 0, 1, 0])
     result = export()
-    msg = _only_warning(result, "Smoke")
-    assert "Volume" in msg and "left out" in msg
+    assert all("not a closed mesh" in w for w in result.warnings)  # planes, half a cube
+    assert result.scene.media.names == ("Smoke in Fog", "Smoke in Fog2", "Smoke in Half")
     mesh = result.scene.mesh
     counts = np.bincount(mesh.object_index, minlength=len(mesh.object_names))
     per_object = dict(zip(mesh.object_names, counts.tolist()))
-    assert "Fog" not in per_object and "Fog2" not in per_object
+    assert per_object["Fog"] == 0 and per_object["Fog2"] == 0  # no surface, only a boundary
     assert per_object["Floor"] == 2 and per_object["Half"] == 6  # three floor quads
 
 
-def test_volume_beside_a_surface_renders_the_surface_with_a_warning():
+def test_volume_beside_a_surface_renders_the_surface_and_the_medium():
     new_scene()
     mat, _ = shader("Murky", 'ShaderNodeBsdfDiffuse', {"Color": (0.2, 0.3, 0.4, 1.0)}.items())
     volume = mat.node_tree.nodes.new('ShaderNodeVolumeAbsorption')
@@ -329,7 +329,8 @@ def test_volume_beside_a_surface_renders_the_surface_with_a_warning():
                             mat.node_tree.nodes["Material Output"].inputs["Volume"])
     result, [[c]] = export_planes(mat)
     msg = _only_warning(result, "Murky")
-    assert "Volume" in msg and "ignored" in msg
+    assert "not a closed mesh" in msg  # a plane
+    assert result.scene.media.count == 1 and result.scene.media.names[0].startswith("Murky in")
     assert c["kind"] == cl.CLOSURE_DIFFUSE and result.scene.mesh.triangle_count == 2
 
 

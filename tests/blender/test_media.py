@@ -1,6 +1,7 @@
 """Volume shaders through the exporter (photon_engine/export_volumes.py): the World's
-Volume becomes the scene's medium with Cycles' coefficients; a mesh's Volume is reported
-by name; a fog render has the Volume Direct / Indirect passes, Combined their exact sum
+Volume becomes the scene's medium with Cycles' coefficients; a mesh material's Volume
+fills the object, bounded by its faces (a volume-only material's faces are no surface); an
+open mesh is reported by name; a fog render has the Volume Direct / Indirect passes, Combined their exact sum
 with the others."""
 
 import bpy
@@ -68,20 +69,61 @@ def test_absorption_plus_scatter_add_and_a_linked_density_is_named():
         f"heterogeneous media are not supported yet); using its own value"]
 
 
-def test_a_volume_inside_a_mesh_is_named_and_its_surface_renders():
+def test_a_volume_inside_a_mesh_is_a_medium_bounded_by_its_faces():
     _lit()
     mat = scenes.diffuse_material("Smoky Glass")
     tree = mat.node_tree
     vol = tree.nodes.new('ShaderNodeVolumeScatter')
+    vol.inputs["Density"].default_value = 2.0
+    vol.inputs["Anisotropy"].default_value = 0.5
     out = next(n for n in tree.nodes if n.type == 'OUTPUT_MATERIAL')
     tree.links.new(vol.outputs[0], out.inputs["Volume"])
-    scenes.add_sphere(material=mat, location=(0, 0, 0.6), name="Ball")
+    scenes.add_sphere(material=mat, location=(0, 0, 0.6), name="Ball", segments=16)
     result = export()
-    assert result.warnings == [
-        'Material "Smoky Glass": a Volume inside a mesh is not supported yet; ignored (the '
-        "surface is rendered; only the World's Volume renders as a medium)"]
-    assert result.scene.media.count == 0
+    assert result.warnings == []
+    media, mesh = result.scene.media, result.scene.mesh
+    assert media.count == 1 and media.names == ("Smoky Glass in Ball",)
+    ball = mesh.object_names.index("Ball")
+    assert media.bounds[0] == ball and media.world == -1
+    np.testing.assert_allclose(media.sigma_s[0], [1.6, 1.6, 1.6], rtol=1e-6)  # 0.8 x 2
+    np.testing.assert_allclose(media.anisotropy[0], 0.5, rtol=1e-6)
+    # The boundary is the ball's surface triangles, wound outward
+    own = mesh.triangle_vertices()[mesh.object_index == ball]
+    np.testing.assert_array_equal(media.boundary, own)
+    centre = media.boundary.mean(axis=1) - (np.array([0, 0, 0.6]) - mesh.origin)
+    normal = np.cross(media.boundary[:, 1] - media.boundary[:, 0],
+                      media.boundary[:, 2] - media.boundary[:, 0])
+    assert np.all(np.einsum("ij,ij->i", normal, centre) > 0)
     assert "Smoky Glass" in result.scene.materials.names
+
+
+def test_a_volume_only_cube_is_a_medium_without_surface_and_an_open_one_is_named():
+    _lit()
+    fog = bpy.data.materials.new("Fog")
+    tree = scenes.ensure_node_tree(fog)
+    for n in list(tree.nodes):
+        if n.type != 'OUTPUT_MATERIAL':
+            tree.nodes.remove(n)
+    absorb = tree.nodes.new('ShaderNodeVolumeAbsorption')
+    absorb.inputs["Density"].default_value = 0.5
+    out = next(n for n in tree.nodes if n.type == 'OUTPUT_MATERIAL')
+    tree.links.new(absorb.outputs[0], out.inputs["Volume"])
+    bpy.ops.mesh.primitive_cube_add(size=1.0, location=(0.0, 0.0, 1.0))
+    cube = bpy.context.active_object
+    cube.name = "Box"
+    cube.data.materials.append(fog)
+    scenes.add_plane(size=1.0, location=(0, 0, 3), material=fog, name="Sheet")
+    result = export()
+    mesh, media = result.scene.mesh, result.scene.media
+    assert media.names == ("Fog in Box", "Fog in Sheet")
+    counts = np.bincount(media.boundary_medium)
+    assert list(counts) == [12, 2]
+    for name in ("Box", "Sheet"):  # no surface: no triangle of theirs is rendered
+        assert not np.any(mesh.object_index == mesh.object_names.index(name))
+    assert result.warnings == [
+        "Medium 'Fog in Sheet': the faces of material \"Fog\" on object 'Sheet' are not a "
+        "closed mesh (4 open edges); a ray that crosses it once stays in the medium for the "
+        "rest of its way, as in Cycles"]
 
 
 def test_a_fog_render_has_the_volume_passes_and_combined_is_their_sum():

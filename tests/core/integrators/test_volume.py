@@ -9,6 +9,7 @@ from core import sampling
 from core.integrators import photon_mapping, sppm
 from core.lights import kernels as light_kernels
 from core.lights.light_set import LightSet
+from core.media import regions
 from core.media.single_scatter import inscatter_rays
 from core.photons import tracing
 from core.prepared import prepare
@@ -131,9 +132,9 @@ def test_volume_direct_matches_the_single_scattering_integral():
 
 def test_media_the_renderer_does_not_take_yet_are_refused_by_name():
     mat = {"diffuse": [0.5] * 3}
-    boxed = Media.from_list([{"sigma_s": [1, 1, 1], "bounds": 0, "name": "Smoke"}])
-    with pytest.raises(SceneError, match="medium 'Smoke'.*closed meshes"):
-        photon_mapping.render(_floor_scene(mat, media=boxed), RenderSettings(**FAST))
+    textured = Media.from_list([{"sigma_s": [1, 1, 1], "density_texture": 0, "name": "Smoke"}])
+    with pytest.raises(SceneError, match="medium 'Smoke'.*heterogeneous density"):
+        regions.renderable(textured, 1.0)
     st = RenderSettings(integrator="progressive", progressive_passes=1, photons_per_pass=100,
                         threads=2)
     with pytest.raises(SettingsError, match='"integrator" is "progressive".*\'Fog\''):

