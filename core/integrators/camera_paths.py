@@ -27,6 +27,7 @@ from numba import njit, prange
 
 from .. import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
 from .. import sampling
+from .. import spectral
 from ..lights import light_set as lights
 from ..materials import bsdf
 from ..materials import closure
@@ -116,9 +117,15 @@ def follow_delta(materials: dict, pos, ngf, nsf, d, front, mat, eps, u_lobe, u_p
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
-def _continue_kernel(tab, pos, ngf, nsf, d, front, mat, eps, texel, thr, u_lobe, u1, u2, u_rr,
-                     new_o, new_d, new_thr, new_pdf, transmitted, delta, ok):
+def _continue_kernel(tab, pos, ngf, nsf, d, front, mat, eps, texel, thr, lam, u_lobe, u1, u2,
+                     u_rr, u_lam, new_o, new_d, new_thr, new_pdf, transmitted, delta, ok):
     """One BSDF sample per hit (``closure.sample_bsdf``) and the next ray of the path.
+
+    lam (K,) float64: each path's wavelength in nm, 0 for RGB, updated in place. At the
+    first material with a dispersive transmission lobe (``closure.dispersive``), before
+    the bounce, an RGB path picks one (``spectral.sample_wavelength(u_lam)``) and its
+    weight is multiplied by that wavelength's RGB (mean (1, 1, 1)): the photons' rule
+    (core/photons/scatter.py). The BSDF is then sampled and evaluated at that wavelength.
 
     A delta lobe (mirror, smooth glass) goes on with its weight (pdf 0: nothing weighs the
     lights it sees against light sampling). A non-delta direction carries only the glossy
@@ -133,11 +140,17 @@ def _continue_kernel(tab, pos, ngf, nsf, d, front, mat, eps, texel, thr, u_lobe,
         new_pdf[i] = 0.0
         m = mat[i]
         wox, woy, woz = -d[i, 0], -d[i, 1], -d[i, 2]
+        li = lam[i]
+        s0, s1, s2 = 1.0, 1.0, 1.0
+        if li == 0.0 and closure.dispersive(tab, m):
+            # The first dispersive surface: the path's wavelength and its RGB weight.
+            li, _, s0, s1, s2 = spectral.sample_wavelength(u_lam[i])
+            lam[i] = li
         ix, iy, iz, w0, w1, w2, pdf, flags = closure.sample_bsdf(
             tab, m, texel[i, 0], texel[i, 1], texel[i, 2], wox, woy, woz,
             nsf[i, 0], nsf[i, 1], nsf[i, 2], ngf[i, 0], ngf[i, 1], ngf[i, 2],
             TANGENT[0], TANGENT[1], TANGENT[2], front[i],
-            u_lobe[i], u1[i], u2[i])
+            u_lobe[i], u1[i], u2[i], li)
         if flags == 0:
             continue
         if flags & closure.LOBE_DELTA:
@@ -147,14 +160,14 @@ def _continue_kernel(tab, pos, ngf, nsf, d, front, mat, eps, texel, thr, u_lobe,
             _, _, _, g0, g1, g2, _ = closure.eval_parts(
                 tab, m, texel[i, 0], texel[i, 1], texel[i, 2], wox, woy, woz, ix, iy, iz,
                 nsf[i, 0], nsf[i, 1], nsf[i, 2], ngf[i, 0], ngf[i, 1], ngf[i, 2],
-                TANGENT[0], TANGENT[1], TANGENT[2], front[i], False)
+                TANGENT[0], TANGENT[1], TANGENT[2], front[i], False, li)
             q = direct.continue_probability(f0, f1, f2, g0, g1, g2)
             if not u_rr[i] < q:
                 continue
             k = 1.0 / (pdf * q)
             w0, w1, w2 = g0 * k, g1 * k, g2 * k
             new_pdf[i] = pdf * q
-        t0, t1, t2 = thr[i, 0] * w0, thr[i, 1] * w1, thr[i, 2] * w2
+        t0, t1, t2 = thr[i, 0] * w0 * s0, thr[i, 1] * w1 * s1, thr[i, 2] * w2 * s2
         if not (t0 > 0.0 or t1 > 0.0 or t2 > 0.0):
             continue
         below = ix * ngf[i, 0] + iy * ngf[i, 1] + iz * ngf[i, 2] < 0.0
@@ -168,27 +181,31 @@ def _continue_kernel(tab, pos, ngf, nsf, d, front, mat, eps, texel, thr, u_lobe,
         ok[i] = True
 
 
-def follow_bsdf(prepared: PreparedScene, pos, ngf, nsf, d, front, mat, eps, texel, thr,
-                u_lobe, u1, u2, u_rr, closures=None):
+def follow_bsdf(prepared: PreparedScene, pos, ngf, nsf, d, front, mat, eps, texel, thr, lam,
+                u_lobe, u1, u2, u_rr, u_lam, closures=None):
     """Continue K paths through one sampled lobe each (``_continue_kernel``): mirrors,
     glass, and the glossy part of rough lobes, the same sampler photons scatter by.
 
     Inputs (K, ...) at the hits: pos, ngf, nsf (K, 3), d (K, 3) the arriving directions,
-    front (K,) bool, mat (K,) int32, eps (K,), texel (K, 3), thr (K, 3); u_lobe, u1, u2,
-    u_rr (K,) uniforms (lobe, direction, roulette). Returns (keep, origins, directions,
-    throughput, transmitted, pdf, delta) of the paths that go on: keep (J,) indices into
-    the K, then (J, 3) x 3, (J,) bool, (J,) float64 the solid-angle pdf of the direction
-    for MIS (0 after a delta lobe), (J,) bool a delta lobe was followed. closures: the
-    ClosureTable ``mat`` indexes (None: the prepared one; ``HitShader.closures_at``).
+    front (K,) bool, mat (K,) int32, eps (K,), texel (K, 3), thr (K, 3), lam (K,) float64
+    the paths' wavelengths in nm (0: RGB; docs/dispersion.md); u_lobe, u1, u2, u_rr, u_lam
+    (K,) uniforms (lobe, direction, roulette, wavelength). Returns (keep, origins,
+    directions, throughput, transmitted, pdf, delta, lam) of the paths that go on: keep
+    (J,) indices into the K, then (J, 3) x 3, (J,) bool, (J,) float64 the solid-angle pdf
+    of the direction for MIS (0 after a delta lobe), (J,) bool a delta lobe was followed,
+    (J,) float64 nm the wavelength each carries on. closures: the ClosureTable ``mat``
+    indexes (None: the prepared one; ``HitShader.closures_at``).
     """
     k = pos.shape[0]
     new_o, new_d, new_thr = np.empty((k, 3)), np.empty((k, 3)), np.empty((k, 3))
     new_pdf, new_tr, delta, ok = np.empty(k), np.empty(k, bool), np.empty(k, bool), np.empty(k, bool)
     tab = prepared.closures if closures is None else closures
-    _continue_kernel(tab, pos, ngf, nsf, d, front, mat, eps, texel, thr, u_lobe,
-                     u1, u2, u_rr, new_o, new_d, new_thr, new_pdf, new_tr, delta, ok)
+    lam = np.array(lam, np.float64)  # a copy: the kernel writes the picks into it
+    _continue_kernel(tab, pos, ngf, nsf, d, front, mat, eps, texel, thr, lam, u_lobe,
+                     u1, u2, u_rr, u_lam, new_o, new_d, new_thr, new_pdf, new_tr, delta, ok)
     keep = np.flatnonzero(ok)
-    return keep, new_o[keep], new_d[keep], new_thr[keep], new_tr[keep], new_pdf[keep], delta[keep]
+    return (keep, new_o[keep], new_d[keep], new_thr[keep], new_tr[keep], new_pdf[keep],
+            delta[keep], lam[keep])
 
 
 def emission_weight(prepared: PreparedScene, prim, t, d, bsdf_pdf, light_samples: int):

@@ -251,6 +251,9 @@ def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> dict[str, np.ndarray]:
     prev_pdf = np.zeros(n)
     prev_ns = np.zeros((n, 3))
     glossy = np.zeros(n, bool)
+    # Each path's wavelength in nm, 0 while it is RGB (docs/dispersion.md: picked at its
+    # first dispersive surface, kept to its end).
+    lam = np.zeros(n)
     ctx.stats["rays_camera"] += n
     ctx.stats["time_shading"] += time.perf_counter() - t0
 
@@ -295,7 +298,7 @@ def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> dict[str, np.ndarray]:
         # Shade the hits: geometry, emission seen
         h = np.flatnonzero(hit) if not hit.all() else slice(None)
         rows, thr, d, transmitted = rows[h], thr[h], dirs[h], transmitted[h]
-        prev_pdf, glossy = prev_pdf[h], glossy[h]
+        prev_pdf, glossy, lam = prev_pdf[h], glossy[h], lam[h]
         prim = hits.prim[h]
         pos, ngf, nsf, mat, eps, front = geometry.facing_surface_points(
             pr.tri_vertices, pr.tri_normals, pr.tri_material, prim, hits.u[h],
@@ -325,7 +328,7 @@ def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> dict[str, np.ndarray]:
             mis = np.full(r.shape[0], not last)
             points = direct.ShadingPoints(pos[sel], ngf[sel], nsf[sel], d[sel], crow[sel],
                                           eps[sel], thr[sel], albedo[sel], r, texel[sel],
-                                          diffuse_on, mis, front[sel], tab)
+                                          diffuse_on, mis, front[sel], tab, lam[sel])
             direct.shade(ctx.direct, points, pixel[r], sample[r], depth,
                          acc["direct"] if first else acc["specular"])
 
@@ -350,11 +353,16 @@ def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> dict[str, np.ndarray]:
                               sampling.stream(sampling.SPECULAR_CHOICE, depth, 1))
         u_rr = sampling.uniform(st.seed, pixel[rs], sample[rs],
                                 sampling.stream(sampling.SPECULAR_CHOICE, depth, 2))
+        # A dispersive surface's wavelengths, stratified over the pixel's samples (the
+        # Sobol set's second coordinate, as for the lobe): less colour noise per pixel.
+        u_lam = (sampling.stratified2(st.seed, pixel[rs], sample[rs], s_count,
+                                      sampling.stream(sampling.CAMERA_WAVELENGTH, depth))[1]
+                 if np.any(tab.abbe > 0) else np.zeros(rs.shape[0]))
         # The lobe choice takes the Sobol set's second coordinate: its first repeats the
         # order of the pixel jitter's, which correlates a pixel's samples (noisier glass).
-        keep, origins, dirs, thr, transmitted, prev_pdf, was_delta = camera_paths.follow_bsdf(
+        keep, origins, dirs, thr, transmitted, prev_pdf, was_delta, lam = camera_paths.follow_bsdf(
             pr, pos[sd], ngf[sd], nsf[sd], d[sd], front[sd], crow[sd], eps[sd], texel[sd],
-            thr[sd], u2, u1, u3, u_rr, closures=tab)
+            thr[sd], lam[sd], u2, u1, u3, u_rr, u_lam, closures=tab)
         prev_ns = nsf[sd][keep]
         glossy = glossy[sd][keep] | ~was_delta
         rows = rs[keep]
