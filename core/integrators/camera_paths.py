@@ -118,14 +118,11 @@ def follow_delta(materials: dict, pos, ngf, nsf, d, front, mat, eps, u_lobe, u_p
 
 @njit(cache=True, parallel=True, error_model="numpy")
 def _continue_kernel(tab, pos, ngf, nsf, d, front, mat, eps, texel, thr, lam, u_lobe, u1, u2,
-                     u_rr, u_lam, new_o, new_d, new_thr, new_pdf, transmitted, delta, ok):
+                     u_rr, new_o, new_d, new_thr, new_pdf, transmitted, delta, ok):
     """One BSDF sample per hit (``closure.sample_bsdf``) and the next ray of the path.
 
-    lam (K,) float64: each path's wavelength in nm, 0 for RGB, updated in place. At the
-    first material with a dispersive transmission lobe (``closure.dispersive``), before
-    the bounce, an RGB path picks one (``spectral.sample_wavelength(u_lam)``) and its
-    weight is multiplied by that wavelength's RGB (mean (1, 1, 1)): the photons' rule
-    (core/photons/scatter.py). The BSDF is then sampled and evaluated at that wavelength.
+    lam (K,) float64: each path's wavelength in nm (0: RGB, ``pick_wavelengths``), at
+    which the BSDF is sampled and evaluated.
 
     A delta lobe (mirror, smooth glass) goes on with its weight (pdf 0: nothing weighs the
     lights it sees against light sampling). A non-delta direction carries only the glossy
@@ -141,11 +138,6 @@ def _continue_kernel(tab, pos, ngf, nsf, d, front, mat, eps, texel, thr, lam, u_
         m = mat[i]
         wox, woy, woz = -d[i, 0], -d[i, 1], -d[i, 2]
         li = lam[i]
-        s0, s1, s2 = 1.0, 1.0, 1.0
-        if li == 0.0 and closure.dispersive(tab, m):
-            # The first dispersive surface: the path's wavelength and its RGB weight.
-            li, _, s0, s1, s2 = spectral.sample_wavelength(u_lam[i])
-            lam[i] = li
         ix, iy, iz, w0, w1, w2, pdf, flags = closure.sample_bsdf(
             tab, m, texel[i, 0], texel[i, 1], texel[i, 2], wox, woy, woz,
             nsf[i, 0], nsf[i, 1], nsf[i, 2], ngf[i, 0], ngf[i, 1], ngf[i, 2],
@@ -167,7 +159,7 @@ def _continue_kernel(tab, pos, ngf, nsf, d, front, mat, eps, texel, thr, lam, u_
             k = 1.0 / (pdf * q)
             w0, w1, w2 = g0 * k, g1 * k, g2 * k
             new_pdf[i] = pdf * q
-        t0, t1, t2 = thr[i, 0] * w0 * s0, thr[i, 1] * w1 * s1, thr[i, 2] * w2 * s2
+        t0, t1, t2 = thr[i, 0] * w0, thr[i, 1] * w1, thr[i, 2] * w2
         if not (t0 > 0.0 or t1 > 0.0 or t2 > 0.0):
             continue
         below = ix * ngf[i, 0] + iy * ngf[i, 1] + iz * ngf[i, 2] < 0.0
@@ -181,15 +173,38 @@ def _continue_kernel(tab, pos, ngf, nsf, d, front, mat, eps, texel, thr, lam, u_
         ok[i] = True
 
 
+@njit(cache=True, parallel=True, error_model="numpy")
+def _pick_kernel(tab, mat, u_lam, lam, thr):
+    for i in prange(mat.shape[0]):
+        if lam[i] == 0.0 and closure.dispersive(tab, mat[i]):
+            li, _, s0, s1, s2 = spectral.sample_wavelength(u_lam[i])
+            lam[i] = li
+            thr[i, 0] *= s0
+            thr[i, 1] *= s1
+            thr[i, 2] *= s2
+
+
+def pick_wavelengths(tab, mat, u_lam, lam, thr) -> None:
+    """Dispersion (docs/dispersion.md): each RGB path (lam 0) at a material with a
+    dispersive transmission lobe (``closure.dispersive(tab, mat)``) picks its wavelength,
+    ``spectral.sample_wavelength(u_lam)``, and its throughput is multiplied by that
+    wavelength's RGB weight (mean (1, 1, 1) per channel): the photons' rule
+    (core/photons/scatter.py). Called before the hit is shaded, so that its direct light
+    (``direct.ShadingPoints.wavelength``) and its continuation (``follow_bsdf``) see the
+    same IOR. mat (K,) int32 rows of the ClosureTable tab, u_lam (K,) uniforms; lam (K,)
+    float64 nm and thr (K, 3) float64 updated in place (rows with no pick unchanged)."""
+    _pick_kernel(tab, mat, u_lam, lam, thr)
+
+
 def follow_bsdf(prepared: PreparedScene, pos, ngf, nsf, d, front, mat, eps, texel, thr, lam,
-                u_lobe, u1, u2, u_rr, u_lam, closures=None):
+                u_lobe, u1, u2, u_rr, closures=None):
     """Continue K paths through one sampled lobe each (``_continue_kernel``): mirrors,
     glass, and the glossy part of rough lobes, the same sampler photons scatter by.
 
     Inputs (K, ...) at the hits: pos, ngf, nsf (K, 3), d (K, 3) the arriving directions,
     front (K,) bool, mat (K,) int32, eps (K,), texel (K, 3), thr (K, 3), lam (K,) float64
-    the paths' wavelengths in nm (0: RGB; docs/dispersion.md); u_lobe, u1, u2, u_rr, u_lam
-    (K,) uniforms (lobe, direction, roulette, wavelength). Returns (keep, origins,
+    the paths' wavelengths in nm (0: RGB; ``pick_wavelengths``); u_lobe, u1, u2, u_rr
+    (K,) uniforms (lobe, direction, roulette). Returns (keep, origins,
     directions, throughput, transmitted, pdf, delta, lam) of the paths that go on: keep
     (J,) indices into the K, then (J, 3) x 3, (J,) bool, (J,) float64 the solid-angle pdf
     of the direction for MIS (0 after a delta lobe), (J,) bool a delta lobe was followed,
@@ -200,9 +215,8 @@ def follow_bsdf(prepared: PreparedScene, pos, ngf, nsf, d, front, mat, eps, texe
     new_o, new_d, new_thr = np.empty((k, 3)), np.empty((k, 3)), np.empty((k, 3))
     new_pdf, new_tr, delta, ok = np.empty(k), np.empty(k, bool), np.empty(k, bool), np.empty(k, bool)
     tab = prepared.closures if closures is None else closures
-    lam = np.array(lam, np.float64)  # a copy: the kernel writes the picks into it
     _continue_kernel(tab, pos, ngf, nsf, d, front, mat, eps, texel, thr, lam, u_lobe,
-                     u1, u2, u_rr, u_lam, new_o, new_d, new_thr, new_pdf, new_tr, delta, ok)
+                     u1, u2, u_rr, new_o, new_d, new_thr, new_pdf, new_tr, delta, ok)
     keep = np.flatnonzero(ok)
     return (keep, new_o[keep], new_d[keep], new_thr[keep], new_tr[keep], new_pdf[keep],
             delta[keep], lam[keep])

@@ -308,6 +308,14 @@ def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> dict[str, np.ndarray]:
         # Shader programs: the closures at each programmed hit (crow: its row in tab).
         tab, crow = pr.hit_shader.closures_at(prim, hits.u[h], hits.v[h], d, mat)
         albedo = pr.hit_shader.diffuse_albedo(tab, crow, mat, texel, d, nsf, albedo)
+        if np.any(tab.abbe > 0):
+            # Dispersion: a path picks its wavelength at its first dispersive surface,
+            # before it is shaded there (camera_paths.pick_wavelengths), stratified over
+            # the pixel's samples (the Sobol set's second coordinate, as for the lobe).
+            u_lam = sampling.stratified2(st.seed, pixel[rows], sample[rows], s_count,
+                                         sampling.stream(sampling.CAMERA_WAVELENGTH, depth))[1]
+            thr = np.array(thr)  # the hits' own copy (thr[h] may be a view)
+            camera_paths.pick_wavelengths(tab, crow, u_lam, lam, thr)
         emission = mats["emission"][mat]
         if pr.emissive.count and np.any(prev_pdf > 0):
             emission = emission * camera_paths.emission_weight(
@@ -353,16 +361,11 @@ def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> dict[str, np.ndarray]:
                               sampling.stream(sampling.SPECULAR_CHOICE, depth, 1))
         u_rr = sampling.uniform(st.seed, pixel[rs], sample[rs],
                                 sampling.stream(sampling.SPECULAR_CHOICE, depth, 2))
-        # A dispersive surface's wavelengths, stratified over the pixel's samples (the
-        # Sobol set's second coordinate, as for the lobe): less colour noise per pixel.
-        u_lam = (sampling.stratified2(st.seed, pixel[rs], sample[rs], s_count,
-                                      sampling.stream(sampling.CAMERA_WAVELENGTH, depth))[1]
-                 if np.any(tab.abbe > 0) else np.zeros(rs.shape[0]))
         # The lobe choice takes the Sobol set's second coordinate: its first repeats the
         # order of the pixel jitter's, which correlates a pixel's samples (noisier glass).
         keep, origins, dirs, thr, transmitted, prev_pdf, was_delta, lam = camera_paths.follow_bsdf(
             pr, pos[sd], ngf[sd], nsf[sd], d[sd], front[sd], crow[sd], eps[sd], texel[sd],
-            thr[sd], lam[sd], u2, u1, u3, u_rr, u_lam, closures=tab)
+            thr[sd], lam[sd], u2, u1, u3, u_rr, closures=tab)
         prev_ns = nsf[sd][keep]
         glossy = glossy[sd][keep] | ~was_delta
         rows = rs[keep]
