@@ -5,6 +5,8 @@
 - ``lights_along``: the light surfaces a batch of rays sees in front of the geometry (lights
   seen by the camera at the first bounce, in mirrors and through glass after it), and which
   rays escape to the world;
+- ``pick_wavelengths``: the wavelength a path picks at its first dispersive surface
+  (docs/dispersion.md), before the hit is shaded;
 - ``follow_delta``: one mirror or glass lobe sampled per path (``bsdf.continue_delta``),
   the path weight divided by its probability, so paths never split;
 - ``visible_points``: the progressive integrator's camera pass (one jittered ray per pixel
