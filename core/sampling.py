@@ -45,7 +45,8 @@ GATHER_CUTOUT = 20     # final-gather rays passing a cut-out
 VOLUME_DISTANCE = 21   # the distance along a camera segment where Volume Direct scatters
 VOLUME_LIGHT = 22      # the point on a light a volume shadow ray aims at
 MEDIUM_FLIGHT = 23     # photons' free flights and phase-function scattering in media
-WAVELENGTH = 24        # the wavelength a photon or path picks at its first dispersive surface
+WAVELENGTH = 24        # the wavelength a photon picks at its first dispersive surface
+CAMERA_WAVELENGTH = 25  # the wavelength a camera path picks at its first dispersive surface
 
 PROGRESSIVE = 7
 """Last stream index of the progressive integrator's camera paths: keeps its visible-point

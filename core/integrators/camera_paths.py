@@ -5,6 +5,8 @@
 - ``lights_along``: the light surfaces a batch of rays sees in front of the geometry (lights
   seen by the camera at the first bounce, in mirrors and through glass after it), and which
   rays escape to the world;
+- ``pick_wavelengths``: the wavelength a path picks at its first dispersive surface
+  (docs/dispersion.md), before the hit is shaded;
 - ``follow_delta``: one mirror or glass lobe sampled per path (``bsdf.continue_delta``),
   the path weight divided by its probability, so paths never split;
 - ``visible_points``: the progressive integrator's camera pass (one jittered ray per pixel
@@ -27,6 +29,7 @@ from numba import njit, prange
 
 from .. import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
 from .. import sampling
+from .. import spectral
 from ..lights import light_set as lights
 from ..materials import bsdf
 from ..materials import closure
@@ -124,9 +127,12 @@ def follow_delta(materials: dict, pos, ngf, nsf, d, front, mat, eps, u_lobe, u_p
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
-def _continue_kernel(tab, pos, ngf, nsf, d, front, mat, eps, texel, thr, u_lobe, u1, u2, u_rr,
-                     new_o, new_d, new_thr, new_pdf, transmitted, delta, ok):
+def _continue_kernel(tab, pos, ngf, nsf, d, front, mat, eps, texel, thr, lam, u_lobe, u1, u2,
+                     u_rr, new_o, new_d, new_thr, new_pdf, transmitted, delta, ok):
     """One BSDF sample per hit (``closure.sample_bsdf``) and the next ray of the path.
+
+    lam (K,) float64: each path's wavelength in nm (0: RGB, ``pick_wavelengths``), at
+    which the BSDF is sampled and evaluated.
 
     A delta lobe (mirror, smooth glass) goes on with its weight (pdf 0: nothing weighs the
     lights it sees against light sampling). A non-delta direction carries only the glossy
@@ -141,11 +147,12 @@ def _continue_kernel(tab, pos, ngf, nsf, d, front, mat, eps, texel, thr, u_lobe,
         new_pdf[i] = 0.0
         m = mat[i]
         wox, woy, woz = -d[i, 0], -d[i, 1], -d[i, 2]
+        li = lam[i]
         ix, iy, iz, w0, w1, w2, pdf, flags = closure.sample_bsdf(
             tab, m, texel[i, 0], texel[i, 1], texel[i, 2], wox, woy, woz,
             nsf[i, 0], nsf[i, 1], nsf[i, 2], ngf[i, 0], ngf[i, 1], ngf[i, 2],
             TANGENT[0], TANGENT[1], TANGENT[2], front[i],
-            u_lobe[i], u1[i], u2[i])
+            u_lobe[i], u1[i], u2[i], li)
         if flags == 0:
             continue
         if flags & closure.LOBE_DELTA:
@@ -155,7 +162,7 @@ def _continue_kernel(tab, pos, ngf, nsf, d, front, mat, eps, texel, thr, u_lobe,
             _, _, _, g0, g1, g2, _ = closure.eval_parts(
                 tab, m, texel[i, 0], texel[i, 1], texel[i, 2], wox, woy, woz, ix, iy, iz,
                 nsf[i, 0], nsf[i, 1], nsf[i, 2], ngf[i, 0], ngf[i, 1], ngf[i, 2],
-                TANGENT[0], TANGENT[1], TANGENT[2], front[i], False)
+                TANGENT[0], TANGENT[1], TANGENT[2], front[i], False, li)
             q = direct.continue_probability(f0, f1, f2, g0, g1, g2)
             if not u_rr[i] < q:
                 continue
@@ -176,27 +183,53 @@ def _continue_kernel(tab, pos, ngf, nsf, d, front, mat, eps, texel, thr, u_lobe,
         ok[i] = True
 
 
-def follow_bsdf(prepared: PreparedScene, pos, ngf, nsf, d, front, mat, eps, texel, thr,
+@njit(cache=True, parallel=True, error_model="numpy")
+def _pick_kernel(tab, mat, u_lam, lam, thr):
+    for i in prange(mat.shape[0]):
+        if lam[i] == 0.0 and closure.dispersive(tab, mat[i]):
+            li, _, s0, s1, s2 = spectral.sample_wavelength(u_lam[i])
+            lam[i] = li
+            thr[i, 0] *= s0
+            thr[i, 1] *= s1
+            thr[i, 2] *= s2
+
+
+def pick_wavelengths(tab, mat, u_lam, lam, thr) -> None:
+    """Dispersion (docs/dispersion.md): each RGB path (lam 0) at a material with a
+    dispersive transmission lobe (``closure.dispersive(tab, mat)``) picks its wavelength,
+    ``spectral.sample_wavelength(u_lam)``, and its throughput is multiplied by that
+    wavelength's RGB weight (mean (1, 1, 1) per channel): the photons' rule
+    (core/photons/scatter.py). Called before the hit is shaded, so that its direct light
+    (``direct.ShadingPoints.wavelength``) and its continuation (``follow_bsdf``) see the
+    same IOR. mat (K,) int32 rows of the ClosureTable tab, u_lam (K,) uniforms; lam (K,)
+    float64 nm and thr (K, 3) float64 updated in place (rows with no pick unchanged)."""
+    _pick_kernel(tab, mat, u_lam, lam, thr)
+
+
+def follow_bsdf(prepared: PreparedScene, pos, ngf, nsf, d, front, mat, eps, texel, thr, lam,
                 u_lobe, u1, u2, u_rr, closures=None):
     """Continue K paths through one sampled lobe each (``_continue_kernel``): mirrors,
     glass, and the glossy part of rough lobes, the same sampler photons scatter by.
 
     Inputs (K, ...) at the hits: pos, ngf, nsf (K, 3), d (K, 3) the arriving directions,
-    front (K,) bool, mat (K,) int32, eps (K,), texel (K, 3), thr (K, 3); u_lobe, u1, u2,
-    u_rr (K,) uniforms (lobe, direction, roulette). Returns (keep, origins, directions,
-    throughput, transmitted, pdf, delta) of the paths that go on: keep (J,) indices into
-    the K, then (J, 3) x 3, (J,) bool, (J,) float64 the solid-angle pdf of the direction
-    for MIS (0 after a delta lobe), (J,) bool a delta lobe was followed. closures: the
-    ClosureTable ``mat`` indexes (None: the prepared one; ``HitShader.closures_at``).
+    front (K,) bool, mat (K,) int32, eps (K,), texel (K, 3), thr (K, 3), lam (K,) float64
+    the paths' wavelengths in nm (0: RGB; ``pick_wavelengths``); u_lobe, u1, u2, u_rr
+    (K,) uniforms (lobe, direction, roulette). Returns (keep, origins,
+    directions, throughput, transmitted, pdf, delta, lam) of the paths that go on: keep
+    (J,) indices into the K, then (J, 3) x 3, (J,) bool, (J,) float64 the solid-angle pdf
+    of the direction for MIS (0 after a delta lobe), (J,) bool a delta lobe was followed,
+    (J,) float64 nm the wavelength each carries on. closures: the ClosureTable ``mat``
+    indexes (None: the prepared one; ``HitShader.closures_at``).
     """
     k = pos.shape[0]
     new_o, new_d, new_thr = np.empty((k, 3)), np.empty((k, 3)), np.empty((k, 3))
     new_pdf, new_tr, delta, ok = np.empty(k), np.empty(k, bool), np.empty(k, bool), np.empty(k, bool)
     tab = prepared.closures if closures is None else closures
-    _continue_kernel(tab, pos, ngf, nsf, d, front, mat, eps, texel, thr, u_lobe,
+    _continue_kernel(tab, pos, ngf, nsf, d, front, mat, eps, texel, thr, lam, u_lobe,
                      u1, u2, u_rr, new_o, new_d, new_thr, new_pdf, new_tr, delta, ok)
     keep = np.flatnonzero(ok)
-    return keep, new_o[keep], new_d[keep], new_thr[keep], new_tr[keep], new_pdf[keep], delta[keep]
+    return (keep, new_o[keep], new_d[keep], new_thr[keep], new_tr[keep], new_pdf[keep],
+            delta[keep], lam[keep])
 
 
 def emission_weight(prepared: PreparedScene, prim, t, d, bsdf_pdf, light_samples: int):

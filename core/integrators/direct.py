@@ -45,7 +45,7 @@ SOURCE_LIGHT, SOURCE_TRIANGLES, SOURCE_WORLD = 0, 1, 2
 @njit(cache=True, parallel=True, error_model="numpy")
 def _shade_kernel(source, q, tris_cdf, tris_prob, tris_v0, tris_e1, tris_e2, tris_n, tris_area,
                   tris_rad, world, tab, pos, ngf, nsf, d, front, mat, eps, thr, texel, diffuse_on, mis,
-                  pixel, sample, seed, dim, pick_dim, k, k_count, bits, use_diffuse,
+                  lam, pixel, sample, seed, dim, pick_dim, k, k_count, bits, use_diffuse,
                   use_glossy, extent, contrib, sh_o, sh_d, sh_t, need):
     """One light sample per point: unshadowed contribution f |cos| L / pdf / k_count and
     the shadow ray that decides it (need[i]). Light samples are stratified over the
@@ -56,7 +56,9 @@ def _shade_kernel(source, q, tris_cdf, tris_prob, tris_v0, tris_e1, tris_e2, tri
     maps continue; times diffuse_on[i]) and the glossy lobes' part, which camera paths also
     reach by sampling the BSDF where mis[i]: there the glossy part takes the power
     heuristic's weight of light sampling (k_count samples) against BSDF sampling, whose
-    pdf is eval's pdf times ``continue_probability``."""
+    pdf is eval's pdf times ``continue_probability``. lam (N,) float64: the paths'
+    wavelengths in nm (0: RGB), the IOR of dispersive transmission lobes
+    (docs/dispersion.md), as the continuation samples them."""
     fmax = 3.0e38
     scale = 1.0 / k_count
     for i in prange(pos.shape[0]):
@@ -92,7 +94,7 @@ def _shade_kernel(source, q, tris_cdf, tris_prob, tris_v0, tris_e1, tris_e2, tri
         d0, d1, d2, g0, g1, g2, pb = closure.eval_parts(
             tab, m, texel[i, 0], texel[i, 1], texel[i, 2], wox, woy, woz, wx, wy, wz,
             nsf[i, 0], nsf[i, 1], nsf[i, 2], ngf[i, 0], ngf[i, 1], ngf[i, 2],
-            TANGENT[0], TANGENT[1], TANGENT[2], front[i], False)
+            TANGENT[0], TANGENT[1], TANGENT[2], front[i], False, lam[i])
         f0, f1, f2 = d0 + g0, d1 + g1, d2 + g2
         if f0 <= 0.0 and f1 <= 0.0 and f2 <= 0.0:
             continue
@@ -208,7 +210,8 @@ class ShadingPoints(NamedTuple):
     nowhere); front (N,) bool, the point was reached from the front of the mesh's geometric
     normal (a dielectric's eta for the transmitted light; None: from the front);
     closures: the ClosureTable ``material`` indexes (``HitShader.closures_at``'s per-batch
-    table, whose rows past the materials are programmed hits; None: the prepared one)."""
+    table, whose rows past the materials are programmed hits; None: the prepared one);
+    wavelength (N,) float64 nm, the paths' wavelengths (0 or None: RGB; docs/dispersion.md)."""
 
     position: np.ndarray
     ng: np.ndarray
@@ -224,6 +227,7 @@ class ShadingPoints(NamedTuple):
     mis: np.ndarray | None = None
     front: np.ndarray | None = None
     closures: tuple | None = None
+    wavelength: np.ndarray | None = None
 
 
 def prepare(settings: RenderSettings, prepared: PreparedScene, samples: int,
@@ -266,6 +270,7 @@ def shade(ctx: DirectLighting, hit: ShadingPoints, pixel, sample, depth, target)
     diffuse_on = np.ones(n) if hit.diffuse_on is None else hit.diffuse_on
     mis = np.zeros(n, bool) if hit.mis is None else hit.mis
     front = np.ones(n, bool) if hit.front is None else hit.front
+    lam = np.zeros(n) if hit.wavelength is None else hit.wavelength
     contrib = np.empty((n, 3))
     sh_o = np.empty((n, 3), np.float32)
     sh_d = np.empty((n, 3), np.float32)
@@ -291,7 +296,7 @@ def shade(ctx: DirectLighting, hit: ShadingPoints, pixel, sample, depth, target)
                           ctx.closures if hit.closures is None else hit.closures,
                           hit.position, hit.ng, hit.ns, hit.direction, front, hit.material,
                           hit.eps,
-                          hit.throughput, texel, diffuse_on, mis, pixel, sample,
+                          hit.throughput, texel, diffuse_on, mis, lam, pixel, sample,
                           ctx.seed, dim, sampling.stream(sampling.LIGHT_PICK, depth, k),
                           k, k_count, bits, use_d, use_g,
                           ctx.extent, contrib, sh_o, sh_d, sh_t, need)

@@ -256,6 +256,9 @@ def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> dict[str, np.ndarray]:
     # that leave every dielectric they enter); the photons' estimates inside a dielectric
     # are physical radiance, so the volume terms divide them by n^2 (volume.add_segments).
     n_inside = np.ones(n)
+    # Each path's wavelength in nm, 0 while it is RGB (docs/dispersion.md: picked at its
+    # first dispersive surface, kept to its end).
+    lam = np.zeros(n)
     ctx.stats["rays_camera"] += n
     ctx.stats["time_shading"] += time.perf_counter() - t0
 
@@ -303,7 +306,7 @@ def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> dict[str, np.ndarray]:
         # Shade the hits: geometry, emission seen
         h = np.flatnonzero(hit) if not hit.all() else slice(None)
         rows, thr, d, transmitted = rows[h], thr[h], dirs[h], transmitted[h]
-        prev_pdf, glossy, n_inside = prev_pdf[h], glossy[h], n_inside[h]
+        prev_pdf, glossy, n_inside, lam = prev_pdf[h], glossy[h], n_inside[h], lam[h]
         prim = hits.prim[h]
         pos, ngf, nsf, mat, eps, front = geometry.facing_surface_points(
             pr.tri_vertices, pr.tri_normals, pr.tri_material, prim, hits.u[h],
@@ -313,6 +316,14 @@ def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> dict[str, np.ndarray]:
         # Shader programs: the closures at each programmed hit (crow: its row in tab).
         tab, crow = pr.hit_shader.closures_at(prim, hits.u[h], hits.v[h], d, mat)
         albedo = pr.hit_shader.diffuse_albedo(tab, crow, mat, texel, d, nsf, albedo)
+        if np.any(tab.abbe > 0):
+            # Dispersion: a path picks its wavelength at its first dispersive surface,
+            # before it is shaded there (camera_paths.pick_wavelengths), stratified over
+            # the pixel's samples (the Sobol set's second coordinate, as for the lobe).
+            u_lam = sampling.stratified2(st.seed, pixel[rows], sample[rows], s_count,
+                                         sampling.stream(sampling.CAMERA_WAVELENGTH, depth))[1]
+            thr = np.array(thr)  # the hits' own copy (thr[h] may be a view)
+            camera_paths.pick_wavelengths(tab, crow, u_lam, lam, thr)
         emission = mats["emission"][mat]
         if pr.emissive.count and np.any(prev_pdf > 0):
             emission = emission * camera_paths.emission_weight(
@@ -333,7 +344,7 @@ def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> dict[str, np.ndarray]:
             mis = np.full(r.shape[0], not last)
             points = direct.ShadingPoints(pos[sel], ngf[sel], nsf[sel], d[sel], crow[sel],
                                           eps[sel], thr[sel], albedo[sel], r, texel[sel],
-                                          diffuse_on, mis, front[sel], tab)
+                                          diffuse_on, mis, front[sel], tab, lam[sel])
             direct.shade(ctx.direct, points, pixel[r], sample[r], depth,
                          acc["direct"] if first else acc["specular"])
 
@@ -360,9 +371,9 @@ def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> dict[str, np.ndarray]:
                                 sampling.stream(sampling.SPECULAR_CHOICE, depth, 2))
         # The lobe choice takes the Sobol set's second coordinate: its first repeats the
         # order of the pixel jitter's, which correlates a pixel's samples (noisier glass).
-        keep, origins, dirs, thr, transmitted, prev_pdf, was_delta = camera_paths.follow_bsdf(
+        keep, origins, dirs, thr, transmitted, prev_pdf, was_delta, lam = camera_paths.follow_bsdf(
             pr, pos[sd], ngf[sd], nsf[sd], d[sd], front[sd], crow[sd], eps[sd], texel[sd],
-            thr[sd], u2, u1, u3, u_rr, closures=tab)
+            thr[sd], lam[sd], u2, u1, u3, u_rr, closures=tab)
         prev_ns = nsf[sd][keep]
         glossy = glossy[sd][keep] | ~was_delta
         if ctx.volume is not None:  # entering a dielectric at its front face, leaving at its back

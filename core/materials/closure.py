@@ -836,10 +836,11 @@ def eval_bsdf(tab, m, c0, c1, c2, wox, woy, woz, wix, wiy, wiz, nsx, nsy, nsz,
 
 @njit(cache=True, error_model="numpy")
 def hit_lobes(tab, m, c0, c1, c2, wox, woy, woz, nsx, nsy, nsz, ngx, ngy, ngz, tx, ty, tz,
-              entering):
+              entering, lam=0.0):
     """Material m's lobe rows at one hit and its shading frame, to evaluate many wi at the
     same wo (``parts_at``; photon gathering): (L (n, NL) float64, F (12,) float64: t, b, n
-    and wo in the local frame). No rows where wo is below the surface."""
+    and wo in the local frame). No rows where wo is below the surface. lam: the path's
+    wavelength in nm, 0 for an RGB path (``transmission_ior``)."""
     ux, uy, uz, bx, by, bz, nx, ny, nz = _local(nsx, nsy, nsz, ngx, ngy, ngz, tx, ty, tz,
                                                 wox, woy, woz)
     F = np.empty(12)
@@ -849,7 +850,7 @@ def hit_lobes(tab, m, c0, c1, c2, wox, woy, woz, nsx, nsy, nsz, ngx, ngy, ngz, t
     F[11] = wox * nx + woy * ny + woz * nz
     if F[11] <= 0.0:
         return np.empty((1, NL))[:0], F
-    return _lobes(tab, m, c0, c1, c2, F[9], F[10], F[11], entering), F
+    return _lobes(tab, m, c0, c1, c2, F[9], F[10], F[11], entering, lam), F
 
 
 @njit(cache=True, error_model="numpy")
@@ -870,12 +871,13 @@ def parts_at(L, F, wix, wiy, wiz, ngx, ngy, ngz, sided, cosine):
 
 @njit(cache=True, error_model="numpy")
 def eval_parts(tab, m, c0, c1, c2, wox, woy, woz, wix, wiy, wiz, nsx, nsy, nsz,
-               ngx, ngy, ngz, tx, ty, tz, entering, sided):
+               ngx, ngy, ngz, tx, ty, tz, entering, sided, lam=0.0):
     """``eval_bsdf`` split into material m's diffuse-like part and glossy part:
     (d0, d1, d2, g0, g1, g2, pdf), f |cos(ns, wi)| RGB (1/sr) and the pdf ``sample_bsdf``
-    gives wi; ``sided`` as ``parts_at``."""
+    gives wi; ``sided`` as ``parts_at``; lam the path's wavelength in nm (0: RGB), as for
+    ``sample_bsdf``, so that light sampling and BSDF sampling see the same IOR (MIS)."""
     L, F = hit_lobes(tab, m, c0, c1, c2, wox, woy, woz, nsx, nsy, nsz, ngx, ngy, ngz,
-                     tx, ty, tz, entering)
+                     tx, ty, tz, entering, lam)
     return parts_at(L, F, wix, wiy, wiz, ngx, ngy, ngz, sided, True)
 
 

@@ -1,5 +1,7 @@
 """Scenes built by hand for core tests and benchmarks (plain arrays, no Blender)."""
 
+import numpy as np
+
 from core.scene import shapes
 from core.scene.contract import LIGHT_POINT, LIGHT_SPOT, Lights, Materials, Scene
 
@@ -45,3 +47,27 @@ def prism_scene(abbe: float | None = 64.17, width=64, height=48, spot_size=0.35,
                                 "color": list(color)}])
     cam = shapes.pinhole([4.4, -2.2, 2.0], [4.3, 0, 0], width, height, 0.9)
     return Scene(mesh, mats, lights, cam).validate()
+
+
+def prism_view_scene(abbe: float | None = 20.0, width=64, height=48, fov=0.4,
+                     half=0.15) -> Scene:
+    """The camera's view through prism_scene's prism at a white emitter: a square of
+    emission (1, 1, 1) W/(m^2 sr), ``half`` m half-size, at PRISM_LIGHT facing the left
+    face, nothing else (black world). The camera sits where prism_scene's light lands on
+    the floor, looking at the right face, so it sees the emitter along the light's path
+    reversed (near minimum deviation: the image keeps its size at every wavelength).
+    Dispersion V_d ``abbe`` (None: the setting absent). The scene of
+    tests/core/integrators/test_dispersion_camera.py."""
+    face = np.array([-0.25, 0.0, 1.433])
+    light = np.array(PRISM_LIGHT)
+    n = (face - light) / np.linalg.norm(face - light)
+    u = np.cross(n, [0.0, 1.0, 0.0])
+    u /= np.linalg.norm(u)
+    mesh = shapes.assemble([(shapes.quad(light, u * half, [0.0, half, 0.0]), 0),
+                            (shapes.prism([0, 0, 1.0], 1.0, 1.2), 1)])
+    glass = {"transmission": [1, 1, 1], "ior": 1.5168}
+    if abbe is not None:
+        glass["dispersion"] = abbe
+    mats = Materials.from_list([{"diffuse": [0, 0, 0], "emission": [1, 1, 1]}, glass])
+    cam = shapes.pinhole([4.4, 0.0, 0.0], [0.25, 0.0, 1.433], width, height, fov)
+    return Scene(mesh, mats, Lights.from_list([]), cam).validate()

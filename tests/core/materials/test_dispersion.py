@@ -132,3 +132,32 @@ def test_no_dispersion_no_wavelength():
                                 {"diffuse": [1, 1, 1], "dispersion": 40.0}])
     tab = closure.table(mats)
     assert [closure.dispersive(tab, m) for m in range(3)] == [False, False, False]
+
+
+@pytest.mark.parametrize("nm", [450.0, 650.0])
+def test_rough_dispersive_glass_evaluates_at_the_wavelength_it_samples(nm):
+    # Camera paths weigh light sampling against BSDF sampling (MIS) with eval_parts' pdf:
+    # at a path's wavelength it must give the pdf and value sample_bsdf gave the refracted
+    # direction, and at lam 0 (n_d) a different pdf (so the wavelength is really used).
+    mats = Materials.from_list([{"closures": [{"kind": cl.CLOSURE_GLASS,
+                                               "params": {"color": 1.0, "ior": BK7[0],
+                                                          "roughness": 0.3}}],
+                                 "dispersion": 20.0}])
+    tab = closure.table(mats)
+    up, t = np.array([0.0, 0.0, 1.0]), np.array([1.0, 0.0, 0.0])
+    wo = np.array([math.sin(0.8), 0.0, math.cos(0.8)])
+    u = np.random.default_rng(5).random((200, 3))
+    s = closure.sample_many(tab, 0, wo, up, up, t, True, u, nm)
+    s = s[(s[:, 6] > 0) & (s[:, 2] < 0)]  # rough refractions
+    assert len(s) > 50
+    moved = 0
+    for row in s:
+        d0, d1, d2, g0, g1, g2, p = closure.eval_parts(
+            tab, 0, 1.0, 1.0, 1.0, *wo, *row[:3], *up, *up, *t, True, False, nm)
+        assert p == pytest.approx(row[6], rel=1e-9)
+        np.testing.assert_allclose(np.array([d0 + g0, d1 + g1, d2 + g2]) / p, row[3:6],
+                                   rtol=1e-9)
+        p0 = closure.eval_parts(tab, 0, 1.0, 1.0, 1.0, *wo, *row[:3], *up, *up, *t, True,
+                                False)[6]
+        moved += abs(p0 - p) > 1e-3 * p
+    assert moved > 0.9 * len(s)
