@@ -30,7 +30,9 @@ from ..core.shading.interpreter import evaluate
 from ..core.shading.inputs import ShadingInputs
 from ..core.shading.noise import NOISE_TYPES
 from ..core.shading.voronoi import FEATURES, METRICS
+from ..core.shading import images as ci
 from . import compat
+from .export_images import ImageTable
 
 RAMP_TABLE_SIZE = 256
 """Rows per baked ColorRamp (Cycles' RAMP_TABLE_SIZE)."""
@@ -56,8 +58,9 @@ class _Value:
 
 
 class _Builder:
-    def __init__(self, name, uv_maps, attributes, luminance, warnings):
+    def __init__(self, name, uv_maps, attributes, luminance, warnings, images=None):
         self.name = name
+        self.images = images
         self.uv_maps = list(uv_maps)
         self.attributes = list(attributes)
         self.luminance = tuple(float(x) for x in luminance)
@@ -237,7 +240,7 @@ class _Builder:
         for op, ints, regs in self.code:
             sig = pg.SIGNATURES[op]
             n_in = len(sig.split(">")[0])
-            if op != pg.OP_INPUT and all(self.vregs[r][1] is not None for r in regs[:n_in]):
+            if op not in _NOT_FOLDED and all(self.vregs[r][1] is not None for r in regs[:n_in]):
                 const_code.append((op, ints, regs))
             else:
                 live.append((op, ints, regs))
@@ -312,6 +315,10 @@ class _Builder:
             w = self.vregs[r][0]
             self.vregs[r][1] = tuple(float(x) for x in values[i:i + w])
             i += w
+
+
+_NOT_FOLDED = (pg.OP_INPUT, pg.OP_IMAGE, pg.OP_IMAGE_BOX)
+"""Instructions never run at export time (per-point inputs; images live in the scene)."""
 
 
 def _socket_kind(sock):
@@ -662,7 +669,49 @@ def _float_curve(b, node, path):
     return [out]
 
 
+def _image(b, node, path):
+    """Image Texture (core/shading/images.py for the sampling). Unlinked Vector: the
+    first (active render) UV map, as Cycles. No image table, no image or no pixels:
+    Cycles' magenta and alpha 1."""
+    where = f"Material '{b.name}': node '{node.name}'"
+    image = getattr(node, "image", None)
+    slot = None
+    if b.images is not None:
+        slot = b.images.slot(image, where)
+    else:
+        b.warn(("image", path, node.name), f"node '{node.name}': no image table to read "
+               f"'{getattr(image, 'name', '')}' into; it gives the missing-image magenta")
+    if slot is None:
+        return {"Color": b.const(ci.MISSING[:3], "c"), "Alpha": b.const(1.0, "f")}
+    interp = ci.INTERPOLATIONS.get(node.interpolation, 1)
+    ext = ci.EXTENSIONS.get(node.extension)
+    if ext is None:
+        b.warn(("ext", path, node.name), f"node '{node.name}': extension "
+               f"'{node.extension}' is not supported; Repeat is used")
+        ext = 0
+    data = image.colorspace_settings.name.startswith(ImageTable.LINEAR_SPACES)
+    alpha_out = node.outputs.get("Alpha")
+    unassociate = int(alpha_out is not None and alpha_out.is_linked and not data
+                      and image.alpha_mode not in ("CHANNEL_PACKED", "NONE"))
+    sock = _find_input(node, "Vector")
+    vec = b.source(pg.SOURCE_UV, 0) if sock is None or not sock.links else \
+        b.as_kind(b.socket_value(sock, path), "v")
+    color, alpha = b.new("c"), b.new("f")
+    ints = [slot, interp, ext, unassociate]
+    if node.projection == "BOX":
+        b.emit(pg.OP_IMAGE_BOX, ints, [vec, b.source(pg.SOURCE_OBJECT_NORMAL),
+                                       b.const(float(node.projection_blend), "f")],
+               [color, alpha])
+    else:
+        if node.projection != "FLAT":
+            b.warn(("proj", path, node.name), f"node '{node.name}': projection "
+                   f"'{node.projection}' is not supported; Flat is used")
+        b.emit(pg.OP_IMAGE, ints, [vec], [color, alpha])
+    return {"Color": color, "Alpha": alpha}
+
+
 SUPPORTED = {
+    "ShaderNodeTexImage": _image,
     "ShaderNodeTexCoord": _tex_coord, "ShaderNodeUVMap": _uv_map,
     "ShaderNodeNewGeometry": _geometry, "ShaderNodeObjectInfo": _object_info,
     "ShaderNodeValue": _value, "ShaderNodeRGB": _rgb, "ShaderNodeMath": _math,
@@ -691,7 +740,7 @@ Group Input / Output and muted nodes, handled by the walk itself)."""
 
 
 def compile_sockets(material, targets, uv_maps=(), attributes=(),
-                    luminance=cn.LUMINANCE_REC709) -> ShaderCompile:
+                    luminance=cn.LUMINANCE_REC709, images=None) -> ShaderCompile:
     """Compile the values of input sockets of ``material``'s node tree.
 
     targets: [(socket, target, closure, slot)]: an input socket of a node of the
@@ -700,9 +749,11 @@ def compile_sockets(material, targets, uv_maps=(), attributes=(),
     uv_maps: the mesh's UV map names, in the order of ``ShadingInputs.uv`` (the first is
       the default UV). attributes: attribute names in the order of
       ``ShadingInputs.attributes``. luminance: the scene-linear RGB -> Y weights.
+    images: the export's ``export_images.ProgramImageTable`` Image Texture nodes read
+      their images into (None: such a node gives the missing-image magenta, reported).
     """
     warnings: list[str] = []
-    b = _Builder(material.name, uv_maps, attributes, luminance, warnings)
+    b = _Builder(material.name, uv_maps, attributes, luminance, warnings, images)
     b.group_bindings = {}
     values = []
     for sock, target, closure, slot in targets:

@@ -21,6 +21,7 @@ from photon_map.core.shading import program as pg  # noqa: E402
 from photon_map.core.shading.inputs import ShadingInputs  # noqa: E402
 from photon_map.core.shading.interpreter import evaluate  # noqa: E402
 from photon_map.photon_engine.export_shader import compile_sockets  # noqa: E402
+from photon_map.photon_engine.export_images import ProgramImageTable  # noqa: E402
 
 CELL = 2.0      # metres per plane (Blender's default plane)
 PIXELS = 32     # pixels per plane side
@@ -112,15 +113,18 @@ def plane_inputs(plane, g, offset=(0.0, 0.0)) -> ShadingInputs:
 
 
 def compile_planes(planes):
-    """[(plane, ShaderCompile of its Emission colour)], and every warning."""
+    """[(plane, ShaderCompile of its Emission colour, the ProgramImages its Image
+    Textures sample)], and every warning (the image table's too)."""
     out, warnings = [], []
     for plane in planes:
         mat = plane.data.materials[0]
         em = next(n for n in mat.node_tree.nodes if n.bl_idname == "ShaderNodeEmission")
+        table = ProgramImageTable(warnings)
         result = compile_sockets(mat, [(em.inputs["Color"], pg.TARGET_EMISSION, 0, 0)],
-                                 uv_maps=[u.name for u in plane.data.uv_layers])
+                                 uv_maps=[u.name for u in plane.data.uv_layers],
+                                 images=table)
         warnings += result.warnings
-        out.append((plane, result))
+        out.append((plane, result, table.images()))
     return out, warnings
 
 
@@ -132,11 +136,11 @@ def photon_map_image(planes, g, offset=(0.0, 0.0), compiled=None):
     else:
         warnings = []
     img = np.zeros((g * PIXELS, g * PIXELS, 3), np.float32)
-    for k, (plane, result) in enumerate(compiled):
+    for k, (plane, result, images) in enumerate(compiled):
         if result.program is None:
             values = np.tile(np.array(result.constant[0], np.float32), (PIXELS * PIXELS, 1))
         else:
-            values = evaluate(result.program, plane_inputs(plane, g, offset))
+            values = evaluate(result.program, plane_inputs(plane, g, offset), images)
         row, col = divmod(k, g)
         img[row * PIXELS:(row + 1) * PIXELS, col * PIXELS:(col + 1) * PIXELS] = \
             values.reshape(PIXELS, PIXELS, 3)
