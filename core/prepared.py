@@ -123,6 +123,7 @@ class HitShader:
         progs = mats.programs if mats.programs is not None else (None,) * mats.count
         used = np.bincount(mesh.material_index, minlength=mats.count)[:mats.count] > 0
         self.programs = progs
+        self.images = scene.program_images
         self.programmed = np.array([p is not None for p in progs], bool).reshape(mats.count)
         self.active = bool(np.any(self.programmed & used))
         self.table = closures
@@ -191,7 +192,8 @@ class HitShader:
             sel = np.flatnonzero(mat[hit] == m)
             f, k = int(tab.first[m]), int(tab.count[m])
             out = interpreter.closure_params(self.programs[m], _subset(ins, sel),
-                                             tab.params[f:f + k].astype(np.float32))
+                                             tab.params[f:f + k].astype(np.float32),
+                                             self.images)
             h = sel.size
             kinds.append(np.tile(tab.kind[f:f + k], h))
             weights.append(np.tile(tab.weight[f:f + k], (h, 1)))

@@ -29,6 +29,7 @@ from .export_camera import export_camera, relative_camera, relative_matrix, rend
 from .export_errors import ExportError, NoCameraError  # noqa: F401  (re-exported)
 from .export_lights import light_row
 from .export_materials import ImageTable, default_row, read_material, read_world, volume_only
+from .export_images import ProgramImageTable
 from .export_volumes import world_medium
 from .export_warnings import scene_warnings
 
@@ -88,6 +89,7 @@ def export_scene(depsgraph, camera=None, origin=None) -> ExportResult:
         camera=camera,
         world=_export_world(depsgraph, warnings),
         textures=materials.images.textures(),
+        program_images=materials.program_images.images(),
         media=_export_media(depsgraph, warnings),
     )
     scene.validate()
@@ -146,6 +148,7 @@ class _MaterialTable:
         self._index: dict = {}
         self._warnings = warnings
         self.images = ImageTable(warnings)
+        self.program_images = ProgramImageTable(warnings)
         self.left_out: set[int] = set()
         """Indices of volume-only materials: their faces are not exported."""
 
@@ -166,8 +169,8 @@ class _MaterialTable:
                 self.left_out.add(len(self.rows))
                 row = default_row(mat.name)
             else:
-                row = default_row() if mat is None else read_material(mat, self._warnings,
-                                                                      self.images)
+                row = default_row() if mat is None else read_material(
+                    mat, self._warnings, self.images, self.program_images)
             self._index[key] = len(self.rows)
             self.rows.append(row)
         return self._index[key]

@@ -317,7 +317,7 @@ class _Builder:
             i += w
 
 
-_NOT_FOLDED = (pg.OP_INPUT, pg.OP_IMAGE, pg.OP_IMAGE_BOX)
+_NOT_FOLDED = (pg.OP_INPUT, pg.OP_IMAGE)
 """Instructions never run at export time (per-point inputs; images live in the scene)."""
 
 
@@ -697,16 +697,10 @@ def _image(b, node, path):
     vec = b.source(pg.SOURCE_UV, 0) if sock is None or not sock.links else \
         b.as_kind(b.socket_value(sock, path), "v")
     color, alpha = b.new("c"), b.new("f")
-    ints = [slot, interp, ext, unassociate]
-    if node.projection == "BOX":
-        b.emit(pg.OP_IMAGE_BOX, ints, [vec, b.source(pg.SOURCE_OBJECT_NORMAL),
-                                       b.const(float(node.projection_blend), "f")],
-               [color, alpha])
-    else:
-        if node.projection != "FLAT":
-            b.warn(("proj", path, node.name), f"node '{node.name}': projection "
-                   f"'{node.projection}' is not supported; Flat is used")
-        b.emit(pg.OP_IMAGE, ints, [vec], [color, alpha])
+    if node.projection != "FLAT":  # Box: our weights and sides did not match Cycles
+        b.warn(("proj", path, node.name), f"node '{node.name}': projection "
+               f"'{node.projection}' is not supported; Flat is used")
+    b.emit(pg.OP_IMAGE, [slot, interp, ext, unassociate], [vec], [color, alpha])
     return {"Color": color, "Alpha": alpha}
 
 

@@ -23,6 +23,7 @@ import numpy as np
 
 from . import closures
 from .checks import MAX_MAGNITUDE, SceneError, check_array, label
+from .images import ProgramImages
 from .media import Media
 
 
@@ -519,12 +520,18 @@ class Scene:
     textures: Textures = field(default_factory=Textures.empty)
     media: Media = field(default_factory=Media.empty)
     """The participating media (core/scene/media.py); empty: none, every ray in vacuum."""
+    program_images: ProgramImages = field(default_factory=ProgramImages.empty)
+    """The images the shader programs' Image Texture instructions sample
+    (core/scene/images.py); empty: none."""
 
     def validate(self) -> "Scene":
         """Check every array; raise SceneError naming the field, object or material."""
         _validate_mesh(self.mesh, self.materials)
         _validate_textures(self.textures)
         _validate_materials(self.materials, self.textures.count)
+        self.program_images.validate()
+        if self.materials.programs is not None:
+            _validate_program_images(self.materials, self.program_images.count)
         _validate_lights(self.lights)
         _validate_camera(self.camera)
         check_array("world.radiance", self.world.radiance, (3,), nonnegative=True)
@@ -706,6 +713,21 @@ def _validate_programs(m: Materials, names) -> None:
                 raise SceneError(f"materials.programs{label(names, i)}: an output writes "
                                  f"closure {int(row[2])}, but the material has "
                                  f"{int(count[i])} closures")
+
+
+def _validate_program_images(m: Materials, count: int) -> None:
+    """Every Image Texture instruction samples a slot of ``Scene.program_images`` (or -1,
+    the missing image)."""
+    names = m.names if len(m.names) == m.count else None
+    for i, prog in enumerate(m.programs):
+        if prog is None:
+            continue
+        ins = np.asarray(prog.instructions).reshape(-1, prog.instructions.shape[-1])
+        # opcode 30: core.shading.program.OP_IMAGE (rank 2, not importable here)
+        slots = ins[ins[:, 0] == 30, 1]
+        if slots.size and (slots.max() >= count or slots.min() < -1):
+            raise SceneError(f"materials.programs{label(names, i)}: an Image Texture samples "
+                             f"image slot {int(slots.max())}, but program_images has {count}")
 
 
 def _validate_lights(li: Lights) -> None:

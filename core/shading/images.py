@@ -1,6 +1,5 @@
 """Image Texture sampling with Cycles' definitions (kernel/device/cpu/image.h,
-svm/image.h): the lookup OP_IMAGE and OP_IMAGE_BOX run on ``core.scene.images.
-ProgramImages``.
+svm/image.h): the lookup OP_IMAGE runs on ``core.scene.images.ProgramImages``.
 
 - Closest: texel floor(x w), floor(y h). Linear: bilinear between the texel centres, texel
   i centred at (i + 0.5) / w. Cubic and Smart: Cycles' cubic B-spline (4 x 4 texels).
@@ -157,41 +156,3 @@ def image_sample(bytes_, shorts, floats, tiles, slot_first, slot_count, slot, x,
     if tiles[row, 5] == 1:
         for c in range(3):
             out[c] = _srgb_decode(out[c])
-
-
-@njit(**_KW)
-def box_weights(nx, ny, nz, blend):
-    """Cycles' svm_node_tex_image_box weights of the X, Y, Z projections for the
-    object-space normal (nx, ny, nz)."""
-    ax, ay, az = abs(nx), abs(ny), abs(nz)
-    s = ax + ay + az
-    if s > 0.0:
-        ax, ay, az = ax / s, ay / s, az / s
-    limit = 0.5 * (1.0 + blend)
-    wx = wy = wz = 0.0
-    if ax > limit * (ax + ay) and ax > limit * (ax + az):
-        wx = 1.0
-    elif ay > limit * (ax + ay) and ay > limit * (ay + az):
-        wy = 1.0
-    elif az > limit * (ax + az) and az > limit * (ay + az):
-        wz = 1.0
-    elif blend > 0.0:
-        if az < (1.0 - limit) * (ay + ax):
-            wx = ax / (ax + ay)
-            wx = min(max((wx - 0.5 * (1.0 - blend)) / blend, 0.0), 1.0)
-            wy = 1.0 - wx
-        elif ax < (1.0 - limit) * (ay + az):
-            wy = ay / (ay + az)
-            wy = min(max((wy - 0.5 * (1.0 - blend)) / blend, 0.0), 1.0)
-            wz = 1.0 - wy
-        elif ay < (1.0 - limit) * (ax + az):
-            wx = ax / (ax + az)
-            wx = min(max((wx - 0.5 * (1.0 - blend)) / blend, 0.0), 1.0)
-            wz = 1.0 - wx
-        else:
-            wx = ((2.0 - limit) * ax + (limit - 1.0)) / (2.0 * limit - 1.0)
-            wy = ((2.0 - limit) * ay + (limit - 1.0)) / (2.0 * limit - 1.0)
-            wz = ((2.0 - limit) * az + (limit - 1.0)) / (2.0 * limit - 1.0)
-    else:
-        wx = 1.0
-    return wx, wy, wz

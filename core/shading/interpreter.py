@@ -23,7 +23,7 @@ from .color import blend, rgb_to_hsv, hsv_to_rgb, blackbody_rec709
 from .textures import checker, gradient, white_noise, wave, magic, brick
 from .noise import noise_texture
 from .voronoi import voronoi_texture
-from .images import image_sample, box_weights
+from .images import image_sample
 from ..scene.images import ProgramImages
 
 _F = pg.FIRST_OPERAND
@@ -246,28 +246,6 @@ def _run(r, ins, tables, im_bytes, im_shorts, im_floats, im_tiles, im_first, im_
         image_sample(im_bytes, im_shorts, im_floats, im_tiles, im_first, im_count, ins[1],
                      r[a[0]], r[a[0] + 1], ins[2], ins[3], ins[4] != 0, px)
         r[a[1]], r[a[1] + 1], r[a[1] + 2], r[a[2]] = px[0], px[1], px[2], px[3]
-    elif op == pg.OP_IMAGE_BOX:
-        nx, ny, nz = r[a[1]], r[a[1] + 1], r[a[1] + 2]
-        x, y, z = r[a[0]], r[a[0] + 1], r[a[0] + 2]
-        wx, wy, wz = box_weights(nx, ny, nz, r[a[2]])
-        acc0 = acc1 = acc2 = acc3 = 0.0
-        for side in range(3):
-            wgt = wx if side == 0 else (wy if side == 1 else wz)
-            if wgt <= 0.0:
-                continue
-            if side == 0:  # Cycles' svm_node_tex_image_box: the side's (u, v)
-                u, v = (1.0 - y if nx < 0.0 else y), z
-            elif side == 1:
-                u, v = (x if ny < 0.0 else 1.0 - x), z
-            else:
-                u, v = (1.0 - x if nz < 0.0 else x), y
-            image_sample(im_bytes, im_shorts, im_floats, im_tiles, im_first, im_count,
-                         ins[1], u, v, ins[2], ins[3], ins[4] != 0, px)
-            acc0 += wgt * px[0]
-            acc1 += wgt * px[1]
-            acc2 += wgt * px[2]
-            acc3 += wgt * px[3]
-        r[a[3]], r[a[3] + 1], r[a[3] + 2], r[a[4]] = acc0, acc1, acc2, acc3
 
 
 @njit(parallel=True, **dict(cache=True, error_model="numpy"))

@@ -18,6 +18,8 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from tests.blender import shader_scenes as ss  # noqa: E402
+from tests.blender import test_textures as tt  # noqa: E402
+from tests.blender.export_probe import export  # noqa: E402
 from tests.blender.test_shader_nodes import check, link, node  # noqa: E402
 
 pytestmark = [pytest.mark.blender, pytest.mark.api]
@@ -54,7 +56,7 @@ def write_exr(path, texels):
     return path
 
 
-def texels(dtype, seed=3):
+def texels(dtype, seed=3, alpha=False):
     rng = np.random.default_rng(seed)
     if dtype == np.float32:
         a = rng.uniform(0.0, 3.0, (H, W, 4)).astype(np.float32)  # HDR values
@@ -62,7 +64,8 @@ def texels(dtype, seed=3):
         return a
     top = np.iinfo(dtype).max
     a = rng.integers(0, top + 1, (H, W, 4)).astype(dtype)
-    a[..., 3] = top
+    if not alpha:
+        a[..., 3] = top
     return a
 
 
@@ -71,6 +74,7 @@ def image_files(tmp_path_factory):
     d = tmp_path_factory.mktemp("images")
     return {"png8": write_png(str(d / "byte.png"), texels(np.uint8)),
             "png16": write_png(str(d / "short.png"), texels(np.uint16, 4)),
+            "alpha": write_png(str(d / "alpha.png"), texels(np.uint8, 6, alpha=True)),
             "exr": write_exr(str(d / "float.exr"), texels(np.float32, 5)),
             "udim": [write_png(str(d / f"tiles.{n}.png"), texels(np.uint8, n))
                      for n in (1001, 1002, 1011)],
@@ -88,8 +92,9 @@ def load(path, colorspace="sRGB", name=None):
 
 def image_plane(path, interpolation="Linear", extension="REPEAT", colorspace="sRGB",
                 scale=(2.3, 1.7, 1.0), location=(-0.6, -0.35, 0.0), projection="FLAT",
-                output="Color", udim=False):
-    """UV -> Mapping (scale, location) -> Image Texture -> output."""
+                output="Color", udim=False, times_alpha=False):
+    """UV -> Mapping (scale, location) -> Image Texture -> output (times its Alpha output
+    by a Vector Math Multiply when ``times_alpha``: the Alpha output used)."""
     def build(tree, color):
         if udim:
             img = load(path)
@@ -104,7 +109,13 @@ def image_plane(path, interpolation="Linear", extension="REPEAT", colorspace="sR
         tex = node(tree, "ShaderNodeTexImage", image=img, interpolation=interpolation,
                    extension=extension, projection=projection)
         link(tree, mp.outputs[0], tex.inputs["Vector"])
-        link(tree, tex.outputs[output], color)
+        if times_alpha:
+            vm = node(tree, "ShaderNodeVectorMath", operation='MULTIPLY')
+            link(tree, tex.outputs["Color"], vm.inputs[0])
+            link(tree, tex.outputs["Alpha"], vm.inputs[1])
+            link(tree, vm.outputs[0], color)
+        else:
+            link(tree, tex.outputs[output], color)
     return build
 
 
@@ -113,7 +124,9 @@ def test_image_interpolation_and_extension_through_mapping_match_cycles(image_fi
     specs = [(f"{i} {e}", image_plane(png, i, e))
              for i in ("Linear", "Closest") for e in ("REPEAT", "EXTEND", "CLIP", "MIRROR")]
     specs += [("Linear Non-Color", image_plane(png, colorspace="Non-Color")),
-              ("Closest Non-Color", image_plane(png, "Closest", colorspace="Non-Color"))]
+              ("Closest Non-Color", image_plane(png, "Closest", colorspace="Non-Color")),
+              ("Cubic Repeat", image_plane(png, "Cubic")),
+              ("Smart Mirror", image_plane(png, "Smart", "MIRROR"))]
     result = ss.compare(specs)
     assert not result["warnings"]
     figures = check(result, [n for n, _ in specs])
@@ -131,6 +144,54 @@ def test_sixteen_bit_png_and_float_exr_match_cycles(image_files):
     assert not result["warnings"]
     figures = check(result, [n for n, _ in specs])
     print({k: tuple(round(x, 6) for x in v) for k, v in figures.items()})
+
+
+def test_straight_alpha_associated_and_unassociated_match_cycles(image_files):
+    """A Straight RGBA PNG: Color alone is the associated colour (Cycles premultiplies at
+    load); Color x Alpha with the Alpha output used is the colour unassociated after
+    filtering, decoded from sRGB, times alpha (not the same: the decode is non-linear)."""
+    png = image_files["alpha"]
+    specs = [("Color", image_plane(png)), ("Color Closest", image_plane(png, "Closest")),
+             ("Alpha", image_plane(png, output="Alpha")),
+             ("Color x Alpha", image_plane(png, times_alpha=True)),
+             ("Color x Alpha Closest", image_plane(png, "Closest", times_alpha=True)),
+             ("Non-Color x Alpha", image_plane(png, colorspace="Non-Color", times_alpha=True))]
+    result = ss.compare(specs)
+    assert not result["warnings"]
+    figures = check(result, [n for n, _ in specs])
+    print({k: tuple(round(x, 6) for x in v) for k, v in figures.items()})
+    a, b = result["ours"][:ss.PIXELS, :ss.PIXELS], result["ours"][ss.PIXELS:2 * ss.PIXELS,
+                                                                   :ss.PIXELS]
+    assert np.abs(a - b).max() > 0.05  # the two paths differ where Cycles' do
+
+
+def test_image_inside_a_program_renders_texel_times_irradiance_over_pi():
+    """The sun-lit plane of tests/blender/test_textures.py with the image behind a Mapping
+    node (so it is sampled by the material's program, not the direct texture path): each
+    block is its texel's linear colour x E cos / pi."""
+    made = {}
+
+    def material():
+        made["image"], made["stored"] = tt.block_image("Blocks", "sRGB")
+        mat = tt.textured_material("Mapped", made["image"], reroute=False)
+        tree = mat.node_tree
+        tex = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeTexImage")
+        tc = node(tree, "ShaderNodeTexCoord")
+        mp = node(tree, "ShaderNodeMapping", vector_type='POINT')
+        link(tree, tc.outputs["UV"], mp.inputs["Vector"])
+        link(tree, mp.outputs[0], tex.inputs["Vector"])
+        return mat
+
+    scene = tt.sun_plane_scene(material)
+    exported = export(scene).scene
+    assert exported.textures.count == 0 and exported.program_images.count == 1
+    assert exported.materials.programs[0] is not None
+    img = tt.render_photon_map(scene)
+    want = tt.srgb_decode(made["stored"]) * tt.SUN * np.cos(tt.TILT) / np.pi
+    got = tt.block_interiors(img)
+    rel = np.abs(got - want[:, :, None, :]) / want[:, :, None, :]
+    print(f"\nworst pixel {100 * rel.max():.3f} % off texel x E cos / pi")
+    assert rel.max() < 0.02
 
 
 def test_udim_plane_matches_cycles(image_files):
