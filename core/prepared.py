@@ -144,6 +144,8 @@ class HitShader:
         else:
             self.texspace = np.broadcast_to(np.array([[0.0, 0.0, 0.0], [0.5, 0.5, 0.5]]),
                                             (n_obj, 2, 3))
+        self.object_info = (np.zeros((n_obj, 5), np.float32) if mesh.object_info is None
+                            else np.asarray(mesh.object_info, np.float32))
         self.origin = (np.zeros(3) if mesh.origin is None
                        else np.asarray(mesh.origin, np.float64))
 
@@ -170,7 +172,9 @@ class HitShader:
                                   backfacing=(~front).astype(np.float32),
                                   generated=generated, object_coords=local,
                                   object_normal=onrm, object_location=self.location[obj],
-                                  uv=uv[None])
+                                  object_color=self.object_info[obj, :3],
+                                  object_random=self.object_info[obj, 3],
+                                  object_index=self.object_info[obj, 4], uv=uv[None])
         return ins, mat
 
     def closures_at(self, prim, u, v, d, mat) -> tuple[closure.ClosureTable, np.ndarray]:
@@ -246,7 +250,8 @@ def _subset(ins: ShadingInputs, sel) -> ShadingInputs:
     """The inputs of points ``sel`` (already validated: no second check)."""
     pick = {k: getattr(ins, k)[sel] for k in (
         "position", "normal", "true_normal", "incoming", "backfacing", "generated",
-        "object_coords", "object_normal", "object_location", "object_random")}
+        "object_coords", "object_normal", "object_location", "object_random",
+        "object_color", "object_index")}
     return ShadingInputs(**pick, uv=np.ascontiguousarray(ins.uv[:, sel]),
                          attributes=np.ascontiguousarray(ins.attributes[:, sel]))
 

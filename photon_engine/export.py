@@ -25,6 +25,7 @@ import numpy as np
 
 from ..core.scene.contract import Lights, Materials, Mesh, Scene, World
 from ..core.scene.media import Media
+from ..core.shading.hash import object_random_id
 from .export_camera import export_camera, relative_camera, relative_matrix, render_origin
 from .export_errors import ExportError, NoCameraError  # noqa: F401  (re-exported)
 from .export_lights import light_row
@@ -80,7 +81,7 @@ def export_scene(depsgraph, camera=None, origin=None) -> ExportResult:
                 row["to_world"] = relative_matrix(row["to_world"], origin)
                 light_rows.append(row)
         else:
-            geometry.add(obj, inst.matrix_world, name, materials)
+            geometry.add(obj, inst.matrix_world, name, materials, object_info(inst))
 
     scene = Scene(
         mesh=geometry.build(origin, materials.left_out),
@@ -95,6 +96,18 @@ def export_scene(depsgraph, camera=None, origin=None) -> ExportResult:
     scene.validate()
     warnings.extend(scene_warnings(depsgraph, scene))
     return ExportResult(scene=scene, warnings=warnings, origin=origin)
+
+
+def object_info(inst) -> np.ndarray:
+    """(5,) float32 Object Info of a depsgraph instance: colour RGB (``Object.color``),
+    Random, Object Index (``pass_index``). Random is Cycles' ``random_number``, computed
+    as scene/object.cpp does in float32: (float)random_id * (1.0f / (float)0xFFFFFFFF),
+    random_id as Cycles' Blender sync makes it (``core.shading.hash.object_random_id``:
+    the object name's hash, or the instance's ``random_id``)."""
+    obj = inst.object
+    rid = np.uint32(object_random_id(obj.name, inst.random_id, inst.is_instance))
+    rand = np.float32(rid) * (np.float32(1.0) / np.float32(0xFFFFFFFF))
+    return np.array([*tuple(obj.color)[:3], rand, float(obj.pass_index)], np.float32)
 
 
 def _instance_name(inst) -> str:
@@ -282,8 +295,10 @@ class _Geometry:
         self.names: list[str] = []
         self.matrices: list[np.ndarray] = []   # per object: matrix_world (shader programs)
         self.texspaces: list[np.ndarray] = []  # per object: texture space location, size
+        self.info: list[np.ndarray] = []       # per object: object_info rows
 
-    def add(self, obj, matrix, name, materials: _MaterialTable) -> None:
+    def add(self, obj, matrix, name, materials: _MaterialTable, info=None) -> None:
+        """One instance of ``obj``; info its ``object_info`` row (None: zeros)."""
         m = np.array(matrix, np.float64)
         if not np.all(np.isfinite(m)):
             raise ExportError(f"object '{name}' has a non-finite transform (NaN or infinity "
@@ -302,6 +317,7 @@ class _Geometry:
             return  # volume-only (reported once per material)
         self.names.append(name)
         self.matrices.append(m)
+        self.info.append(np.zeros(5, np.float32) if info is None else info)
         me = obj.data
         self.texspaces.append(np.array([tuple(getattr(me, "texspace_location", (0, 0, 0))),
                                         tuple(getattr(me, "texspace_size", (1, 1, 1)))],
@@ -334,6 +350,7 @@ class _Geometry:
                     object_index=objs.astype(i32, copy=False), object_names=tuple(self.names),
                     object_to_world=np.stack(self.matrices).astype(np.float64),
                     object_texspace=np.stack(self.texspaces),
+                    object_info=np.stack(self.info).astype(np.float32),
                     origin=np.asarray(origin, np.float64).reshape(3))
 
 

@@ -372,8 +372,12 @@ def _geometry(b, node, path):
 
 
 def _object_info(b, node, path):
+    """Location, Color, Random, Object Index (``export.object_info`` for the values);
+    Alpha and Material Index are not supported."""
     return {"Location": b.source(pg.SOURCE_OBJECT_LOCATION),
-            "Random": b.source(pg.SOURCE_OBJECT_RANDOM, 0, "f")}
+            "Color": b.source(pg.SOURCE_OBJECT_COLOR, 0, "c"),
+            "Random": b.source(pg.SOURCE_OBJECT_RANDOM, 0, "f"),
+            "Object Index": b.source(pg.SOURCE_OBJECT_INDEX, 0, "f")}
 
 
 def _value(b, node, path):

@@ -65,6 +65,9 @@ class Mesh:
         (object position - location) / (2 size) + 0.5.
     origin: (3,) float64 metres, the render frame's origin in world coordinates
         (vertices = world positions - origin): programs read world positions.
+    object_info: (O, 5) float32, Object Info per object instance: the object's colour
+        (RGB, Blender's ``Object.color``), Random in [0, 1] (Cycles' random_number of the
+        instance's ``random_id``) and Object Index (``pass_index``). None: zeros.
     """
 
     vertices: np.ndarray
@@ -77,6 +80,7 @@ class Mesh:
     object_to_world: np.ndarray | None = None
     object_texspace: np.ndarray | None = None
     origin: np.ndarray | None = None
+    object_info: np.ndarray | None = None
 
     @property
     def triangle_count(self) -> int:
@@ -608,7 +612,10 @@ def _validate_mesh(mesh: Mesh, materials: Materials) -> None:
     if mesh.object_texspace is not None:
         check_array("mesh.object_texspace", mesh.object_texspace, (None, 2, 3),
                      dtype=np.float64, labels=names)
-    for key in ("object_to_world", "object_texspace"):
+    if mesh.object_info is not None:
+        check_array("mesh.object_info", mesh.object_info, (None, 5), dtype=np.float32,
+                    labels=names)
+    for key in ("object_to_world", "object_texspace", "object_info"):
         a = getattr(mesh, key)
         if a is not None and a.shape[0] < n_obj:
             raise SceneError(f"mesh.{key} has {a.shape[0]} rows, fewer than the "

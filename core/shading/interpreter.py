@@ -31,7 +31,7 @@ _CHUNK = 256
 
 
 @njit(inline="always", **dict(cache=True, error_model="numpy"))
-def _load_input(r, ins, i, P, N, Ng, I, back, gen, obj, objn, oloc, orand, uv, attr):
+def _load_input(r, ins, i, P, N, Ng, I, back, gen, obj, objn, oloc, orand, ocol, oidx, uv, attr):
     src = ins[1]
     idx = ins[2]
     o = ins[_F]
@@ -51,10 +51,12 @@ def _load_input(r, ins, i, P, N, Ng, I, back, gen, obj, objn, oloc, orand, uv, a
         a = objn
     elif src == 9:
         a = oloc
+    elif src == 13:
+        a = ocol
     else:
         a = P  # not used below
-    if src == 4 or src == 10:
-        r[o] = back[i] if src == 4 else orand[i]
+    if src == 4 or src == 10 or src == 14:
+        r[o] = back[i] if src == 4 else (orand[i] if src == 10 else oidx[i])
         r[o + 1] = r[o]
         r[o + 2] = r[o]
     elif src == 8:
@@ -250,7 +252,7 @@ def _run(r, ins, tables, im_bytes, im_shorts, im_floats, im_tiles, im_first, im_
 
 @njit(parallel=True, **dict(cache=True, error_model="numpy"))
 def evaluate_kernel(instructions, constants, tables, n_registers, outputs, P, N, Ng, I, back,
-                    gen, obj, objn, oloc, orand, uv, attr, im_bytes, im_shorts, im_floats,
+                    gen, obj, objn, oloc, orand, ocol, oidx, uv, attr, im_bytes, im_shorts, im_floats,
                     im_tiles, im_first, im_count, out):
     """Run the program on every point: out[i, o] = register outputs[o, 0] of point i.
     (N, O) float32 ``out``; every other array as ``ShadingInputs`` / ``ShaderProgram`` /
@@ -268,7 +270,7 @@ def evaluate_kernel(instructions, constants, tables, n_registers, outputs, P, N,
                 ins = instructions[s]
                 if ins[0] == pg.OP_INPUT:
                     _load_input(r, ins, i, P, N, Ng, I, back, gen, obj, objn, oloc, orand,
-                                uv, attr)
+                                ocol, oidx, uv, attr)
                 else:
                     _run(r, ins, tables, im_bytes, im_shorts, im_floats, im_tiles,
                          im_first, im_count, px)
@@ -293,7 +295,8 @@ def evaluate(program: pg.ShaderProgram, inputs: ShadingInputs,
                     program.n_registers, program.outputs, inputs.position, inputs.normal,
                     inputs.true_normal, inputs.incoming, inputs.backfacing, inputs.generated,
                     inputs.object_coords, inputs.object_normal, inputs.object_location,
-                    inputs.object_random, inputs.uv, inputs.attributes, im.bytes, im.shorts,
+                    inputs.object_random, inputs.object_color, inputs.object_index,
+                    inputs.uv, inputs.attributes, im.bytes, im.shorts,
                     im.floats, im.tiles, im.slot_first, im.slot_count, out)
     return out
 

@@ -22,6 +22,7 @@ from photon_map.core.shading.inputs import ShadingInputs  # noqa: E402
 from photon_map.core.shading.interpreter import evaluate  # noqa: E402
 from photon_map.photon_engine.export_shader import compile_sockets  # noqa: E402
 from photon_map.photon_engine.export_images import ProgramImageTable  # noqa: E402
+from photon_map.photon_engine.export import object_info  # noqa: E402
 
 CELL = 2.0      # metres per plane (Blender's default plane)
 PIXELS = 32     # pixels per plane side
@@ -88,7 +89,8 @@ def render_cycles(scene, samples=4) -> np.ndarray:
 def plane_inputs(plane, g, offset=(0.0, 0.0)) -> ShadingInputs:
     """The surface points of ``plane``'s pixels (PIXELS x PIXELS, row 0 at the top),
     shifted by ``offset`` pixels: world position, normal +Z, incoming +Z, generated and
-    object coordinates, the UV map interpolated (an affine fit of the plane's corners)."""
+    object coordinates, the UV map interpolated (an affine fit of the plane's corners),
+    the exporter's Object Info of the plane's depsgraph instance."""
     px = CELL / PIXELS
     lx, ly, _ = plane.location
     i = np.arange(PIXELS)
@@ -106,10 +108,17 @@ def plane_inputs(plane, g, offset=(0.0, 0.0)) -> ShadingInputs:
     A = np.linalg.lstsq(np.c_[co, np.ones(len(co))], uvs, rcond=None)[0]
     uv = np.c_[obj[:, :2], np.ones(len(obj))] @ A
     up = np.tile([0.0, 0.0, 1.0], (len(P), 1))
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    for inst in depsgraph.object_instances:  # an instance is valid only in its step
+        if inst.object.name == plane.name:
+            info = object_info(inst)
+            break
     return ShadingInputs.build(P, up, incoming=up, generated=gen, object_coords=obj,
                                object_normal=up,
                                object_location=np.tile(plane.location, (len(P), 1)),
-                               uv=uv[None])
+                               object_color=np.tile(info[:3], (len(P), 1)),
+                               object_random=np.full(len(P), info[3]),
+                               object_index=np.full(len(P), info[4]), uv=uv[None])
 
 
 def compile_planes(planes):
@@ -147,15 +156,18 @@ def photon_map_image(planes, g, offset=(0.0, 0.0), compiled=None):
     return img, warnings
 
 
-def compare(specs, samples=4, jump=2e-2):
+def compare(specs, samples=4, jump=2e-2, setup=None):
     """Render the planes of ``specs`` ([(material name, build)], see ``layout``) by
     Cycles and Photon Map. Returns a dict: ``cycles``, ``ours`` (H, W, 3); ``error``
     (H, W): the worst channel's |difference| beyond our own value's variation within the
     filter's footprint (+-FILTER/2 pixel), over max(1, |cycles|); ``edge`` (H, W) bool where
     that variation exceeds ``jump`` (a discontinuity inside the footprint); ``loose_error``
     like ``error`` beyond the variation within +-OFF_CENTRE pixel; ``warnings``. Each
-    variation is the largest change of our value over a 5 x 5 grid of offsets."""
+    variation is the largest change of our value over a 5 x 5 grid of offsets.
+    ``setup(planes)``, if given, runs after the layout (object properties)."""
     scene, planes, g = layout(specs)
+    if setup is not None:
+        setup(planes)
     cycles = render_cycles(scene, samples)
     compiled, warnings = compile_planes(planes)
     ours, _ = photon_map_image(planes, g, compiled=compiled)
