@@ -130,6 +130,7 @@ class HitShader:
         self.tri_vertices, self.tri_normals = tri_vertices, tri_normals
         self.tri_material, self.extent = tri_material, float(extent)
         self.tri_uv = mesh.uvs
+        self.tri_attributes = mesh.attributes  # (T, 3, A, 4) or None
         self.tri_object = mesh.object_index
         n_obj = int(mesh.object_index.max()) + 1 if mesh.triangle_count else 0
         if mesh.object_to_world is not None:
@@ -174,8 +175,17 @@ class HitShader:
                                   object_normal=onrm, object_location=self.location[obj],
                                   object_color=self.object_info[obj, :3],
                                   object_random=self.object_info[obj, 3],
-                                  object_index=self.object_info[obj, 4], uv=uv[None])
+                                  object_index=self.object_info[obj, 4], uv=uv[None],
+                                  attributes=self._attributes(prim, u, v, w))
         return ins, mat
+
+    def _attributes(self, prim, u, v, w) -> np.ndarray:
+        """(A, N, 4) the mesh attributes at the hits, interpolated like the UVs."""
+        if self.tri_attributes is None:
+            return np.zeros((0, prim.shape[0], 4), np.float32)
+        c = self.tri_attributes[prim]  # (N, 3, A, 4)
+        a = w[:, None, None] * c[:, 0] + u[:, None, None] * c[:, 1] + v[:, None, None] * c[:, 2]
+        return np.ascontiguousarray(np.transpose(a, (1, 0, 2)), np.float32)
 
     def closures_at(self, prim, u, v, d, mat) -> tuple[closure.ClosureTable, np.ndarray]:
         """(tab, rows) for N hits (class doc): prim, u, v, d as for ``inputs``, mat (N,)

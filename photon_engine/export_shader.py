@@ -48,6 +48,20 @@ class ShaderCompile:
     warnings: list = field(default_factory=list)
 
 
+class AttributeNames:
+    """The mesh attribute names the programs of one export read, in the order of
+    ``Mesh.attributes`` / ``ShadingInputs.attributes`` ("" = the render colour
+    attribute). ``index(name)`` adds a name on first use."""
+
+    def __init__(self, names=()):
+        self.names: list[str] = list(names)
+
+    def index(self, name: str) -> int:
+        if name not in self.names:
+            self.names.append(name)
+        return self.names.index(name)
+
+
 class _Value:
     """An operand: a virtual register of width 1 ('f') or 3 ('v' vector, 'c' colour)."""
     __slots__ = ("vreg", "kind")
@@ -62,7 +76,8 @@ class _Builder:
         self.name = name
         self.images = images
         self.uv_maps = list(uv_maps)
-        self.attributes = list(attributes)
+        self.attributes = attributes if isinstance(attributes, AttributeNames) else \
+            AttributeNames(attributes)
         self.luminance = tuple(float(x) for x in luminance)
         self.warnings = warnings
         self.reported = set()
@@ -378,6 +393,30 @@ def _object_info(b, node, path):
             "Color": b.source(pg.SOURCE_OBJECT_COLOR, 0, "c"),
             "Random": b.source(pg.SOURCE_OBJECT_RANDOM, 0, "f"),
             "Object Index": b.source(pg.SOURCE_OBJECT_INDEX, 0, "f")}
+
+
+def _attribute_outputs(b, name):
+    """Color, Vector, Fac (Cycles: the colour's average), Alpha of attribute ``name``."""
+    index = b.attributes.index(name)
+    color = b.source(pg.SOURCE_ATTRIBUTE_COLOR, index, "c")
+    return {"Color": color, "Vector": _Value(color.vreg, "v"),
+            "Fac": b.as_kind(_Value(color.vreg, "v"), "f"),
+            "Alpha": b.source(pg.SOURCE_ATTRIBUTE_ALPHA, index, "f")}
+
+
+def _attribute(b, node, path):
+    """Attribute node, Geometry type (mesh attributes: ``export.read_attributes``)."""
+    if getattr(node, "attribute_type", "GEOMETRY") != "GEOMETRY":
+        b.warn(("attr", path, node.name), f"node '{node.name}': attribute type "
+               f"'{node.attribute_type}' is not supported (Geometry is)")
+        return {}
+    return _attribute_outputs(b, node.attribute_name)
+
+
+def _color_attribute(b, node, path):
+    """Color Attribute node; no name: the mesh's render colour attribute."""
+    outs = _attribute_outputs(b, getattr(node, "layer_name", ""))
+    return {"Color": outs["Color"], "Alpha": outs["Alpha"]}
 
 
 def _value(b, node, path):
@@ -709,7 +748,8 @@ def _image(b, node, path):
 
 
 SUPPORTED = {
-    "ShaderNodeTexImage": _image,
+    "ShaderNodeTexImage": _image, "ShaderNodeAttribute": _attribute,
+    "ShaderNodeVertexColor": _color_attribute,
     "ShaderNodeTexCoord": _tex_coord, "ShaderNodeUVMap": _uv_map,
     "ShaderNodeNewGeometry": _geometry, "ShaderNodeObjectInfo": _object_info,
     "ShaderNodeValue": _value, "ShaderNodeRGB": _rgb, "ShaderNodeMath": _math,
@@ -745,8 +785,8 @@ def compile_sockets(material, targets, uv_maps=(), attributes=(),
       material's tree, its TARGET_* (core.shading.program), the closure index and the
       first slot (a colour or vector socket fills slot, slot + 1, slot + 2).
     uv_maps: the mesh's UV map names, in the order of ``ShadingInputs.uv`` (the first is
-      the default UV). attributes: attribute names in the order of
-      ``ShadingInputs.attributes``. luminance: the scene-linear RGB -> Y weights.
+      the default UV). attributes: an ``AttributeNames`` (names are added as nodes read
+      them) or names, in the order of ``ShadingInputs.attributes``. luminance: the scene-linear RGB -> Y weights.
     images: the export's ``export_images.ProgramImageTable`` Image Texture nodes read
       their images into (None: such a node gives the missing-image magenta, reported).
     """

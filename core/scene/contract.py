@@ -68,6 +68,10 @@ class Mesh:
     object_info: (O, 5) float32, Object Info per object instance: the object's colour
         (RGB, Blender's ``Object.color``), Random in [0, 1] (Cycles' random_number of the
         instance's ``random_id``) and Object Index (``pass_index``). None: zeros.
+    attributes: (T, 3, A, 4) float32, the mesh attributes shader programs read (Attribute
+        and Color Attribute nodes), RGBA at each triangle corner (interpolated per hit
+        like the UVs), in the order of ``attribute_names`` (A str; "" is the render colour
+        attribute). None: no attribute.
     """
 
     vertices: np.ndarray
@@ -81,6 +85,8 @@ class Mesh:
     object_texspace: np.ndarray | None = None
     origin: np.ndarray | None = None
     object_info: np.ndarray | None = None
+    attributes: np.ndarray | None = None
+    attribute_names: tuple = ()
 
     @property
     def triangle_count(self) -> int:
@@ -612,6 +618,9 @@ def _validate_mesh(mesh: Mesh, materials: Materials) -> None:
     if mesh.object_texspace is not None:
         check_array("mesh.object_texspace", mesh.object_texspace, (None, 2, 3),
                      dtype=np.float64, labels=names)
+    if mesh.attributes is not None:
+        check_array("mesh.attributes", mesh.attributes,
+                    (t, 3, len(mesh.attribute_names), 4), dtype=np.float32)
     if mesh.object_info is not None:
         check_array("mesh.object_info", mesh.object_info, (None, 5), dtype=np.float32,
                     labels=names)
