@@ -10,6 +10,7 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from tests.blender import scenes, shader_scenes as ss  # noqa: E402
+from tests.blender import test_textures as tt  # noqa: E402
 from tests.blender.test_shader_nodes import check, link, node, to_color  # noqa: E402
 
 pytestmark = [pytest.mark.blender, pytest.mark.api]
@@ -89,3 +90,37 @@ def test_a_missing_attribute_is_reported_by_object_and_name():
     out = ss.read_attributes(plane.data, ["Nowhere"], local, "Object 'Bare'", warnings)
     assert out.shape == (2, 3, 1, 4) and not out.any()
     assert warnings == ["Object 'Bare': attribute 'Nowhere' not found; 0 is used, as Cycles"]
+
+
+def test_vertex_colours_driving_base_colour_render_albedo_times_irradiance_over_pi():
+    """The sun-lit plane of tests/blender/test_textures.py, its Base Color a corner colour
+    attribute: each pixel is the interpolated colour x E cos / pi (direct light only: a
+    lone plane), the colour computed from the exporter's corners at the pixel centre."""
+
+    def material():
+        mat = bpy.data.materials.new("Painted")
+        tree = scenes.ensure_node_tree(mat)
+        tree.nodes.clear()
+        bsdf = node(tree, "ShaderNodeBsdfPrincipled")
+        bsdf.inputs["Specular IOR Level"].default_value = 0.0
+        out = node(tree, "ShaderNodeOutputMaterial")
+        link(tree, bsdf.outputs[0], out.inputs["Surface"])
+        link(tree, node(tree, "ShaderNodeVertexColor", layer_name="Paint").outputs["Color"],
+             bsdf.inputs["Base Color"])
+        return mat
+
+    scene = tt.sun_plane_scene(material)
+    plane = bpy.data.objects["Floor"]
+    att = plane.data.color_attributes.new("Paint", "FLOAT_COLOR", "CORNER")
+    rng = np.random.default_rng(9)
+    att.data.foreach_set("color", np.c_[rng.uniform(0.2, 0.9, (4, 3)),
+                                        np.ones(4)].astype(np.float32).ravel())
+    img = tt.render_photon_map(scene)
+    i = (np.arange(tt.RES) + 0.5) / tt.RES * 2.0 - 1.0
+    X, Y = np.meshgrid(i, -i)
+    pts = np.stack([X.ravel(), Y.ravel(), np.zeros(X.size)], 1)
+    albedo = ss.plane_attributes(plane, pts, ["Paint"])[0, :, :3].reshape(tt.RES, tt.RES, 3)
+    want = albedo * tt.SUN * np.cos(tt.TILT) / np.pi
+    rel = np.abs(img - want) / want
+    print(f"\nworst pixel {100 * rel.max():.3f} %, mean {100 * rel.mean():.4f} %")
+    assert rel.max() < 0.02
