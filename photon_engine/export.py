@@ -453,4 +453,4 @@ def _transform(local: _LocalMesh, matrices, object_ids, slots, base, n_attribute
     mats = np.tile(lut[np.clip(local.material, 0, len(lut) - 1)], k)
     objs = np.repeat(object_ids, nt)
     return (verts.reshape(-1, 3), tris.reshape(-1, 3), normals.reshape(-1, 3, 3),
-            uvs.reshape(-1, 3, 2), mats, objs, attrs.reshape(-1, 3, n_attributes, 4))
+            uvs.reshape(-1, 3, 2), mats, objs, attrs.reshape(k * nt, 3, n_attributes, 4))

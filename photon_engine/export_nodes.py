@@ -156,9 +156,10 @@ class NodeReader:
         read as its socket value, for the shader compiler (export_materials)."""
         self.program_images = False
         """True when the shader compiler reads images (export_images.ProgramImageTable):
-        an Image Texture into a colour that the direct texture path cannot express (its
-        Vector linked, an extension other than Repeat, Closest or Cubic filtering) is
-        then left to the program (``textured_color``)."""
+        an Image Texture into a colour that the direct texture path ignores (its Vector
+        linked, an extension other than Repeat) is then left to the program
+        (``textured_color``). Its interpolation alone does not move it: a plain Closest
+        image renders as before (Linear, the direct path)."""
 
     @property
     def approximated(self) -> list[str]:
@@ -319,8 +320,7 @@ class NodeReader:
                 and linked.node.bl_idname == "ShaderNodeTexImage" \
                 and not getattr(linked.node, "mute", False) and linked.name == "Color" \
                 and (linked.node.inputs["Vector"].is_linked
-                     or linked.node.extension != "REPEAT"
-                     or linked.node.interpolation != "Linear"):
+                     or linked.node.extension != "REPEAT"):
             c = self.ranged_color(node, name)  # linked: compiled into the program
             return c, -1, c
         tex, fed = self.image_input(node, (name,), "Color")
