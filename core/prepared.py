@@ -130,12 +130,14 @@ class HitShader:
         progs = mats.programs if mats.programs is not None else (None,) * mats.count
         used = np.bincount(mesh.material_index, minlength=mats.count)[:mats.count] > 0
         self.programs = progs
+        self.images = scene.program_images
         self.programmed = np.array([p is not None for p in progs], bool).reshape(mats.count)
         self.active = bool(np.any(self.programmed & used))
         self.table = closures
         self.tri_vertices, self.tri_normals = tri_vertices, tri_normals
         self.tri_material, self.extent = tri_material, float(extent)
         self.tri_uv = mesh.uvs
+        self.tri_attributes = mesh.attributes  # (T, 3, A, 4) or None
         self.tri_object = mesh.object_index
         n_obj = int(mesh.object_index.max()) + 1 if mesh.triangle_count else 0
         if mesh.object_to_world is not None:
@@ -150,6 +152,8 @@ class HitShader:
         else:
             self.texspace = np.broadcast_to(np.array([[0.0, 0.0, 0.0], [0.5, 0.5, 0.5]]),
                                             (n_obj, 2, 3))
+        self.object_info = (np.zeros((n_obj, 5), np.float32) if mesh.object_info is None
+                            else np.asarray(mesh.object_info, np.float32))
         self.origin = (np.zeros(3) if mesh.origin is None
                        else np.asarray(mesh.origin, np.float64))
 
@@ -176,8 +180,19 @@ class HitShader:
                                   backfacing=(~front).astype(np.float32),
                                   generated=generated, object_coords=local,
                                   object_normal=onrm, object_location=self.location[obj],
-                                  uv=uv[None])
+                                  object_color=self.object_info[obj, :3],
+                                  object_random=self.object_info[obj, 3],
+                                  object_index=self.object_info[obj, 4], uv=uv[None],
+                                  attributes=self._attributes(prim, u, v, w))
         return ins, mat
+
+    def _attributes(self, prim, u, v, w) -> np.ndarray:
+        """(A, N, 4) the mesh attributes at the hits, interpolated like the UVs."""
+        if self.tri_attributes is None:
+            return np.zeros((0, prim.shape[0], 4), np.float32)
+        c = self.tri_attributes[prim]  # (N, 3, A, 4)
+        a = w[:, None, None] * c[:, 0] + u[:, None, None] * c[:, 1] + v[:, None, None] * c[:, 2]
+        return np.ascontiguousarray(np.transpose(a, (1, 0, 2)), np.float32)
 
     def closures_at(self, prim, u, v, d, mat) -> tuple[closure.ClosureTable, np.ndarray]:
         """(tab, rows) for N hits (class doc): prim, u, v, d as for ``inputs``, mat (N,)
@@ -198,7 +213,8 @@ class HitShader:
             sel = np.flatnonzero(mat[hit] == m)
             f, k = int(tab.first[m]), int(tab.count[m])
             out = interpreter.closure_params(self.programs[m], _subset(ins, sel),
-                                             tab.params[f:f + k].astype(np.float32))
+                                             tab.params[f:f + k].astype(np.float32),
+                                             self.images)
             h = sel.size
             kinds.append(np.tile(tab.kind[f:f + k], h))
             weights.append(np.tile(tab.weight[f:f + k], (h, 1)))
@@ -253,7 +269,8 @@ def _subset(ins: ShadingInputs, sel) -> ShadingInputs:
     """The inputs of points ``sel`` (already validated: no second check)."""
     pick = {k: getattr(ins, k)[sel] for k in (
         "position", "normal", "true_normal", "incoming", "backfacing", "generated",
-        "object_coords", "object_normal", "object_location", "object_random")}
+        "object_coords", "object_normal", "object_location", "object_random",
+        "object_color", "object_index")}
     return ShadingInputs(**pick, uv=np.ascontiguousarray(ins.uv[:, sel]),
                          attributes=np.ascontiguousarray(ins.attributes[:, sel]))
 

@@ -25,10 +25,13 @@ import numpy as np
 
 from ..core.scene.contract import Lights, Materials, Mesh, Scene, World
 from ..core.scene.media import Media
+from ..core.shading.hash import object_random_id
 from .export_camera import export_camera, relative_camera, relative_matrix, render_origin
 from .export_errors import ExportError, NoCameraError  # noqa: F401  (re-exported)
 from .export_lights import light_row
 from .export_materials import ImageTable, default_row, read_material, read_world, volume_only
+from .export_images import ProgramImageTable
+from .export_shader import AttributeNames
 from .export_volumes import material_medium, world_medium
 from .export_warnings import scene_warnings
 
@@ -79,9 +82,10 @@ def export_scene(depsgraph, camera=None, origin=None) -> ExportResult:
                 row["to_world"] = relative_matrix(row["to_world"], origin)
                 light_rows.append(row)
         else:
-            geometry.add(obj, inst.matrix_world, name, materials)
+            geometry.add(obj, inst.matrix_world, name, materials, object_info(inst))
 
-    mesh, mesh_media = geometry.build(origin, materials.left_out, materials.volumes)
+    mesh, mesh_media = geometry.build(origin, materials.left_out, materials.volumes,
+                                      materials.attributes.names)
     scene = Scene(
         mesh=mesh,
         materials=Materials.from_list(materials.rows),
@@ -89,11 +93,24 @@ def export_scene(depsgraph, camera=None, origin=None) -> ExportResult:
         camera=camera,
         world=_export_world(depsgraph, warnings),
         textures=materials.images.textures(),
+        program_images=materials.program_images.images(),
         media=_export_media(depsgraph, warnings, mesh_media),
     )
     scene.validate()
     warnings.extend(scene_warnings(depsgraph, scene))
     return ExportResult(scene=scene, warnings=warnings, origin=origin)
+
+
+def object_info(inst) -> np.ndarray:
+    """(5,) float32 Object Info of a depsgraph instance: colour RGB (``Object.color``),
+    Random, Object Index (``pass_index``). Random is Cycles' ``random_number``, computed
+    as scene/object.cpp does in float32: (float)random_id * (1.0f / (float)0xFFFFFFFF),
+    random_id as Cycles' Blender sync makes it (``core.shading.hash.object_random_id``:
+    the object name's hash, or the instance's ``random_id``)."""
+    obj = inst.object
+    rid = np.uint32(object_random_id(obj.name, inst.random_id, inst.is_instance))
+    rand = np.float32(rid) * (np.float32(1.0) / np.float32(0xFFFFFFFF))
+    return np.array([*tuple(obj.color)[:3], rand, float(obj.pass_index)], np.float32)
 
 
 def _instance_name(inst) -> str:
@@ -147,6 +164,8 @@ class _MaterialTable:
         self._index: dict = {}
         self._warnings = warnings
         self.images = ImageTable(warnings)
+        self.program_images = ProgramImageTable(warnings)
+        self.attributes = AttributeNames()
         self.left_out: set[int] = set()
         """Indices of volume-only materials: their faces are not surfaces (null
         interfaces) and only bound their medium."""
@@ -169,8 +188,8 @@ class _MaterialTable:
                 self.left_out.add(len(self.rows))
                 row = default_row(mat.name)
             else:
-                row = default_row() if mat is None else read_material(mat, self._warnings,
-                                                                      self.images)
+                row = default_row() if mat is None else read_material(
+                    mat, self._warnings, self.images, self.program_images, self.attributes)
             self._index[key] = len(self.rows)
             self.rows.append(row)
         return self._index[key]
@@ -192,6 +211,10 @@ class _LocalMesh:
     normals: np.ndarray  # (T, 3, 3) float32
     uvs: np.ndarray  # (T, 3, 2) float32
     material: np.ndarray  # (T,) int32, slot index
+    corners: np.ndarray | None = None  # (T, 3) int32, the triangles' corner (loop) indices
+    faces: np.ndarray | None = None    # (T,) int32, the triangles' faces (3.6+; else None)
+    vertex_ids: np.ndarray | None = None  # (T, 3) int32, the mesh's own vertex indices
+    attributes: np.ndarray | None = None  # (T, 3, A, 4) float32, read_attributes
 
 
 def read_mesh(me) -> _LocalMesh | None:
@@ -211,6 +234,7 @@ def read_mesh(me) -> _LocalMesh | None:
     corner_vert = _read(_attribute_data(me, ".corner_vert"), "value", nl, np.int32,
                         lambda out: me.loops.foreach_get("vertex_index", out))
     tri = corner_vert[corners].reshape(-1, 3)
+    tri_face = None
     if hasattr(me, "loop_triangle_polygons"):  # 3.6+
         tri_face = np.empty(nt, np.int32)
         me.loop_triangle_polygons.foreach_get("value", tri_face)
@@ -249,10 +273,63 @@ def read_mesh(me) -> _LocalMesh | None:
     if np.any(bad & keep[:, None]):
         face = cross / np.sqrt(np.maximum(area2, 1e-30))[:, None]
         n[bad] = np.broadcast_to(face[:, None, :], n.shape)[bad]
+    corners = corners.reshape(-1, 3)
     if not np.all(keep):
         tri, n, uvs, mat = tri[keep], n[keep], uvs[keep], mat[keep]
+        corners = corners[keep]
+        tri_face = None if tri_face is None else tri_face[keep]
     return _LocalMesh(positions=positions.astype(np.float64), triangles=tri, normals=n,
-                      uvs=uvs, material=mat)
+                      uvs=uvs, material=mat, corners=corners, faces=tri_face,
+                      vertex_ids=tri)
+
+
+def read_attributes(me, names, local: _LocalMesh, where: str, warnings) -> np.ndarray:
+    """(T, 3, A, 4) float32: the mesh attributes ``names`` at the corners of ``local``'s
+    triangles, as the Attribute / Color Attribute nodes read them (RGBA): a colour
+    attribute (float or byte; Blender gives both in scene linear) as it is, a vector
+    (x, y, z, 1), a 2D vector (x, y, 0, 1), a float (f, f, f, 1). Point, corner and face
+    domains. The name "" is the mesh's render colour attribute (Cycles' default). A name
+    the mesh lacks, or of another type or domain, is 0 (as Cycles) and reported once
+    with ``where`` (the object)."""
+    nt = local.triangles.shape[0]
+    out = np.zeros((nt, 3, len(names), 4), np.float32)
+    for a, name in enumerate(names):
+        key = name
+        if not name:
+            colors = getattr(me, "color_attributes", None)
+            idx = getattr(colors, "render_color_index", -1) if colors is not None else -1
+            key = colors[idx].name if colors is not None and 0 <= idx < len(colors) else None
+        att = me.attributes.get(key) if key is not None else None
+        if att is None:
+            msg = (f"{where}: attribute '{name or '(render colour)'}' not found; "
+                   f"0 is used, as Cycles")
+            if msg not in warnings:
+                warnings.append(msg)
+            continue
+        kind = {"FLOAT_COLOR": ("color", 4), "BYTE_COLOR": ("color", 4),
+                "FLOAT_VECTOR": ("vector", 3), "FLOAT2": ("vector", 2),
+                "FLOAT": ("value", 1)}.get(att.data_type)
+        dom = {"CORNER": local.corners, "POINT": local.vertex_ids,
+               "FACE": None if local.faces is None else
+               np.repeat(local.faces[:, None], 3, axis=1)}.get(att.domain)
+        if kind is None or dom is None:
+            msg = (f"{where}: attribute '{key}' ({att.data_type} on {att.domain}) is not "
+                   f"supported; 0 is used")
+            if msg not in warnings:
+                warnings.append(msg)
+            continue
+        field, width = kind
+        buf = np.empty(len(att.data) * width, np.float32)
+        att.data.foreach_get(field, buf)
+        vals = buf.reshape(-1, width)
+        rgba = np.zeros((vals.shape[0], 4), np.float32)
+        rgba[:, 3] = 1.0
+        if width == 1:
+            rgba[:, :3] = vals
+        else:
+            rgba[:, :width] = vals
+        out[:, :, a] = rgba[dom]
+    return out
 
 
 def _attribute_data(me, name):
@@ -282,47 +359,60 @@ class _Geometry:
         self.names: list[str] = []
         self.matrices: list[np.ndarray] = []   # per object: matrix_world (shader programs)
         self.texspaces: list[np.ndarray] = []  # per object: texture space location, size
+        self.info: list[np.ndarray] = []       # per object: object_info rows
 
-    def add(self, obj, matrix, name, materials: _MaterialTable) -> None:
+    def add(self, obj, matrix, name, materials: _MaterialTable, info=None) -> None:
+        """One instance of ``obj``; info its ``object_info`` row (None: zeros)."""
         m = np.array(matrix, np.float64)
         if not np.all(np.isfinite(m)):
             raise ExportError(f"object '{name}' has a non-finite transform (NaN or infinity "
                               f"in its matrix); fix its location, rotation or scale")
-        key = obj.data.as_pointer()
+        slots = materials.slots(obj)  # first: its programs name the attributes they read
+        names = tuple(materials.attributes.names)
+        key = (obj.data.as_pointer(), names)
         if key not in self._meshes:
-            self._meshes[key] = read_mesh(obj.data)
+            local = read_mesh(obj.data)
+            if local is not None:
+                local.attributes = read_attributes(obj.data, names, local,
+                                                   f"Object '{name}'", self._warnings)
+            self._meshes[key] = local
         if self._meshes[key] is None:
             return
         det = np.linalg.det(m[:3, :3])
         if not abs(det) > 0:
             self._warnings.append(f"Object '{name}': zero scale on an axis; skipped")
             return
-        slots = materials.slots(obj)
         self.names.append(name)
         self.matrices.append(m)
+        self.info.append(np.zeros(5, np.float32) if info is None else info)
         me = obj.data
         self.texspaces.append(np.array([tuple(getattr(me, "texspace_location", (0, 0, 0))),
                                         tuple(getattr(me, "texspace_size", (1, 1, 1)))],
                                        np.float64))
         self._batches.setdefault((key, slots), []).append((m, len(self.names) - 1))
 
-    def build(self, origin, left_out=frozenset(), volumes=None) -> tuple[Mesh, list[dict]]:
+    def build(self, origin, left_out=frozenset(), volumes=None,
+              attribute_names=()) -> tuple[Mesh, list[dict]]:
         """The mesh in the render frame: world positions - ``origin`` (3,), in float64
-        until the float32 cast; faces of the materials in ``left_out`` are dropped. And the
+        until the float32 cast; faces of the materials in ``left_out`` are dropped;
+        ``attribute_names`` the shader programs' attributes (``Mesh.attributes``). And the
         media inside the objects: one ``Media.from_list`` row per object and material of
         ``volumes`` (material index -> medium row), bounded by that object's faces of the
         material ("Smoke in Sphere")."""
         if not self._batches:
             return Mesh.empty(), []
+        n_attributes = len(attribute_names)
         parts = []
         base = 0
         for (key, slots), instances in self._batches.items():
             local = self._meshes[key]
             part = _transform(local, np.stack([m for m, _ in instances]),
-                              np.array([i for _, i in instances], np.int32), slots, base)
+                              np.array([i for _, i in instances], np.int32), slots, base,
+                              n_attributes)
             base += part[0].shape[0]
             parts.append(part)
-        verts, tris, normals, uvs, mats, objs = (np.concatenate(col) for col in zip(*parts))
+        verts, tris, normals, uvs, mats, objs, attrs = (np.concatenate(col)
+                                                        for col in zip(*parts))
         verts -= np.asarray(origin, np.float64)
         media = []
         for mat_index, row in sorted((volumes or {}).items()):
@@ -342,7 +432,7 @@ class _Geometry:
         if left_out:  # faces of volume-only materials on objects with other slots too
             keep = ~np.isin(mats, list(left_out))
             tris, normals, uvs = tris[keep], normals[keep], uvs[keep]
-            mats, objs = mats[keep], objs[keep]
+            mats, objs, attrs = mats[keep], objs[keep], attrs[keep]
         f32, i32 = np.float32, np.int32
         return Mesh(vertices=verts.astype(f32), triangles=tris.astype(i32, copy=False),
                     normals=normals.astype(f32, copy=False), uvs=uvs.astype(f32, copy=False),
@@ -350,6 +440,9 @@ class _Geometry:
                     object_index=objs.astype(i32, copy=False), object_names=tuple(self.names),
                     object_to_world=np.stack(self.matrices).astype(np.float64),
                     object_texspace=np.stack(self.texspaces),
+                    object_info=np.stack(self.info).astype(np.float32),
+                    attributes=attrs.astype(f32, copy=False) if n_attributes else None,
+                    attribute_names=tuple(attribute_names),
                     origin=np.asarray(origin, np.float64).reshape(3)), media
 
 
@@ -361,7 +454,7 @@ def _open_edges(tris) -> int:
     return int(np.count_nonzero(counts % 2))
 
 
-def _transform(local: _LocalMesh, matrices, object_ids, slots, base):
+def _transform(local: _LocalMesh, matrices, object_ids, slots, base, n_attributes=0):
     """World-space arrays for K instances of one mesh: (V*K, 3) vertices, (T*K, ...) rest."""
     k = matrices.shape[0]
     nv, nt = local.positions.shape[0], local.triangles.shape[0]
@@ -373,14 +466,20 @@ def _transform(local: _LocalMesh, matrices, object_ids, slots, base):
     normals /= np.sqrt(np.einsum("ktcj,ktcj->ktc", normals, normals))[..., None]
     tris = local.triangles[None] + (base + nv * np.arange(k))[:, None, None]
     uvs = np.broadcast_to(local.uvs, (k, nt, 3, 2)).copy()
+    # a mesh read before a later material named more attributes: those are 0 on it
+    # (its own materials do not read them)
+    own = local.attributes if local.attributes is not None else \
+        np.zeros((nt, 3, 0, 4), np.float32)
+    attrs = np.zeros((k, nt, 3, n_attributes, 4), np.float32)
+    attrs[:, :, :, :own.shape[2]] = own[:, :, :n_attributes]
     # A mirroring transform flips the winding; swap two corners to keep the face
     # orientation (and so the geometric normal) on the side of the shading normals.
     flip = np.linalg.det(lin) < 0
     if np.any(flip):
-        for arr in (tris, normals, uvs):
+        for arr in (tris, normals, uvs, attrs):
             arr[flip, :, 1], arr[flip, :, 2] = arr[flip, :, 2].copy(), arr[flip, :, 1].copy()
     lut = np.asarray(slots, np.int32)
     mats = np.tile(lut[np.clip(local.material, 0, len(lut) - 1)], k)
     objs = np.repeat(object_ids, nt)
     return (verts.reshape(-1, 3), tris.reshape(-1, 3), normals.reshape(-1, 3, 3),
-            uvs.reshape(-1, 3, 2), mats, objs)
+            uvs.reshape(-1, 3, 2), mats, objs, attrs.reshape(k * nt, 3, n_attributes, 4))

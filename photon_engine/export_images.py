@@ -6,10 +6,13 @@ colour input becomes a texture index; ``ImageTable.textures()`` packs them for t
 
 from __future__ import annotations
 
+import bpy
 import numpy as np
 
+from ..core.io.exr import srgb_encode
 from ..core.materials.textures import srgb_to_linear
 from ..core.scene.contract import Textures
+from ..core.scene.images import ProgramImages
 
 DEFAULT_GREY = 0.8
 """Albedo used for a missing image (Cycles' default surface)."""
@@ -103,3 +106,148 @@ class ImageTable:
         if not self._images:
             return Textures.empty()
         return Textures.from_images(self._images, self._names)
+
+
+class ProgramImageTable:
+    """The images Image Texture nodes inside shader programs sample, each read ONCE per
+    export and stored as Cycles keeps it (core/scene/images.py): byte images as uint8 (4
+    bytes per texel), 16-bit images as uint16 (8), float images as float32 (16).
+
+    ``slot(image, where)`` returns the image's slot, or None (reported once with
+    ``where``) for no image or one without pixels: the node then gives Cycles' magenta.
+
+    What Blender gives and how it is stored: ``Image.pixels`` of a byte image are the
+    stored bytes / 255 (still sRGB-encoded), so the bytes are recovered exactly. A 16-bit
+    PNG is a float image in Blender (the only PNG that is): as data (Non-Color, the
+    linear spaces of ``ImageTable.LINEAR_SPACES``) the file's values / 65535, in sRGB
+    decoded to linear on load (measured: within 1.7e-5 of the exact EOTF), so it is
+    re-encoded (exact sRGB OETF) and rounded back to the file's 16-bit values. sRGB byte
+    and 16-bit images stay sRGB-encoded and are decoded after filtering, as Cycles'
+    compress_as_srgb does (measured: filtering a 16-bit one in linear is 0.2 off Cycles
+    between texel centres). Other float images (EXR, HDR, 16-bit TIFF) are scene linear,
+    float32. Any space other than sRGB and the linear ones is decoded as sRGB with a
+    warning. Alpha as Cycles loads it: Straight images are associated in
+    the stored encoding (integers: c * a // max, as Cycles' image.cpp), Premultiplied and
+    Channel Packed kept, None (ignored) set to opaque, Non-Color not associated.
+    """
+
+    def __init__(self, warnings: list[str]):
+        self._warnings = warnings
+        self._slot: dict = {}
+        self._slots: list = []
+        self._names: list[str] = []
+
+    def _warn(self, msg):
+        if msg not in self._warnings:
+            self._warnings.append(msg)
+
+    def slot(self, image, where: str) -> int | None:
+        if image is None:
+            self._warn(f"{where} has no image; it gives Cycles' missing-image magenta")
+            return None
+        image = getattr(image, "original", image) or image
+        key = image.as_pointer()
+        if key not in self._slot:
+            tiles = self._read_tiles(image, where)
+            if tiles:
+                self._slots.append(tiles)
+                self._names.append(image.name)
+                self._slot[key] = len(self._slots) - 1
+            else:
+                self._slot[key] = None
+        if self._slot[key] is None:
+            self._warn(f'{where}: image "{image.name}" has no pixels (missing file?); it '
+                       f"gives Cycles' missing-image magenta")
+        return self._slot[key]
+
+    def _read_tiles(self, image, where):
+        if getattr(image, "source", "FILE") != "TILED":
+            px = _pixels(image)
+            return [] if px is None else [(0, *self._encode(image, px, where))]
+        out = []
+        path = image.filepath_raw
+        for tile in image.tiles:
+            px = None
+            if "<UDIM>" in path:
+                px = _tile_pixels(image, path.replace("<UDIM>", str(tile.number)))
+            elif tile.number == 1001:
+                px = _pixels(image)
+            if px is None:
+                self._warn(f'{where}: tile {tile.number} of image "{image.name}" has no '
+                           f"pixels; it gives Cycles' missing-image magenta")
+                continue
+            out.append((tile.number, *self._encode(image, px, where)))
+        return out
+
+    def _encode(self, image, px, where):
+        """(texels (H, W, 4) uint8 / uint16 / float32, encoding) from Blender's float
+        pixels ``px`` (H, W, 4)."""
+        space = image.colorspace_settings.name
+        data = space.startswith(ImageTable.LINEAR_SPACES)
+        if not data and space != "sRGB":
+            self._warn(f'{where}: image "{image.name}" colour space "{space}" is decoded '
+                       f"as sRGB")
+        is_float = bool(getattr(image, "is_float", False))
+        # Blender loads only 16-bit PNGs into float buffers (8-bit ones stay bytes)
+        sixteen = is_float and getattr(image, "file_format", "") == "PNG"
+        alpha_mode = getattr(image, "alpha_mode", "STRAIGHT")
+        if alpha_mode == "NONE":
+            px[..., 3] = 1.0
+        if not is_float or sixteen:
+            top = 255 if not is_float else 65535
+            if is_float and not data:  # Blender decoded it: back to the file's encoding
+                px[..., :3] = srgb_encode(px[..., :3])
+            q = np.rint(np.clip(px, 0.0, 1.0) * top).astype(np.int64)
+            if alpha_mode == "STRAIGHT" and not data:
+                q[..., :3] = q[..., :3] * q[..., 3:4] // top
+            return q.astype(np.uint8 if top == 255 else np.uint16), int(not data)
+        rgba = np.array(px, np.float32)
+        rgba[~np.isfinite(rgba)] = 0.0
+        np.clip(rgba, 0.0, None, out=rgba)
+        if alpha_mode == "STRAIGHT" and not data:
+            rgba[..., :3] *= rgba[..., 3:4]
+        return rgba, 0
+
+    def images(self) -> ProgramImages:
+        """The scene's ProgramImages (slots in index order)."""
+        if not self._slots:
+            return ProgramImages.empty()
+        return ProgramImages.pack(self._slots, self._names)
+
+
+def _pixels(image):
+    """(H, W, 4) float32 RGBA of Blender's ``Image.pixels`` (row 0 at the bottom; grey
+    and grey-alpha images spread to RGB), or None without pixels."""
+    try:
+        w, h = (int(x) for x in image.size)
+        channels = int(image.channels)
+    except (AttributeError, ReferenceError):
+        return None
+    if w * h * channels == 0:
+        return None
+    buf = np.empty(w * h * channels, np.float32)
+    try:
+        image.pixels.foreach_get(buf)
+    except (RuntimeError, ValueError, TypeError):
+        return None
+    px = buf.reshape(h, w, channels)
+    rgba = np.ones((h, w, 4), np.float32)
+    rgba[..., :3] = px[..., :3] if channels >= 3 else px[..., :1]
+    if channels in (2, 4):
+        rgba[..., 3] = px[..., -1]
+    return rgba
+
+
+def _tile_pixels(image, path):
+    """The pixels of one UDIM tile's file (loaded as a temporary image with the tiled
+    image's colour space), or None."""
+    try:
+        tmp = bpy.data.images.load(bpy.path.abspath(path), check_existing=False)
+    except RuntimeError:
+        return None
+    try:
+        tmp.colorspace_settings.name = image.colorspace_settings.name
+        tmp.alpha_mode = image.alpha_mode
+        return _pixels(tmp)
+    finally:
+        bpy.data.images.remove(tmp)

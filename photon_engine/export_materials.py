@@ -31,7 +31,7 @@ from . import compat
 from .export_images import DEFAULT_GREY, ImageTable  # noqa: F401  (ImageTable re-exported)
 from .export_nodes import Closure, NodeReader, UnreadableTree, diffuse_closure, follow_reroutes
 from .export_shaders import HANDLERS as BSDF_HANDLERS
-from .export_shader import compile_sockets
+from .export_shader import AttributeNames, compile_sockets
 from ..core.scene import closures as cl
 from ..core.shading import program as pg
 
@@ -146,13 +146,17 @@ def volume_only(mat) -> bool:
     return _linked(output.inputs.get("Volume")) and not _linked(output.inputs.get("Surface"))
 
 
-def read_material(mat, warnings: list[str], images: "ImageTable | None" = None) -> dict:
+def read_material(mat, warnings: list[str], images: "ImageTable | None" = None,
+                  program_images=None, attributes=None) -> dict:
     """One material -> a row for ``Materials.from_list`` (closures and legacy lobes);
     appends one warning per node it cannot express (by material and node name) and one
     per other approximation.
 
     images: the export's ImageTable (Image Texture nodes become textures); None reports
-    them as unsupported like any other node. Without a node tree (legacy materials),
+    them as unsupported like any other node. program_images: the export's
+    ``export_images.ProgramImageTable`` (Image Texture nodes inside shader programs);
+    None: such a node gives the missing-image magenta, reported. attributes: the export's
+    ``export_shader.AttributeNames`` (the mesh attributes programs read). Without a node tree (legacy materials),
     Cycles renders ``diffuse_color`` as diffuse.
     """
     name = mat.name
@@ -162,13 +166,14 @@ def read_material(mat, warnings: list[str], images: "ImageTable | None" = None) 
                                        0.0, 1.0)).as_row(name)
     reader = TreeReader(images, name)
     reader.linked = []
+    reader.program_images = program_images is not None
     try:
         closure, _ = read_surface(tree, ("ShaderNodeOutputMaterial",), reader)
     except UnreadableTree as exc:
         warnings.append(f'Material "{name}": cannot read its node tree ({exc}); '
                         f"rendering it as grey diffuse")
         return default_row(name)
-    program = _program(mat, closure, reader, warnings)
+    program = _program(mat, closure, reader, warnings, program_images, attributes)
     for node_name, (idname, uses) in reader.unsupported.items():
         warnings.append(f'Material "{name}": node "{node_name}" ({idname}) is not supported; '
                         f"using the socket value of " + ", ".join(uses))
@@ -217,7 +222,8 @@ PROGRAM_SLOTS = {
 """BSDF input socket name -> the closure slot a shader program writes (``_program``)."""
 
 
-def _program(mat, closure: Closure, reader: TreeReader, warnings: list[str]):
+def _program(mat, closure: Closure, reader: TreeReader, warnings: list[str],
+             program_images=None, attributes=None):
     """The ShaderProgram of the BSDF inputs fed by node graphs (``reader.linked``), or
     None. Each input becomes a TARGET_CLOSURE output for the closure row its node made (the
     row's index among the rows ``Closure.as_row`` keeps); a graph that folds to a
@@ -244,7 +250,8 @@ def _program(mat, closure: Closure, reader: TreeReader, warnings: list[str]):
             rows.append(kept[i])
     if not targets:
         return None
-    compiled = compile_sockets(mat, targets)
+    compiled = compile_sockets(mat, targets, images=program_images,
+                               attributes=AttributeNames() if attributes is None else attributes)
     warnings.extend(compiled.warnings)
     for (sock, _, _, slot), b, value in zip(targets, rows, compiled.constant):
         if value is not None:  # folded: the constant is the closure's own parameter

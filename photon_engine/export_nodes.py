@@ -154,6 +154,12 @@ class NodeReader:
         self.linked: list | None = None
         """None: a linked input is reported; a list: (node, socket) of each linked input
         read as its socket value, for the shader compiler (export_materials)."""
+        self.program_images = False
+        """True when the shader compiler reads images (export_images.ProgramImageTable):
+        an Image Texture into a colour that the direct texture path ignores (its Vector
+        linked, an extension other than Repeat) is then left to the program
+        (``textured_color``). Its interpolation alone does not move it: a plain Closest
+        image renders as before (Linear, the direct path)."""
 
     @property
     def approximated(self) -> list[str]:
@@ -308,6 +314,15 @@ class NodeReader:
         """(COLOR slot (3,), texture index, legacy tint (3,)) of a colour input: an Image
         Texture feeding it gives white and its index (the core multiplies by the texel)
         and, for the legacy lobes, the image's mean colour; a missing image grey 0.8."""
+        sock = compat.input_socket(node, name)
+        linked = follow_reroutes(sock) if sock is not None and sock.is_linked else None
+        if self.program_images and self.linked is not None and linked is not None \
+                and linked.node.bl_idname == "ShaderNodeTexImage" \
+                and not getattr(linked.node, "mute", False) and linked.name == "Color" \
+                and (linked.node.inputs["Vector"].is_linked
+                     or linked.node.extension != "REPEAT"):
+            c = self.ranged_color(node, name)  # linked: compiled into the program
+            return c, -1, c
         tex, fed = self.image_input(node, (name,), "Color")
         if fed:
             if tex < 0:

@@ -30,7 +30,9 @@ from ..core.shading.interpreter import evaluate
 from ..core.shading.inputs import ShadingInputs
 from ..core.shading.noise import NOISE_TYPES
 from ..core.shading.voronoi import FEATURES, METRICS
+from ..core.shading import images as ci
 from . import compat
+from .export_images import ImageTable
 
 RAMP_TABLE_SIZE = 256
 """Rows per baked ColorRamp (Cycles' RAMP_TABLE_SIZE)."""
@@ -46,6 +48,20 @@ class ShaderCompile:
     warnings: list = field(default_factory=list)
 
 
+class AttributeNames:
+    """The mesh attribute names the programs of one export read, in the order of
+    ``Mesh.attributes`` / ``ShadingInputs.attributes`` ("" = the render colour
+    attribute). ``index(name)`` adds a name on first use."""
+
+    def __init__(self, names=()):
+        self.names: list[str] = list(names)
+
+    def index(self, name: str) -> int:
+        if name not in self.names:
+            self.names.append(name)
+        return self.names.index(name)
+
+
 class _Value:
     """An operand: a virtual register of width 1 ('f') or 3 ('v' vector, 'c' colour)."""
     __slots__ = ("vreg", "kind")
@@ -56,10 +72,12 @@ class _Value:
 
 
 class _Builder:
-    def __init__(self, name, uv_maps, attributes, luminance, warnings):
+    def __init__(self, name, uv_maps, attributes, luminance, warnings, images=None):
         self.name = name
+        self.images = images
         self.uv_maps = list(uv_maps)
-        self.attributes = list(attributes)
+        self.attributes = attributes if isinstance(attributes, AttributeNames) else \
+            AttributeNames(attributes)
         self.luminance = tuple(float(x) for x in luminance)
         self.warnings = warnings
         self.reported = set()
@@ -237,7 +255,7 @@ class _Builder:
         for op, ints, regs in self.code:
             sig = pg.SIGNATURES[op]
             n_in = len(sig.split(">")[0])
-            if op != pg.OP_INPUT and all(self.vregs[r][1] is not None for r in regs[:n_in]):
+            if op not in _NOT_FOLDED and all(self.vregs[r][1] is not None for r in regs[:n_in]):
                 const_code.append((op, ints, regs))
             else:
                 live.append((op, ints, regs))
@@ -314,6 +332,10 @@ class _Builder:
             i += w
 
 
+_NOT_FOLDED = (pg.OP_INPUT, pg.OP_IMAGE)
+"""Instructions never run at export time (per-point inputs; images live in the scene)."""
+
+
 def _socket_kind(sock):
     t = getattr(sock, "type", "VALUE")
     if t in ("VALUE", "INT", "BOOLEAN"):
@@ -365,8 +387,36 @@ def _geometry(b, node, path):
 
 
 def _object_info(b, node, path):
+    """Location, Color, Random, Object Index (``export.object_info`` for the values);
+    Alpha and Material Index are not supported."""
     return {"Location": b.source(pg.SOURCE_OBJECT_LOCATION),
-            "Random": b.source(pg.SOURCE_OBJECT_RANDOM, 0, "f")}
+            "Color": b.source(pg.SOURCE_OBJECT_COLOR, 0, "c"),
+            "Random": b.source(pg.SOURCE_OBJECT_RANDOM, 0, "f"),
+            "Object Index": b.source(pg.SOURCE_OBJECT_INDEX, 0, "f")}
+
+
+def _attribute_outputs(b, name):
+    """Color, Vector, Fac (Cycles: the colour's average), Alpha of attribute ``name``."""
+    index = b.attributes.index(name)
+    color = b.source(pg.SOURCE_ATTRIBUTE_COLOR, index, "c")
+    return {"Color": color, "Vector": _Value(color.vreg, "v"),
+            "Fac": b.as_kind(_Value(color.vreg, "v"), "f"),
+            "Alpha": b.source(pg.SOURCE_ATTRIBUTE_ALPHA, index, "f")}
+
+
+def _attribute(b, node, path):
+    """Attribute node, Geometry type (mesh attributes: ``export.read_attributes``)."""
+    if getattr(node, "attribute_type", "GEOMETRY") != "GEOMETRY":
+        b.warn(("attr", path, node.name), f"node '{node.name}': attribute type "
+               f"'{node.attribute_type}' is not supported (Geometry is)")
+        return {}
+    return _attribute_outputs(b, node.attribute_name)
+
+
+def _color_attribute(b, node, path):
+    """Color Attribute node; no name: the mesh's render colour attribute."""
+    outs = _attribute_outputs(b, getattr(node, "layer_name", ""))
+    return {"Color": outs["Color"], "Alpha": outs["Alpha"]}
 
 
 def _value(b, node, path):
@@ -662,7 +712,44 @@ def _float_curve(b, node, path):
     return [out]
 
 
+def _image(b, node, path):
+    """Image Texture (core/shading/images.py for the sampling). Unlinked Vector: the
+    first (active render) UV map, as Cycles. No image table, no image or no pixels:
+    Cycles' magenta and alpha 1."""
+    where = f"Material '{b.name}': node '{node.name}'"
+    image = getattr(node, "image", None)
+    slot = None
+    if b.images is not None:
+        slot = b.images.slot(image, where)
+    else:
+        b.warn(("image", path, node.name), f"node '{node.name}': no image table to read "
+               f"'{getattr(image, 'name', '')}' into; it gives the missing-image magenta")
+    if slot is None:
+        return {"Color": b.const(ci.MISSING[:3], "c"), "Alpha": b.const(1.0, "f")}
+    interp = ci.INTERPOLATIONS.get(node.interpolation, 1)
+    ext = ci.EXTENSIONS.get(node.extension)
+    if ext is None:
+        b.warn(("ext", path, node.name), f"node '{node.name}': extension "
+               f"'{node.extension}' is not supported; Repeat is used")
+        ext = 0
+    data = image.colorspace_settings.name.startswith(ImageTable.LINEAR_SPACES)
+    alpha_out = node.outputs.get("Alpha")
+    unassociate = int(alpha_out is not None and alpha_out.is_linked and not data
+                      and image.alpha_mode not in ("CHANNEL_PACKED", "NONE"))
+    sock = _find_input(node, "Vector")
+    vec = b.source(pg.SOURCE_UV, 0) if sock is None or not sock.links else \
+        b.as_kind(b.socket_value(sock, path), "v")
+    color, alpha = b.new("c"), b.new("f")
+    if node.projection != "FLAT":  # Box: our weights and sides did not match Cycles
+        b.warn(("proj", path, node.name), f"node '{node.name}': projection "
+               f"'{node.projection}' is not supported; Flat is used")
+    b.emit(pg.OP_IMAGE, [slot, interp, ext, unassociate], [vec], [color, alpha])
+    return {"Color": color, "Alpha": alpha}
+
+
 SUPPORTED = {
+    "ShaderNodeTexImage": _image, "ShaderNodeAttribute": _attribute,
+    "ShaderNodeVertexColor": _color_attribute,
     "ShaderNodeTexCoord": _tex_coord, "ShaderNodeUVMap": _uv_map,
     "ShaderNodeNewGeometry": _geometry, "ShaderNodeObjectInfo": _object_info,
     "ShaderNodeValue": _value, "ShaderNodeRGB": _rgb, "ShaderNodeMath": _math,
@@ -691,18 +778,20 @@ Group Input / Output and muted nodes, handled by the walk itself)."""
 
 
 def compile_sockets(material, targets, uv_maps=(), attributes=(),
-                    luminance=cn.LUMINANCE_REC709) -> ShaderCompile:
+                    luminance=cn.LUMINANCE_REC709, images=None) -> ShaderCompile:
     """Compile the values of input sockets of ``material``'s node tree.
 
     targets: [(socket, target, closure, slot)]: an input socket of a node of the
       material's tree, its TARGET_* (core.shading.program), the closure index and the
       first slot (a colour or vector socket fills slot, slot + 1, slot + 2).
     uv_maps: the mesh's UV map names, in the order of ``ShadingInputs.uv`` (the first is
-      the default UV). attributes: attribute names in the order of
-      ``ShadingInputs.attributes``. luminance: the scene-linear RGB -> Y weights.
+      the default UV). attributes: an ``AttributeNames`` (names are added as nodes read
+      them) or names, in the order of ``ShadingInputs.attributes``. luminance: the scene-linear RGB -> Y weights.
+    images: the export's ``export_images.ProgramImageTable`` Image Texture nodes read
+      their images into (None: such a node gives the missing-image magenta, reported).
     """
     warnings: list[str] = []
-    b = _Builder(material.name, uv_maps, attributes, luminance, warnings)
+    b = _Builder(material.name, uv_maps, attributes, luminance, warnings, images)
     b.group_bindings = {}
     values = []
     for sock, target, closure, slot in targets:

@@ -23,6 +23,7 @@ import numpy as np
 
 from . import closures
 from .checks import MAX_MAGNITUDE, SceneError, check_array, label
+from .images import ProgramImages
 from .media import Media
 
 
@@ -69,6 +70,13 @@ class Mesh:
         (object position - location) / (2 size) + 0.5.
     origin: (3,) float64 metres, the render frame's origin in world coordinates
         (vertices = world positions - origin): programs read world positions.
+    object_info: (O, 5) float32, Object Info per object instance: the object's colour
+        (RGB, Blender's ``Object.color``), Random in [0, 1] (Cycles' random_number of the
+        instance's ``random_id``) and Object Index (``pass_index``). None: zeros.
+    attributes: (T, 3, A, 4) float32, the mesh attributes shader programs read (Attribute
+        and Color Attribute nodes), RGBA at each triangle corner (interpolated per hit
+        like the UVs), in the order of ``attribute_names`` (A str; "" is the render colour
+        attribute). None: no attribute.
     """
 
     vertices: np.ndarray
@@ -81,6 +89,9 @@ class Mesh:
     object_to_world: np.ndarray | None = None
     object_texspace: np.ndarray | None = None
     origin: np.ndarray | None = None
+    object_info: np.ndarray | None = None
+    attributes: np.ndarray | None = None
+    attribute_names: tuple = ()
 
     @property
     def triangle_count(self) -> int:
@@ -537,12 +548,18 @@ class Scene:
     textures: Textures = field(default_factory=Textures.empty)
     media: Media = field(default_factory=Media.empty)
     """The participating media (core/scene/media.py); empty: none, every ray in vacuum."""
+    program_images: ProgramImages = field(default_factory=ProgramImages.empty)
+    """The images the shader programs' Image Texture instructions sample
+    (core/scene/images.py); empty: none."""
 
     def validate(self) -> "Scene":
         """Check every array; raise SceneError naming the field, object or material."""
         _validate_mesh(self.mesh, self.materials)
         _validate_textures(self.textures)
         _validate_materials(self.materials, self.textures.count)
+        self.program_images.validate()
+        if self.materials.programs is not None:
+            _validate_program_images(self.materials, self.program_images.count)
         _validate_lights(self.lights)
         _validate_camera(self.camera)
         check_array("world.radiance", self.world.radiance, (3,), nonnegative=True)
@@ -621,7 +638,13 @@ def _validate_mesh(mesh: Mesh, materials: Materials) -> None:
     if mesh.object_texspace is not None:
         check_array("mesh.object_texspace", mesh.object_texspace, (None, 2, 3),
                      dtype=np.float64, labels=names)
-    for key in ("object_to_world", "object_texspace"):
+    if mesh.attributes is not None:
+        check_array("mesh.attributes", mesh.attributes,
+                    (t, 3, len(mesh.attribute_names), 4), dtype=np.float32)
+    if mesh.object_info is not None:
+        check_array("mesh.object_info", mesh.object_info, (None, 5), dtype=np.float32,
+                    labels=names)
+    for key in ("object_to_world", "object_texspace", "object_info"):
         a = getattr(mesh, key)
         if a is not None and a.shape[0] < n_obj:
             raise SceneError(f"mesh.{key} has {a.shape[0]} rows, fewer than the "
@@ -735,6 +758,21 @@ def _validate_programs(m: Materials, names) -> None:
                 raise SceneError(f"materials.programs{label(names, i)}: an output writes "
                                  f"closure {int(row[2])}, but the material has "
                                  f"{int(count[i])} closures")
+
+
+def _validate_program_images(m: Materials, count: int) -> None:
+    """Every Image Texture instruction samples a slot of ``Scene.program_images`` (or -1,
+    the missing image)."""
+    names = m.names if len(m.names) == m.count else None
+    for i, prog in enumerate(m.programs):
+        if prog is None:
+            continue
+        ins = np.asarray(prog.instructions).reshape(-1, prog.instructions.shape[-1])
+        # opcode 30: core.shading.program.OP_IMAGE (rank 2, not importable here)
+        slots = ins[ins[:, 0] == 30, 1]
+        if slots.size and (slots.max() >= count or slots.min() < -1):
+            raise SceneError(f"materials.programs{label(names, i)}: an Image Texture samples "
+                             f"image slot {int(slots.max())}, but program_images has {count}")
 
 
 def _validate_lights(li: Lights) -> None:

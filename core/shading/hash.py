@@ -80,6 +80,24 @@ def hash_uint2(kx, ky):
     return _final(a, b, c)
 
 
+def hash_string(text: str) -> int:
+    """Cycles' hash_string (util/hash.h): i = i * 37 + c over the UTF-8 bytes, mod 2^32,
+    each byte read as a signed char (x86), as Cycles' ``uint c = *str++`` does."""
+    i = 0
+    for byte in text.encode("utf-8"):
+        c = byte if byte < 128 else (byte - 256) & M32
+        i = (i * 37 + c) & M32
+    return i
+
+
+def object_random_id(name: str, instance_id: int, is_instance: bool) -> int:
+    """The uint32 random id Cycles gives an object (blender/object.cpp): the depsgraph
+    instance's ``random_id`` for an instance, else hash_uint2(hash_string(name), 0)."""
+    if is_instance:
+        return int(instance_id) & M32
+    return int(hash_uint2(hash_string(name), 0))
+
+
 @njit(**_JIT)
 def hash_uint3(kx, ky, kz):
     a = b = c = (0xDEADBEEF + (3 << 2) + 13) & M32

@@ -22,8 +22,8 @@ class ShadingInputs:
     incoming (unit vector from the point towards the viewer, Cycles' I), generated
     (texture-space coordinates in [0, 1] over the object's bounds), object_coords
     (object-space position), object_normal (object-space shading normal),
-    object_location: (N, 3) float32. backfacing, object_random: (N,) float32 (0/1 and
-    [0, 1)). uv: (U, N, 2) float32, one slice per UV map. attributes: (A, N, 4) float32
+    object_location, object_color: (N, 3) float32. backfacing, object_random,
+    object_index: (N,) float32 (0/1, [0, 1], the pass index). uv: (U, N, 2) float32, one slice per UV map. attributes: (A, N, 4) float32
     RGBA, one slice per exported attribute.
     """
     position: np.ndarray
@@ -36,6 +36,8 @@ class ShadingInputs:
     object_normal: np.ndarray | None = None
     object_location: np.ndarray | None = None
     object_random: np.ndarray | None = None
+    object_color: np.ndarray | None = None
+    object_index: np.ndarray | None = None
     uv: np.ndarray | None = None
     attributes: np.ndarray | None = field(default=None)
 
@@ -43,7 +45,7 @@ class ShadingInputs:
     def build(cls, position, normal, **optional):
         """Validated inputs; omitted fields default to: true_normal = normal, incoming =
         normal, backfacing 0, generated = object_coords = position, object_normal =
-        normal, object location 0, random 0, no UV map or attribute (a program reading
+        normal, object location, colour, random and index 0, no UV map or attribute (a program reading
         one then reads zeros)."""
         p = np.ascontiguousarray(position, np.float32)
         if p.ndim != 2 or p.shape[1] != 3:
@@ -51,16 +53,18 @@ class ShadingInputs:
         n = p.shape[0]
         nrm = _vec(normal, n, "normal")
         known = {"true_normal", "incoming", "backfacing", "generated", "object_coords",
-                 "object_normal", "object_location", "object_random", "uv", "attributes"}
+                 "object_normal", "object_location", "object_random", "object_color",
+                 "object_index", "uv", "attributes"}
         unknown = set(optional) - known
         if unknown:
             raise ValueError(f"ShadingInputs: unknown fields {sorted(unknown)}")
         get = optional.get
         vec = {k: _vec(get(k, default), n, k) for k, default in (
             ("true_normal", nrm), ("incoming", nrm), ("generated", p), ("object_coords", p),
-            ("object_normal", nrm), ("object_location", np.zeros((n, 3))))}
+            ("object_normal", nrm), ("object_location", np.zeros((n, 3))),
+            ("object_color", np.zeros((n, 3))))}
         scal = {}
-        for k in ("backfacing", "object_random"):
+        for k in ("backfacing", "object_random", "object_index"):
             a = np.ascontiguousarray(get(k, np.zeros(n)), np.float32).reshape(-1)
             if a.shape != (n,):
                 raise ValueError(f"ShadingInputs.{k} must be ({n},) float32, got {a.shape}")

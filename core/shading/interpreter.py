@@ -23,13 +23,15 @@ from .color import blend, rgb_to_hsv, hsv_to_rgb, blackbody_rec709
 from .textures import checker, gradient, white_noise, wave, magic, brick
 from .noise import noise_texture
 from .voronoi import voronoi_texture
+from .images import image_sample
+from ..scene.images import ProgramImages
 
 _F = pg.FIRST_OPERAND
 _CHUNK = 256
 
 
 @njit(inline="always", **dict(cache=True, error_model="numpy"))
-def _load_input(r, ins, i, P, N, Ng, I, back, gen, obj, objn, oloc, orand, uv, attr):
+def _load_input(r, ins, i, P, N, Ng, I, back, gen, obj, objn, oloc, orand, ocol, oidx, uv, attr):
     src = ins[1]
     idx = ins[2]
     o = ins[_F]
@@ -49,10 +51,12 @@ def _load_input(r, ins, i, P, N, Ng, I, back, gen, obj, objn, oloc, orand, uv, a
         a = objn
     elif src == 9:
         a = oloc
+    elif src == 13:
+        a = ocol
     else:
         a = P  # not used below
-    if src == 4 or src == 10:
-        r[o] = back[i] if src == 4 else orand[i]
+    if src == 4 or src == 10 or src == 14:
+        r[o] = back[i] if src == 4 else (orand[i] if src == 10 else oidx[i])
         r[o + 1] = r[o]
         r[o + 2] = r[o]
     elif src == 8:
@@ -74,8 +78,9 @@ def _load_input(r, ins, i, P, N, Ng, I, back, gen, obj, objn, oloc, orand, uv, a
 
 
 @njit(inline="always", **dict(cache=True, error_model="numpy"))
-def _run(r, ins, tables):
-    """Execute one instruction (not OP_INPUT) on register file r (float64)."""
+def _run(r, ins, tables, im_bytes, im_shorts, im_floats, im_tiles, im_first, im_count, px):
+    """Execute one instruction (not OP_INPUT) on register file r (float64); the im_*
+    arrays are ``ProgramImages``' fields, px a (4,) float64 scratch."""
     op = ins[0]
     a = ins[_F:]
     if op == pg.OP_MATH:
@@ -239,18 +244,25 @@ def _run(r, ins, tables):
         mapped = curve_lookup(tables, ins[1], ins[2], t, 0) if ins[3] else \
             ramp_lookup(tables, ins[1], ins[2], t, True, 0)
         r[a[4]] = (1.0 - fac) * v + fac * mapped
+    elif op == pg.OP_IMAGE:
+        image_sample(im_bytes, im_shorts, im_floats, im_tiles, im_first, im_count, ins[1],
+                     r[a[0]], r[a[0] + 1], ins[2], ins[3], ins[4] != 0, px)
+        r[a[1]], r[a[1] + 1], r[a[1] + 2], r[a[2]] = px[0], px[1], px[2], px[3]
 
 
 @njit(parallel=True, **dict(cache=True, error_model="numpy"))
 def evaluate_kernel(instructions, constants, tables, n_registers, outputs, P, N, Ng, I, back,
-                    gen, obj, objn, oloc, orand, uv, attr, out):
+                    gen, obj, objn, oloc, orand, ocol, oidx, uv, attr, im_bytes, im_shorts, im_floats,
+                    im_tiles, im_first, im_count, out):
     """Run the program on every point: out[i, o] = register outputs[o, 0] of point i.
-    (N, O) float32 ``out``; every other array as ``ShadingInputs`` / ``ShaderProgram``."""
+    (N, O) float32 ``out``; every other array as ``ShadingInputs`` / ``ShaderProgram`` /
+    ``ProgramImages`` (im_*)."""
     n = P.shape[0]
     k = constants.shape[0]
     n_chunks = (n + _CHUNK - 1) // _CHUNK
     for c in prange(n_chunks):
         r = np.zeros(n_registers, np.float64)
+        px = np.zeros(4, np.float64)
         for i in range(c * _CHUNK, min(n, (c + 1) * _CHUNK)):
             for j in range(k):
                 r[j] = constants[j]
@@ -258,17 +270,24 @@ def evaluate_kernel(instructions, constants, tables, n_registers, outputs, P, N,
                 ins = instructions[s]
                 if ins[0] == pg.OP_INPUT:
                     _load_input(r, ins, i, P, N, Ng, I, back, gen, obj, objn, oloc, orand,
-                                uv, attr)
+                                ocol, oidx, uv, attr)
                 else:
-                    _run(r, ins, tables)
+                    _run(r, ins, tables, im_bytes, im_shorts, im_floats, im_tiles,
+                         im_first, im_count, px)
             for o in range(outputs.shape[0]):
                 out[i, o] = r[outputs[o, 0]]
 
 
-def evaluate(program: pg.ShaderProgram, inputs: ShadingInputs) -> np.ndarray:
+_NO_IMAGES = ProgramImages.empty()
+
+
+def evaluate(program: pg.ShaderProgram, inputs: ShadingInputs,
+             images: ProgramImages | None = None) -> np.ndarray:
     """(N, O) float32: the program's outputs (``program.outputs`` rows, in order) at the
-    N points of ``inputs``. Values are what the nodes compute (not clamped; the
-    closure code owns the ranges)."""
+    N points of ``inputs``; ``images`` the slots its Image Texture instructions sample
+    (None: none, such an instruction gives the missing-image magenta). Values are what
+    the nodes compute (not clamped; the closure code owns the ranges)."""
+    im = _NO_IMAGES if images is None else images
     out = np.empty((inputs.count, program.outputs.shape[0]), np.float32)
     if inputs.count == 0:
         return out
@@ -276,12 +295,15 @@ def evaluate(program: pg.ShaderProgram, inputs: ShadingInputs) -> np.ndarray:
                     program.n_registers, program.outputs, inputs.position, inputs.normal,
                     inputs.true_normal, inputs.incoming, inputs.backfacing, inputs.generated,
                     inputs.object_coords, inputs.object_normal, inputs.object_location,
-                    inputs.object_random, inputs.uv, inputs.attributes, out)
+                    inputs.object_random, inputs.object_color, inputs.object_index,
+                    inputs.uv, inputs.attributes, im.bytes, im.shorts,
+                    im.floats, im.tiles, im.slot_first, im.slot_count, out)
     return out
 
 
 def closure_params(program: pg.ShaderProgram, inputs: ShadingInputs,
-                   params: np.ndarray) -> dict[str, np.ndarray]:
+                   params: np.ndarray, images: ProgramImages | None = None
+                   ) -> dict[str, np.ndarray]:
     """Per-point material values from a program.
 
     params: (C, PARAM_COUNT) float32, the material's closure rows with their constant
@@ -289,7 +311,7 @@ def closure_params(program: pg.ShaderProgram, inputs: ShadingInputs,
     float32, "emission": (N, 3) or None, "alpha": (N,) or None, "normal": (N, 3) or
     None}``: each program output written into its slot, the others copied from params.
     """
-    values = evaluate(program, inputs)
+    values = evaluate(program, inputs, images)
     n = inputs.count
     rows = np.broadcast_to(np.asarray(params, np.float32), (n,) + np.shape(params)).copy()
     result = {"params": rows, "emission": None, "alpha": None, "normal": None}

@@ -37,7 +37,7 @@ FIRST_OPERAND = 5
  OP_MIX_COLOR, OP_MAP_RANGE, OP_VECTOR_MAP_RANGE, OP_CLAMP, OP_SEPARATE, OP_COMBINE, OP_RAMP,
  OP_MAPPING, OP_INVERT, OP_GAMMA, OP_HSV, OP_BRIGHT_CONTRAST, OP_RGB_TO_BW, OP_CHECKER,
  OP_GRADIENT, OP_WHITE_NOISE, OP_NOISE, OP_VORONOI, OP_WAVE, OP_MAGIC, OP_BRICK, OP_BLACKBODY,
- OP_CURVES, OP_FLOAT_CURVE) = range(30)
+ OP_CURVES, OP_FLOAT_CURVE, OP_IMAGE) = range(31)
 
 SIGNATURES = {
     OP_INPUT: ">v",                  # ints: source (SOURCE_*), index (UV map / attribute)
@@ -80,6 +80,9 @@ SIGNATURES = {
     OP_CURVES: "fvff>v",             # factor, colour, min x, max x; ints: first row, rows,
                                      # extrapolate (RGB Curves, the table holds R, G, B)
     OP_FLOAT_CURVE: "ffff>f",        # factor, value, min x, max x; ints as OP_CURVES
+    OP_IMAGE: "v>vf",                # vector -> colour, alpha; ints: image slot
+                                     # (core.scene.images; -1 missing), interpolation,
+                                     # extension (core.shading.images), unassociate alpha
 }
 """Register operands of each opcode: ``f`` one register, ``v`` three; ``>`` separates the
 inputs from the outputs."""
@@ -94,13 +97,14 @@ OP_NAMES = {OP_INPUT: "INPUT", OP_MATH: "MATH", OP_VECTOR_MATH: "VECTOR_MATH",
             OP_CHECKER: "CHECKER", OP_GRADIENT: "GRADIENT", OP_WHITE_NOISE: "WHITE_NOISE",
             OP_NOISE: "NOISE", OP_VORONOI: "VORONOI", OP_WAVE: "WAVE", OP_MAGIC: "MAGIC",
             OP_BRICK: "BRICK", OP_BLACKBODY: "BLACKBODY", OP_CURVES: "CURVES",
-            OP_FLOAT_CURVE: "FLOAT_CURVE"}
+            OP_FLOAT_CURVE: "FLOAT_CURVE", OP_IMAGE: "IMAGE"}
 
 # --- OP_INPUT sources (ints column 1); all write 3 registers, scalars in the first -------
 (SOURCE_POSITION, SOURCE_NORMAL, SOURCE_TRUE_NORMAL, SOURCE_INCOMING, SOURCE_BACKFACING,
  SOURCE_GENERATED, SOURCE_OBJECT, SOURCE_OBJECT_NORMAL, SOURCE_UV, SOURCE_OBJECT_LOCATION,
- SOURCE_OBJECT_RANDOM, SOURCE_ATTRIBUTE_COLOR, SOURCE_ATTRIBUTE_ALPHA) = range(13)
-SOURCE_COUNT = 13
+ SOURCE_OBJECT_RANDOM, SOURCE_ATTRIBUTE_COLOR, SOURCE_ATTRIBUTE_ALPHA, SOURCE_OBJECT_COLOR,
+ SOURCE_OBJECT_INDEX) = range(15)
+SOURCE_COUNT = 15
 
 # --- output targets ----------------------------------------------------------------------
 TARGET_CLOSURE = 0    # closure parameter slot (core.scene.closures)
@@ -176,6 +180,10 @@ class ShaderProgram:
                                  f"beyond its signature {sig!r}")
             if op == OP_INPUT and not 0 <= row[1] < SOURCE_COUNT:
                 raise ValueError(f"{who}: instruction {i} reads unknown input source {row[1]}")
+            if op == OP_IMAGE and not (row[1] >= -1 and 0 <= row[2] <= 2
+                                                       and 0 <= row[3] <= 3):
+                raise ValueError(f"{who}: instruction {i} ({OP_NAMES[op]}) has image slot "
+                                 f"{row[1]}, interpolation {row[2]}, extension {row[3]}")
             if op in (OP_RAMP, OP_CURVES, OP_FLOAT_CURVE) and not (row[2] >= 2 and 0 <= row[1]
                                       and row[1] + row[2] <= self.tables.shape[0]):
                 raise ValueError(f"{who}: instruction {i} ({OP_NAMES[op]}) rows [{row[1]}, "

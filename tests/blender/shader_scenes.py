@@ -21,6 +21,9 @@ from photon_map.core.shading import program as pg  # noqa: E402
 from photon_map.core.shading.inputs import ShadingInputs  # noqa: E402
 from photon_map.core.shading.interpreter import evaluate  # noqa: E402
 from photon_map.photon_engine.export_shader import compile_sockets  # noqa: E402
+from photon_map.photon_engine.export_images import ProgramImageTable  # noqa: E402
+from photon_map.photon_engine.export import object_info, read_attributes, read_mesh  # noqa: E402
+from photon_map.photon_engine.export_shader import AttributeNames  # noqa: E402
 
 CELL = 2.0      # metres per plane (Blender's default plane)
 PIXELS = 32     # pixels per plane side
@@ -84,10 +87,33 @@ def render_cycles(scene, samples=4) -> np.ndarray:
     return scenes.render_passes(scene)["Combined"][..., :3].astype(np.float32)
 
 
-def plane_inputs(plane, g, offset=(0.0, 0.0)) -> ShadingInputs:
+def plane_attributes(plane, obj, names) -> np.ndarray:
+    """(A, N, 4): the exporter's corner attributes ``names`` of ``plane`` at the object-space
+    points ``obj`` (N, 3) of its z = 0 face, interpolated over the triangle holding each
+    point (barycentric, as the renderer interpolates per hit)."""
+    local = read_mesh(plane.data)
+    corners = read_attributes(plane.data, list(names), local, plane.name, [])
+    out = np.zeros((len(names), len(obj), 4), np.float32)
+    p = local.positions[local.triangles][..., :2]  # (T, 3, 2)
+    for t in range(p.shape[0]):
+        e1, e2 = p[t, 1] - p[t, 0], p[t, 2] - p[t, 0]
+        m = np.linalg.inv(np.array([e1, e2]).T)
+        uv = (obj[:, :2] - p[t, 0]) @ m.T
+        w = 1.0 - uv[:, 0] - uv[:, 1]
+        inside = (uv >= -1e-9).all(1) & (w >= -1e-9)
+        for a in range(len(names)):
+            c = corners[t, :, a]
+            out[a, inside] = (w[inside, None] * c[0] + uv[inside, :1] * c[1]
+                              + uv[inside, 1:] * c[2])
+    return out
+
+
+def plane_inputs(plane, g, offset=(0.0, 0.0), attributes=()) -> ShadingInputs:
     """The surface points of ``plane``'s pixels (PIXELS x PIXELS, row 0 at the top),
     shifted by ``offset`` pixels: world position, normal +Z, incoming +Z, generated and
-    object coordinates, the UV map interpolated (an affine fit of the plane's corners)."""
+    object coordinates, the UV map interpolated (an affine fit of the plane's corners),
+    the exporter's Object Info of the plane's depsgraph instance, the mesh attributes
+    ``attributes`` (names) as the exporter reads them."""
     px = CELL / PIXELS
     lx, ly, _ = plane.location
     i = np.arange(PIXELS)
@@ -105,22 +131,35 @@ def plane_inputs(plane, g, offset=(0.0, 0.0)) -> ShadingInputs:
     A = np.linalg.lstsq(np.c_[co, np.ones(len(co))], uvs, rcond=None)[0]
     uv = np.c_[obj[:, :2], np.ones(len(obj))] @ A
     up = np.tile([0.0, 0.0, 1.0], (len(P), 1))
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    for inst in depsgraph.object_instances:  # an instance is valid only in its step
+        if inst.object.name == plane.name:
+            info = object_info(inst)
+            break
     return ShadingInputs.build(P, up, incoming=up, generated=gen, object_coords=obj,
                                object_normal=up,
                                object_location=np.tile(plane.location, (len(P), 1)),
-                               uv=uv[None])
+                               object_color=np.tile(info[:3], (len(P), 1)),
+                               object_random=np.full(len(P), info[3]),
+                               object_index=np.full(len(P), info[4]), uv=uv[None],
+                               attributes=plane_attributes(plane, obj, attributes))
 
 
 def compile_planes(planes):
-    """[(plane, ShaderCompile of its Emission colour)], and every warning."""
+    """[(plane, ShaderCompile of its Emission colour, the ProgramImages its Image
+    Textures sample, the attribute names it reads)], and every warning (the image
+    table's too)."""
     out, warnings = [], []
     for plane in planes:
         mat = plane.data.materials[0]
         em = next(n for n in mat.node_tree.nodes if n.bl_idname == "ShaderNodeEmission")
+        table = ProgramImageTable(warnings)
+        names = AttributeNames()
         result = compile_sockets(mat, [(em.inputs["Color"], pg.TARGET_EMISSION, 0, 0)],
-                                 uv_maps=[u.name for u in plane.data.uv_layers])
+                                 uv_maps=[u.name for u in plane.data.uv_layers],
+                                 images=table, attributes=names)
         warnings += result.warnings
-        out.append((plane, result))
+        out.append((plane, result, table.images(), names.names))
     return out, warnings
 
 
@@ -132,26 +171,29 @@ def photon_map_image(planes, g, offset=(0.0, 0.0), compiled=None):
     else:
         warnings = []
     img = np.zeros((g * PIXELS, g * PIXELS, 3), np.float32)
-    for k, (plane, result) in enumerate(compiled):
+    for k, (plane, result, images, names) in enumerate(compiled):
         if result.program is None:
             values = np.tile(np.array(result.constant[0], np.float32), (PIXELS * PIXELS, 1))
         else:
-            values = evaluate(result.program, plane_inputs(plane, g, offset))
+            values = evaluate(result.program, plane_inputs(plane, g, offset, names), images)
         row, col = divmod(k, g)
         img[row * PIXELS:(row + 1) * PIXELS, col * PIXELS:(col + 1) * PIXELS] = \
             values.reshape(PIXELS, PIXELS, 3)
     return img, warnings
 
 
-def compare(specs, samples=4, jump=2e-2):
+def compare(specs, samples=4, jump=2e-2, setup=None):
     """Render the planes of ``specs`` ([(material name, build)], see ``layout``) by
     Cycles and Photon Map. Returns a dict: ``cycles``, ``ours`` (H, W, 3); ``error``
     (H, W): the worst channel's |difference| beyond our own value's variation within the
     filter's footprint (+-FILTER/2 pixel), over max(1, |cycles|); ``edge`` (H, W) bool where
     that variation exceeds ``jump`` (a discontinuity inside the footprint); ``loose_error``
     like ``error`` beyond the variation within +-OFF_CENTRE pixel; ``warnings``. Each
-    variation is the largest change of our value over a 5 x 5 grid of offsets."""
+    variation is the largest change of our value over a 5 x 5 grid of offsets.
+    ``setup(planes)``, if given, runs after the layout (object properties)."""
     scene, planes, g = layout(specs)
+    if setup is not None:
+        setup(planes)
     cycles = render_cycles(scene, samples)
     compiled, warnings = compile_planes(planes)
     ours, _ = photon_map_image(planes, g, compiled=compiled)

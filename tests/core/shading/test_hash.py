@@ -59,3 +59,10 @@ def test_pcg3d_is_signed_31_bit_and_matches_a_numpy_int32_twin():
     want = np.stack([x, y, z], 1) & np.int32(0x7FFFFFFF)
     got = np.array([h.hash_pcg3d(int(a), int(b), int(c)) for a, b, c in keys])
     np.testing.assert_array_equal(got, want)
+
+
+def test_hash_string_is_cycles_with_signed_chars():
+    assert h.hash_string("") == 0
+    assert h.hash_string("Ab") == 65 * 37 + 98
+    # "é" is C3 A9 in UTF-8; x86's signed char makes each byte 0xFFFFFF..
+    assert h.hash_string("é") == (0xFFFFFFC3 * 37 + 0xFFFFFFA9) % 2 ** 32
