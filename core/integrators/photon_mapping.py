@@ -148,8 +148,8 @@ def _photon_terms(ctx: _CameraPass, rows, pos, ngf, nsf, eps, mat, thr, pixel, s
     """Add T * (caustics) and T * (indirect) at the hits with a diffuse lobe
     (core/integrators/gather.py). albedo (N, 3): the (textured) diffuse albedo at the hits;
     d (N, 3) the arriving directions, texel (N, 3), front (N,), tab and crow (N,) (the hits'
-    closure rows, ``HitShader.closures_at``), tangent (N, 3) (``HitShader.tangents``): the BSDF where the diffuse-like lobes are not
-    Lambert (``gather.bsdf_terms``).
+    closure rows, ``HitShader.closures_at``), tangent (N, 3) (``HitShader.tangents``): the
+    BSDF where the diffuse-like lobes are not Lambert (``gather.bsdf_terms``).
     after_glossy (N,) bool: the path reached the hit through a rough lobe; with
     ``global_after_glossy(terms)`` the diffuse part's whole radiance there is the global
     map's estimate (direct and caustic photons included), added to indirect_target."""
