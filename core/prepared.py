@@ -165,14 +165,10 @@ class HitShader:
             np.ascontiguousarray(d, np.float64), self.extent)
         world = pos + self.origin
         obj = self.tri_object[prim]
-        to_obj = self.to_object[obj]
-        local = np.einsum("nij,nj->ni", to_obj[:, :3, :3], world) + to_obj[:, :3, 3]
+        local, generated = self._object_point(obj, world)
         # Normals to object space: n_obj ~ A^T n_world for a world normal inv(A)^T n_obj.
         onrm = np.einsum("nji,nj->ni", self.linear[obj], nsf)
         onrm /= np.maximum(np.linalg.norm(onrm, axis=1), 1e-30)[:, None]
-        loc, size = self.texspace[obj, 0], self.texspace[obj, 1]
-        safe = np.where(size != 0, 2.0 * size, 1.0)
-        generated = np.where(size != 0, (local - loc) / safe + 0.5, 0.5)
         w = (1.0 - u - v).astype(np.float64)
         uv = (w[:, None] * self.tri_uv[prim, 0] + u[:, None] * self.tri_uv[prim, 1]
               + v[:, None] * self.tri_uv[prim, 2])
@@ -193,6 +189,44 @@ class HitShader:
         c = self.tri_attributes[prim]  # (N, 3, A, 4)
         a = w[:, None, None] * c[:, 0] + u[:, None, None] * c[:, 1] + v[:, None, None] * c[:, 2]
         return np.ascontiguousarray(np.transpose(a, (1, 0, 2)), np.float32)
+
+    def _object_point(self, obj, world):
+        """Object-space positions (N, 3) and Generated coordinates (N, 3) float64 of world
+        points (N, 3) on objects obj (N,)."""
+        to_obj = self.to_object[obj]
+        local = np.einsum("nij,nj->ni", to_obj[:, :3, :3], world) + to_obj[:, :3, 3]
+        loc, size = self.texspace[obj, 0], self.texspace[obj, 1]
+        safe = np.where(size != 0, 2.0 * size, 1.0)
+        generated = np.where(size != 0, (local - loc) / safe + 0.5, 0.5)
+        return local, generated
+
+    def tangents(self, prim, pos, tab: closure.ClosureTable, rows) -> np.ndarray:
+        """(N, 3) float64 C-contiguous: the tangent each hit's BSDF frame starts from
+        (``closure.frame`` makes it orthogonal to the shading normal), for N hits on
+        triangles prim (N,) at render-frame positions pos (N, 3) metres whose rows (N,) of
+        ``tab`` are their closures (``closures_at``).
+
+        Where a row has an anisotropic closure (Glossy, Metallic or Principled with
+        Anisotropic > 0): Cycles' default for an unlinked Tangent input, the radial tangent
+        around the object's Z axis (svm_node_tangent, NODE_TANGENT_RADIAL, axis Z): from
+        Generated g, t = (-(g.y - 0.5), g.x - 0.5, 0) in object space, taken to world space
+        as Cycles does (``object_normal_transform``: inv(A)^T t). Elsewhere the direction
+        does not change the BSDF and every hit gets ``closure.DEFAULT_TANGENT``, so
+        isotropic scenes sample exactly as before. On the object's Z axis the radial
+        tangent is 0 and ``closure.frame`` falls back to another axis."""
+        n = prim.shape[0]
+        out = closure.default_tangents(n)
+        if n == 0:
+            return out
+        aniso = closure.anisotropic_rows(tab)
+        sel = np.flatnonzero(aniso[rows])
+        if sel.size == 0:
+            return out
+        obj = self.tri_object[prim[sel]]
+        _, g = self._object_point(obj, np.asarray(pos, np.float64)[sel] + self.origin)
+        t_obj = np.stack([-(g[:, 1] - 0.5), g[:, 0] - 0.5, np.zeros(sel.size)], axis=1)
+        out[sel] = np.einsum("nji,nj->ni", self.to_object[obj][:, :3, :3], t_obj)
+        return out
 
     def closures_at(self, prim, u, v, d, mat) -> tuple[closure.ClosureTable, np.ndarray]:
         """(tab, rows) for N hits (class doc): prim, u, v, d as for ``inputs``, mat (N,)

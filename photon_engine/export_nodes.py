@@ -269,11 +269,12 @@ class NodeReader:
     def ignored_links(self, node, *names):
         """Report each input among ``names`` that is linked but not read: normal and
         tangent inputs (Normal Map, Bump, Tangent nodes) wait for the shader-graph issue;
-        the mesh's shading normal and the default tangent are used."""
+        the mesh's shading normal and Cycles' default tangent (radial about the object's Z
+        axis, core ``HitShader.tangents``) are used."""
         for name in names:
             sock = node.inputs.get(name)
             if sock is not None and sock.is_linked and follow_reroutes(sock) is not None:
-                what = "the shading normal" if "Normal" in name else "the default tangent"
+                what = "the shading normal" if "Normal" in name else "the radial tangent"
                 self.note_node(node, f'input "{name}" is linked; normal and tangent inputs '
                                      f'are not supported yet, using {what}')
 

@@ -39,8 +39,6 @@ from ..scene import camera, geometry
 from ..scene.contract import Camera
 from . import denoise_features, direct
 
-TANGENT = closure.DEFAULT_TANGENT
-"""The unit tangent given to the BSDF (the mesh carries no tangents yet)."""
 
 DIM_JITTER = sampling.stream(sampling.PIXEL_JITTER, sampling.PROGRESSIVE)
 """The random dimension of the progressive camera rays' pixel jitter."""
@@ -127,8 +125,8 @@ def follow_delta(materials: dict, pos, ngf, nsf, d, front, mat, eps, u_lobe, u_p
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
-def _continue_kernel(tab, pos, ngf, nsf, d, front, mat, eps, texel, thr, lam, u_lobe, u1, u2,
-                     u_rr, new_o, new_d, new_thr, new_pdf, transmitted, delta, ok):
+def _continue_kernel(tab, pos, ngf, nsf, tan, d, front, mat, eps, texel, thr, lam, u_lobe, u1,
+                     u2, u_rr, new_o, new_d, new_thr, new_pdf, transmitted, delta, ok):
     """One BSDF sample per hit (``closure.sample_bsdf``) and the next ray of the path.
 
     lam (K,) float64: each path's wavelength in nm (0: RGB, ``pick_wavelengths``), at
@@ -151,7 +149,7 @@ def _continue_kernel(tab, pos, ngf, nsf, d, front, mat, eps, texel, thr, lam, u_
         ix, iy, iz, w0, w1, w2, pdf, flags = closure.sample_bsdf(
             tab, m, texel[i, 0], texel[i, 1], texel[i, 2], wox, woy, woz,
             nsf[i, 0], nsf[i, 1], nsf[i, 2], ngf[i, 0], ngf[i, 1], ngf[i, 2],
-            TANGENT[0], TANGENT[1], TANGENT[2], front[i],
+            tan[i, 0], tan[i, 1], tan[i, 2], front[i],
             u_lobe[i], u1[i], u2[i], li)
         if flags == 0:
             continue
@@ -162,7 +160,7 @@ def _continue_kernel(tab, pos, ngf, nsf, d, front, mat, eps, texel, thr, lam, u_
             _, _, _, g0, g1, g2, _ = closure.eval_parts(
                 tab, m, texel[i, 0], texel[i, 1], texel[i, 2], wox, woy, woz, ix, iy, iz,
                 nsf[i, 0], nsf[i, 1], nsf[i, 2], ngf[i, 0], ngf[i, 1], ngf[i, 2],
-                TANGENT[0], TANGENT[1], TANGENT[2], front[i], False, li)
+                tan[i, 0], tan[i, 1], tan[i, 2], front[i], False, li)
             q = direct.continue_probability(f0, f1, f2, g0, g1, g2)
             if not u_rr[i] < q:
                 continue
@@ -207,7 +205,7 @@ def pick_wavelengths(tab, mat, u_lam, lam, thr) -> None:
 
 
 def follow_bsdf(prepared: PreparedScene, pos, ngf, nsf, d, front, mat, eps, texel, thr, lam,
-                u_lobe, u1, u2, u_rr, closures=None):
+                u_lobe, u1, u2, u_rr, closures=None, tangent=None):
     """Continue K paths through one sampled lobe each (``_continue_kernel``): mirrors,
     glass, and the glossy part of rough lobes, the same sampler photons scatter by.
 
@@ -219,13 +217,16 @@ def follow_bsdf(prepared: PreparedScene, pos, ngf, nsf, d, front, mat, eps, texe
     (J,) indices into the K, then (J, 3) x 3, (J,) bool, (J,) float64 the solid-angle pdf
     of the direction for MIS (0 after a delta lobe), (J,) bool a delta lobe was followed,
     (J,) float64 nm the wavelength each carries on. closures: the ClosureTable ``mat``
-    indexes (None: the prepared one; ``HitShader.closures_at``).
+    indexes (None: the prepared one; ``HitShader.closures_at``); tangent (K, 3) float64
+    the BSDF frames' tangents (``HitShader.tangents``; None: the default tangent).
     """
     k = pos.shape[0]
     new_o, new_d, new_thr = np.empty((k, 3)), np.empty((k, 3)), np.empty((k, 3))
     new_pdf, new_tr, delta, ok = np.empty(k), np.empty(k, bool), np.empty(k, bool), np.empty(k, bool)
     tab = prepared.closures if closures is None else closures
-    _continue_kernel(tab, pos, ngf, nsf, d, front, mat, eps, texel, thr, lam, u_lobe,
+    tan = (closure.default_tangents(k) if tangent is None
+           else np.ascontiguousarray(tangent, np.float64))
+    _continue_kernel(tab, pos, ngf, nsf, tan, d, front, mat, eps, texel, thr, lam, u_lobe,
                      u1, u2, u_rr, new_o, new_d, new_thr, new_pdf, new_tr, delta, ok)
     keep = np.flatnonzero(ok)
     return (keep, new_o[keep], new_d[keep], new_thr[keep], new_tr[keep], new_pdf[keep],
@@ -266,12 +267,13 @@ def world_weight(bsdf_pdf, prev_ns, d, light_samples: int):
 
 @njit(cache=True, parallel=True, error_model="numpy")
 def _path_kernel(pos, d, ng, ns, mat, eps, thr, u_vp, u_lobe, u_pick, albedo, specular, alpha,
-                 transmission, ior, tab, sampled, texel, vp, new_o, new_d, new_thr, go_on,
+                 transmission, ior, tab, tan, sampled, texel, vp, new_o, new_d, new_thr, go_on,
                  transmitted):
     """At each hit: stop at the diffuse lobe (vp) or follow one delta lobe (go_on).
     albedo (N, 3): the (textured) diffuse albedo at each hit. Materials with
     sampled[m] (rough glossy lobes and no diffuse one: no photon is stored there, so no
-    visible point) go on through one lobe of ``closure.sample_bsdf`` (tab, texel (N, 3)),
+    visible point) go on through one lobe of ``closure.sample_bsdf`` (tab, tan (N, 3) the
+    frames' tangents, texel (N, 3)),
     weight f |cos| / pdf: the lights, emission and world the path meets count in full
     (no shadow rays are cast from such a hit).
 
@@ -293,7 +295,7 @@ def _path_kernel(pos, d, ng, ns, mat, eps, thr, u_vp, u_lobe, u_pick, albedo, sp
         if sampled[m]:
             ox, oy, oz, w0, w1, w2, pdf, flags = closure.sample_bsdf(
                 tab, m, texel[i, 0], texel[i, 1], texel[i, 2], -dx, -dy, -dz, sx, sy, sz,
-                gx, gy, gz, TANGENT[0], TANGENT[1], TANGENT[2], entering,
+                gx, gy, gz, tan[i, 0], tan[i, 1], tan[i, 2], entering,
                 u_lobe[i], u_pick[i], u_vp[i])
             t0, t1, t2 = thr[i, 0] * w0, thr[i, 1] * w1, thr[i, 2] * w2
             if flags == 0 or not (t0 > 0.0 or t1 > 0.0 or t2 > 0.0):
@@ -433,7 +435,10 @@ def visible_points(prepared: PreparedScene, cam: Camera, seed: int, k: int, max_
         texel = prepared.texels.albedo(hits.prim[h], hits.u[h], hits.v[h], sp.material)
         _path_kernel(sp.position, d, ng, ns, sp.material, sp.eps, thr, u_vp, u_lobe, u_pick,
                      albedo, mats["specular"], mats["alpha"], mats["transmission"],
-                     mats["ior"], prepared.closures, prepared.sampled_only, texel, vp, new_o,
+                     mats["ior"], prepared.closures,
+                     prepared.hit_shader.tangents(hits.prim[h], sp.position, prepared.closures,
+                                                  sp.material),
+                     prepared.sampled_only, texel, vp, new_o,
                      new_d, new_thr, go_on, new_tr)
         if features is not None:  # ns now faces the ray, as the shading normal does there
             features.surface(rows, albedo, mats["specular"][sp.material],

@@ -36,16 +36,14 @@ from ..scene.accel import Accelerator
 from ..prepared import PreparedScene
 from ..settings import RenderSettings
 
-TANGENT = closure.DEFAULT_TANGENT
-"""The unit tangent given to the BSDF (the mesh carries no tangents yet)."""
-
 SOURCE_LIGHT, SOURCE_TRIANGLES, SOURCE_WORLD = 0, 1, 2
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
 def _shade_kernel(source, q, tris_cdf, tris_prob, tris_v0, tris_e1, tris_e2, tris_n, tris_area,
-                  tris_rad, world, tab, pos, ngf, nsf, d, front, mat, eps, thr, texel, diffuse_on, mis,
-                  lam, pixel, sample, seed, dim, pick_dim, k, k_count, bits, use_diffuse,
+                  tris_rad, world, tab, pos, ngf, nsf, tan, d, front, mat, eps, thr, texel,
+                  diffuse_on, mis, lam, pixel, sample, seed, dim, pick_dim, k, k_count, bits,
+                  use_diffuse,
                   use_glossy, extent, contrib, sh_o, sh_d, sh_t, need):
     """One light sample per point: unshadowed contribution f |cos| L / pdf / k_count and
     the shadow ray that decides it (need[i]). Light samples are stratified over the
@@ -94,7 +92,7 @@ def _shade_kernel(source, q, tris_cdf, tris_prob, tris_v0, tris_e1, tris_e2, tri
         d0, d1, d2, g0, g1, g2, pb = closure.eval_parts(
             tab, m, texel[i, 0], texel[i, 1], texel[i, 2], wox, woy, woz, wx, wy, wz,
             nsf[i, 0], nsf[i, 1], nsf[i, 2], ngf[i, 0], ngf[i, 1], ngf[i, 2],
-            TANGENT[0], TANGENT[1], TANGENT[2], front[i], False, lam[i])
+            tan[i, 0], tan[i, 1], tan[i, 2], front[i], False, lam[i])
         f0, f1, f2 = d0 + g0, d1 + g1, d2 + g2
         if f0 <= 0.0 and f1 <= 0.0 and f2 <= 0.0:
             continue
@@ -211,7 +209,9 @@ class ShadingPoints(NamedTuple):
     normal (a dielectric's eta for the transmitted light; None: from the front);
     closures: the ClosureTable ``material`` indexes (``HitShader.closures_at``'s per-batch
     table, whose rows past the materials are programmed hits; None: the prepared one);
-    wavelength (N,) float64 nm, the paths' wavelengths (0 or None: RGB; docs/dispersion.md)."""
+    wavelength (N,) float64 nm, the paths' wavelengths (0 or None: RGB; docs/dispersion.md);
+    tangent (N, 3) float64: the BSDF frame's tangent (``HitShader.tangents``; None:
+    ``closure.DEFAULT_TANGENT`` everywhere)."""
 
     position: np.ndarray
     ng: np.ndarray
@@ -228,6 +228,7 @@ class ShadingPoints(NamedTuple):
     front: np.ndarray | None = None
     closures: tuple | None = None
     wavelength: np.ndarray | None = None
+    tangent: np.ndarray | None = None
 
 
 def prepare(settings: RenderSettings, prepared: PreparedScene, samples: int,
@@ -271,6 +272,8 @@ def shade(ctx: DirectLighting, hit: ShadingPoints, pixel, sample, depth, target)
     mis = np.zeros(n, bool) if hit.mis is None else hit.mis
     front = np.ones(n, bool) if hit.front is None else hit.front
     lam = np.zeros(n) if hit.wavelength is None else hit.wavelength
+    tangent = (closure.default_tangents(n) if hit.tangent is None
+               else np.ascontiguousarray(hit.tangent, np.float64))
     contrib = np.empty((n, 3))
     sh_o = np.empty((n, 3), np.float32)
     sh_d = np.empty((n, 3), np.float32)
@@ -294,7 +297,8 @@ def shade(ctx: DirectLighting, hit: ShadingPoints, pixel, sample, depth, target)
             _shade_kernel(source, q, tris.cdf, tris.probability, tris.v0, tris.e1, tris.e2,
                           tris.normal, tris.area, tris.radiance, ctx.world,
                           ctx.closures if hit.closures is None else hit.closures,
-                          hit.position, hit.ng, hit.ns, hit.direction, front, hit.material,
+                          hit.position, hit.ng, hit.ns, tangent, hit.direction, front,
+                          hit.material,
                           hit.eps,
                           hit.throughput, texel, diffuse_on, mis, lam, pixel, sample,
                           ctx.seed, dim, sampling.stream(sampling.LIGHT_PICK, depth, k),

@@ -52,8 +52,6 @@ from ..materials import closure
 from ..photons.estimate import BsdfHits, radiance_estimate, radiance_estimate_sides
 from ..photons.photon_map import PhotonMap
 
-TANGENT = closure.DEFAULT_TANGENT
-"""The unit tangent given to the BSDF (the mesh carries no tangents yet)."""
 
 CACHE_FRACTION = 0.25
 """Most radiance-cache points per stored global photon (Christensen's precomputation)."""
@@ -290,10 +288,12 @@ BACK_SHARE = 0.5
 """Share of a point's gather rays sent to the far side where a diffuse-like lobe transmits."""
 
 
-def bsdf_terms(terms: PhotonTerms, closures, rows, mat, closure_rows, texel, d, nsf, front):
+def bsdf_terms(terms: PhotonTerms, closures, rows, mat, closure_rows, texel, d, nsf, front,
+               tangent=None):
     """Split the diffuse hits ``rows`` (indices into mat (N,) their materials, closure_rows
     (N,) int32 their rows of ``closures`` (``HitShader.closures_at``), texel (N, 3), d (N, 3)
-    the arriving directions, nsf (N, 3), front (N,)) into those with Lambert diffuse lobes
+    the arriving directions, nsf (N, 3), front (N,), tangent (N, 3) or None, as
+    ``BsdfHits.tangent``) into those with Lambert diffuse lobes
     (the albedo path) and the others: (lambert rows, BSDF rows, BsdfHits of the BSDF rows
     or None when there are none)."""
     if terms.bsdf_materials is None:
@@ -303,7 +303,8 @@ def bsdf_terms(terms: PhotonTerms, closures, rows, mat, closure_rows, texel, d, 
         return rows, rows[:0], None
     br = rows[b]
     hits = BsdfHits(closures, closure_rows[br].astype(np.int32), texel[br], -d[br], nsf[br],
-                    front[br], terms.back_share[mat[br]])
+                    front[br], terms.back_share[mat[br]],
+                    None if tangent is None else tangent[br])
     return rows[~b], br, hits
 
 
@@ -330,7 +331,7 @@ def preview(terms: PhotonTerms, pos, ngf, albedo, bsdf: BsdfHits | None = None) 
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
-def _bsdf_gather_rays_kernel(tab, mat, texel, wo, front, pos, ngf, nsf, eps, back, g, u1, u2,
+def _bsdf_gather_rays_kernel(tab, mat, texel, wo, tan, front, pos, ngf, nsf, eps, back, g, u1, u2,
                              o, d, weight, ok):
     """g gather rays per point i (rays i g .. i g + g - 1), cosine-distributed about the
     shading normal, about its opposite with probability back[i]; weight (RGB) f_d |cos| /
@@ -339,8 +340,8 @@ def _bsdf_gather_rays_kernel(tab, mat, texel, wo, front, pos, ngf, nsf, eps, bac
     for i in prange(pos.shape[0]):
         L, F = closure.hit_lobes(tab, mat[i], texel[i, 0], texel[i, 1], texel[i, 2],
                                  wo[i, 0], wo[i, 1], wo[i, 2], nsf[i, 0], nsf[i, 1], nsf[i, 2],
-                                 ngf[i, 0], ngf[i, 1], ngf[i, 2], TANGENT[0], TANGENT[1],
-                                 TANGENT[2], front[i])
+                                 ngf[i, 0], ngf[i, 1], ngf[i, 2], tan[i, 0], tan[i, 1],
+                                 tan[i, 2], front[i])
         pb = back[i]
         for j in range(g):
             r = i * g + j
@@ -433,7 +434,8 @@ def _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sa
         weight = np.empty((m, 3))
         back = bsdf.back_share
         _bsdf_gather_rays_kernel(bsdf.closures, bsdf.material, np.ascontiguousarray(bsdf.texel),
-                                 np.ascontiguousarray(bsdf.outgoing), bsdf.front, pos, ngf, nsf,
+                                 np.ascontiguousarray(bsdf.outgoing), bsdf.tangents(),
+                                 bsdf.front, pos, ngf, nsf,
                                  eps, back, g, u1, u2, o, d, weight, ok)
     radiance = np.zeros((m, 3))
     rows = np.flatnonzero(ok)
@@ -465,7 +467,9 @@ def _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sa
                 texel = prepared.texels.albedo(hits.prim[hd], hits.u[hd], hits.v[hd], mat[bd])
                 tab, crow = prepared.hit_shader.closures_at(hits.prim[hd], hits.u[hd],
                                                             hits.v[hd], d[bd], mat[bd])
-                hb = BsdfHits(tab, crow.astype(np.int32), texel, -d[bd], s2[bd], front[bd])
+                tan = prepared.hit_shader.tangents(hits.prim[hd], p2[bd], tab, crow)
+                hb = BsdfHits(tab, crow.astype(np.int32), texel, -d[bd], s2[bd], front[bd],
+                              tangent=tan)
                 est = radiance_estimate(terms.global_map, p2[bd], n2[bd], None, terms.global_k,
                                         terms.global_radius, terms.filter, bsdf=hb)
                 radiance[rows[bd]] += thr[bd] * est

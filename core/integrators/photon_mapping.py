@@ -144,12 +144,12 @@ def _add(acc, rows, values):
 
 def _photon_terms(ctx: _CameraPass, rows, pos, ngf, nsf, eps, mat, thr, pixel, sample, depth,
                   caustic_target, indirect_target, albedo, after_glossy, d, texel, front,
-                  tab, crow):
+                  tab, crow, tangent):
     """Add T * (caustics) and T * (indirect) at the hits with a diffuse lobe
     (core/integrators/gather.py). albedo (N, 3): the (textured) diffuse albedo at the hits;
     d (N, 3) the arriving directions, texel (N, 3), front (N,), tab and crow (N,) (the hits'
-    closure rows, ``HitShader.closures_at``): the BSDF where the diffuse-like lobes are not
-    Lambert (``gather.bsdf_terms``).
+    closure rows, ``HitShader.closures_at``), tangent (N, 3) (``HitShader.tangents``): the
+    BSDF where the diffuse-like lobes are not Lambert (``gather.bsdf_terms``).
     after_glossy (N,) bool: the path reached the hit through a rough lobe; with
     ``global_after_glossy(terms)`` the diffuse part's whole radiance there is the global
     map's estimate (direct and caustic photons included), added to indirect_target."""
@@ -171,7 +171,7 @@ def _photon_terms(ctx: _CameraPass, rows, pos, ngf, nsf, eps, mat, thr, pixel, s
         sel = sel[~blur]
         if sel.size == 0:
             return
-    sel, bs, hb = gather.bsdf_terms(terms, tab, sel, mat, crow, texel, d, nsf, front)
+    sel, bs, hb = gather.bsdf_terms(terms, tab, sel, mat, crow, texel, d, nsf, front, tangent)
     if hb is not None:
         r = rows[bs]
         if terms.caustic_map is not None:
@@ -324,6 +324,7 @@ def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> dict[str, np.ndarray]:
                                          sampling.stream(sampling.CAMERA_WAVELENGTH, depth))[1]
             thr = np.array(thr)  # the hits' own copy (thr[h] may be a view)
             camera_paths.pick_wavelengths(tab, crow, u_lam, lam, thr)
+        tangent = pr.hit_shader.tangents(prim, pos, tab, crow)
         emission = mats["emission"][mat]
         if pr.emissive.count and np.any(prev_pdf > 0):
             emission = emission * camera_paths.emission_weight(
@@ -344,7 +345,8 @@ def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> dict[str, np.ndarray]:
             mis = np.full(r.shape[0], not last)
             points = direct.ShadingPoints(pos[sel], ngf[sel], nsf[sel], d[sel], crow[sel],
                                           eps[sel], thr[sel], albedo[sel], r, texel[sel],
-                                          diffuse_on, mis, front[sel], tab, lam[sel])
+                                          diffuse_on, mis, front[sel], tab, lam[sel],
+                                          tangent[sel])
             direct.shade(ctx.direct, points, pixel[r], sample[r], depth,
                          acc["direct"] if first else acc["specular"])
 
@@ -353,7 +355,7 @@ def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> dict[str, np.ndarray]:
             _photon_terms(ctx, rows, pos, ngf, nsf, eps, mat, thr, pixel, sample, depth,
                           acc["caustics"] if first else acc["specular"],
                           acc["indirect"] if first else acc["specular"], albedo, glossy, d,
-                          texel, front, tab, crow)
+                          texel, front, tab, crow, tangent)
 
         # Continue through one sampled lobe: mirrors, glass, the glossy part of rough lobes
         if last:
@@ -373,7 +375,7 @@ def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> dict[str, np.ndarray]:
         # order of the pixel jitter's, which correlates a pixel's samples (noisier glass).
         keep, origins, dirs, thr, transmitted, prev_pdf, was_delta, lam = camera_paths.follow_bsdf(
             pr, pos[sd], ngf[sd], nsf[sd], d[sd], front[sd], crow[sd], eps[sd], texel[sd],
-            thr[sd], lam[sd], u2, u1, u3, u_rr, closures=tab)
+            thr[sd], lam[sd], u2, u1, u3, u_rr, closures=tab, tangent=tangent[sd])
         prev_ns = nsf[sd][keep]
         glossy = glossy[sd][keep] | ~was_delta
         if ctx.volume is not None:  # entering a dielectric at its front face, leaving at its back

@@ -368,7 +368,8 @@ class PassRenderer:
                 points = direct_light.ShadingPoints(
                     vps.position, vps.ng, vps.ns, -vps.wo, rows, vps.eps, vps.weight,
                     vps.albedo, vps.pixel, texel=vps.texel if programmed else None,
-                    closures=tab)
+                    closures=tab,
+                    tangent=prepared.hit_shader.tangents(vps.prim, vps.position, tab, rows))
                 before = int(self.shadow_rays.stats.get("rays_shadow", 0))
                 direct_light.shade(self.shadow_rays, points, vps.pixel,
                                    np.full(vps.pixel.size, k, np.int64), 0, image)

@@ -68,6 +68,14 @@ DEFAULT_TANGENT = (1.0, 0.0, 0.0)
 """A tangent for meshes without one: ``frame`` makes it orthogonal to ns (and falls back to
 another axis when it is parallel)."""
 
+
+def default_tangents(n: int) -> np.ndarray:
+    """(n, 3) float64 C-contiguous rows of DEFAULT_TANGENT (the tangents of hits whose
+    BSDF is isotropic)."""
+    out = np.empty((n, 3))
+    out[:] = DEFAULT_TANGENT
+    return out
+
 CUTOFF = 1e-5  # Cycles' CLOSURE_WEIGHT_CUTOFF: a layer weighted less is skipped
 
 
@@ -621,6 +629,19 @@ def lobe_presence(tab, m):
 
 LOBE_MASKS = ("diffuse", "rough", "delta", "transmits", "non_lambert", "diffuse_transmits")
 """The keys of ``lobe_masks``, in ``lobe_presence``'s order."""
+
+
+def anisotropic_rows(tab: ClosureTable) -> np.ndarray:
+    """(R,) bool per row of ``tab.first``: the row has a closure whose lobes depend on the
+    tangent, by the tests ``hit_lobes`` makes (Glossy with |ANISOTROPIC| > 1e-4, Metallic
+    or Principled with ANISOTROPIC > 0; every other lobe is isotropic about the shading
+    normal)."""
+    an = tab.params[:, cl.ANISOTROPIC]
+    flag = (((tab.kind == cl.CLOSURE_GLOSSY) & (np.abs(an) > 1e-4))
+            | (np.isin(tab.kind, (cl.CLOSURE_METALLIC, cl.CLOSURE_PRINCIPLED)) & (an > 0.0)))
+    before = np.concatenate([[0], np.cumsum(flag)])
+    first = tab.first.astype(np.int64)
+    return before[first + tab.count] - before[first] > 0
 
 
 def lobe_masks(tab: ClosureTable) -> dict[str, np.ndarray]:

@@ -336,6 +336,8 @@ class BsdfHits(NamedTuple):
     material is the row of ``closures`` (a shader program's hits have rows of their own past
     the materials', ``HitShader.closures_at``). back_share (M,) float64: the share of final
     gathering's rays sent to the far side (None where no final gathering starts there).
+    tangent (M, 3) float64: the BSDF frame's tangent (``HitShader.tangents``; None:
+    ``closure.DEFAULT_TANGENT``).
     """
 
     closures: closure.ClosureTable
@@ -345,21 +347,25 @@ class BsdfHits(NamedTuple):
     shading_normal: np.ndarray
     front: np.ndarray
     back_share: np.ndarray | None = None
+    tangent: np.ndarray | None = None
+
+    def tangents(self) -> np.ndarray:
+        """(M, 3) float64 C-contiguous: ``tangent``, or the default tangent where None."""
+        if self.tangent is None:
+            return closure.default_tangents(self.material.shape[0])
+        return np.ascontiguousarray(self.tangent, np.float64)
 
     def take(self, rows) -> "BsdfHits":
         """The hits ``rows`` (an index array or slice)."""
         return BsdfHits(self.closures, self.material[rows], self.texel[rows],
                         self.outgoing[rows], self.shading_normal[rows], self.front[rows],
-                        None if self.back_share is None else self.back_share[rows])
-
-
-TANGENT = closure.DEFAULT_TANGENT
-"""The unit tangent given to the BSDF (the mesh carries no tangents yet)."""
+                        None if self.back_share is None else self.back_share[rows],
+                        None if self.tangent is None else self.tangent[rows])
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
 def _bsdf_estimate_kernel(tree, flux_codes, inv_scale, direction_codes, idx, dist2, points,
-                          normals, tab, mat, texel, wo, ns, front, max_r2, kind, k_cone,
+                          normals, tab, mat, texel, wo, ns, tan, front, max_r2, kind, k_cone,
                           plane_fraction, out):
     """out[i] = sum_p f_d(wo_i, w_p) w_p Phi_p (W/(m^2 sr)) over the gathered photons of
     both sides of normals[i] (the geometric normal facing the viewer), in the order of the
@@ -379,7 +385,7 @@ def _bsdf_estimate_kernel(tree, flux_codes, inv_scale, direction_codes, idx, dis
         n0, n1, n2 = unit_row(normals, i)
         L, F = closure.hit_lobes(tab, mat[i], texel[i, 0], texel[i, 1], texel[i, 2],
                                  wo[i, 0], wo[i, 1], wo[i, 2], ns[i, 0], ns[i, 1], ns[i, 2],
-                                 n0, n1, n2, TANGENT[0], TANGENT[1], TANGENT[2], front[i])
+                                 n0, n1, n2, tan[i, 0], tan[i, 1], tan[i, 2], front[i])
         if L.shape[0] == 0:
             continue
         px, py, pz = np.float32(points[i, 0]), np.float32(points[i, 1]), np.float32(points[i, 2])
@@ -431,17 +437,17 @@ def radiance_estimate(photon_map: PhotonMap, points: np.ndarray, normals: np.nda
     r2 = squared_radius(max_radius)
     points32 = np.ascontiguousarray(points, np.float32)
     arrays = [np.ascontiguousarray(a, np.float64) for a in
-              (normals, bsdf.texel, bsdf.outgoing, bsdf.shading_normal)]
+              (normals, bsdf.texel, bsdf.outgoing, bsdf.shading_normal)] + [bsdf.tangents()]
     mat = np.ascontiguousarray(bsdf.material, np.int32)
     front = np.ascontiguousarray(bsdf.front, np.bool_)
     bad = 0
     for lo in range(0, m, QUERY_CHUNK):
         hi = min(m, lo + QUERY_CHUNK)
         idx, dist2 = photon_map.nearest(points32[lo:hi], k, max_radius)
-        nrm, texel, wo, ns = (a[lo:hi] for a in arrays)
+        nrm, texel, wo, ns, tan = (a[lo:hi] for a in arrays)
         bad += _bsdf_estimate_kernel(tree, flux_codes, 1.0 / scale, direction_codes, idx, dist2,
                                      points32[lo:hi], nrm, bsdf.closures, mat[lo:hi], texel,
-                                     wo, ns, front[lo:hi], r2, FILTERS[filter], CONE_K,
+                                     wo, ns, tan, front[lo:hi], r2, FILTERS[filter], CONE_K,
                                      float(plane_fraction), out[lo:hi])
     _raise_degenerate(bad)
     return out

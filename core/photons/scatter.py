@@ -50,8 +50,9 @@ from .. import spectral
 
 from .store import MODE_CAUSTIC, stores
 
-TANGENT = closure.DEFAULT_TANGENT
-"""The unit tangent given to the BSDF (the mesh carries no tangents yet)."""
+DEFAULT_TANGENT = closure.DEFAULT_TANGENT
+"""The tangent of photons without one (``scatter_kernel``'s tan of shape (0, 3))."""
+
 # Photons per parallel task of scatter_kernel.
 _BLOCK = 4096
 
@@ -63,8 +64,8 @@ def _max3(a, b, c):
 
 @njit(cache=True, error_model="numpy")
 def _scatter_range(tri_v, tri_n, tri_mat, extent, tab, has_diffuse, has_specular, texel, rows,
-                   opacity, prim, hu, hv, d, flux, pid, n_diff, n_spec, lam, seed, dims, bounce,
-                   mode, store_rule, last,
+                   tan, opacity, prim, hu, hv, d, flux, pid, n_diff, n_spec, lam, seed, dims,
+                   bounce, mode, store_rule, last,
                    store, s_pos, s_flux, s_dir, alive, o_new, d_new, f_new, lo, hi):
     """Photons [lo, hi) of scatter_kernel, as a plain serial loop: numba compiles it
     about twice as fast as the same body inside a prange loop."""
@@ -133,9 +134,13 @@ def _scatter_range(tri_v, tri_n, tri_mat, extent, tab, has_diffuse, has_specular
         u_lobe = sampling.hash_uniform(seed, pid[i], bounce, dims[3])
         # The bounce: the camera paths' sampler (one per lobe), wo towards where the
         # photon came from.
+        if tan.shape[0]:
+            tx, ty, tz = tan[i, 0], tan[i, 1], tan[i, 2]
+        else:
+            tx, ty, tz = DEFAULT_TANGENT
         ox, oy, oz, w0, w1, w2, pdf, flags = closure.sample_bsdf(
             tab, row, c0, c1, c2, -dx, -dy, -dz, sx, sy, sz, gx, gy, gz,
-            TANGENT[0], TANGENT[1], TANGENT[2], entering, u_lobe, u1, u2, li)
+            tx, ty, tz, entering, u_lobe, u1, u2, li)
         if flags == 0:
             continue  # absorbed: no direction
         if flags & closure.LOBE_DIFFUSE:
@@ -167,8 +172,8 @@ def _scatter_range(tri_v, tri_n, tri_mat, extent, tab, has_diffuse, has_specular
 
 @njit(cache=True, parallel=True, error_model="numpy")
 def scatter_kernel(tri_v, tri_n, tri_mat, extent, tab, has_diffuse, has_specular, texel, rows,
-                   opacity, prim, hu, hv, d, flux, pid, n_diff, n_spec, lam, seed, dims, bounce,
-                   mode, store_rule, last,
+                   tan, opacity, prim, hu, hv, d, flux, pid, n_diff, n_spec, lam, seed, dims,
+                   bounce, mode, store_rule, last,
                    store, s_pos, s_flux, s_dir, alive, o_new, d_new, f_new):
     """Store and scatter one wavefront of N photons (see the module doc).
 
@@ -178,7 +183,9 @@ def scatter_kernel(tri_v, tri_n, tri_mat, extent, tab, has_diffuse, has_specular
     colour per photon, or (0, 3) for none; opacity (N,) float64 per photon, or (0,) for
     none (textures.SurfaceTextures.photon_albedo / photon_opacity); rows (N,) int32 each
     photon's material row in tab (``HitShader.closures_at``: programmed hits), or (0,)
-    for the triangles' materials; prim (N,) int32 (-1 =
+    for the triangles' materials; tan (N, 3) float64 the BSDF frames' tangents
+    (``HitShader.tangents``), or (0, 3) for ``closure.DEFAULT_TANGENT`` everywhere;
+    prim (N,) int32 (-1 =
     missed), hu, hv (N,) float32 barycentrics, d (N, 3) float32 unit directions of travel,
     flux (N, 3) float64 W, pid (N,) int64 photon ids (random counters), n_diff / n_spec
     (N,) int32 bounces so far, lam (N,) float64 each photon's wavelength in nm, 0 for RGB
@@ -193,7 +200,7 @@ def scatter_kernel(tri_v, tri_n, tri_mat, extent, tab, has_diffuse, has_specular
     blocks = (n + _BLOCK - 1) // _BLOCK
     for b in prange(blocks):
         _scatter_range(tri_v, tri_n, tri_mat, extent, tab, has_diffuse, has_specular, texel, rows,
-                       opacity, prim, hu, hv, d, flux, pid, n_diff, n_spec, lam, seed, dims,
+                       tan, opacity, prim, hu, hv, d, flux, pid, n_diff, n_spec, lam, seed, dims,
                        bounce, mode, store_rule, last, store, s_pos, s_flux, s_dir, alive, o_new,
                        d_new, f_new, b * _BLOCK, min(n, (b + 1) * _BLOCK))
 

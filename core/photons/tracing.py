@@ -35,6 +35,7 @@ from typing import Callable
 import numpy as np
 
 from .. import sampling
+from ..materials import closure
 from ..color import luminance
 from ..lights.light_set import LightSet
 from ..passes import ProgressFn, StopFn
@@ -155,11 +156,12 @@ def _trace_chunk(prepared: PreparedScene, em: emission.Emitted, pid: np.ndarray,
                 medium, hits, o, d, f, pid, n_diff, n_spec, seed, map_id, bounce, mode,
                 bounce == max_bounces)
         tab, rows = photon_closures(prepared, prim, hits.u, hits.v, d)
+        tan = photon_tangents(prepared, prim, hits.u, hits.v, tab, rows)
         scatter.scatter_kernel(prepared.tri_vertices, prepared.tri_normals, prepared.tri_material,
                                prepared.extent, tab, prepared.has_diffuse,
                                prepared.specular_material,
                                prepared.texels.photon_albedo(prim, hits.u, hits.v), rows,
-                               surf.photon_opacity(prim, hits.u, hits.v),
+                               tan, surf.photon_opacity(prim, hits.u, hits.v),
                                prim, hits.u, hits.v, d, f, pid, n_diff, n_spec, lam,
                                np.int64(seed), dims, np.int64(bounce), mode,
                                np.int64(store_rule), bounce == max_bounces, s_flag, s_pos,
@@ -190,6 +192,22 @@ def photon_closures(prepared, prim, u, v, d):
     rows = np.full(prim.shape[0], -1, np.int32)
     rows[got] = r
     return tab, rows
+
+
+def photon_tangents(prepared, prim, u, v, tab, rows) -> np.ndarray:
+    """The BSDF frames' tangents of a photon wavefront (``HitShader.tangents``; prim, u, v
+    as for ``photon_closures``, (tab, rows) what it returned): (N, 3) float64, or (0, 3)
+    when no photon met an anisotropic closure (the kernel's default tangent)."""
+    if not closure.anisotropic_rows(tab).any():
+        return np.zeros((0, 3))
+    got = np.flatnonzero(prim >= 0)
+    hit_rows = rows[got] if rows.shape[0] else prepared.tri_material[prim[got]]
+    tri = prepared.tri_vertices[prim[got]].astype(np.float64)
+    b1, b2 = u[got].astype(np.float64)[:, None], v[got].astype(np.float64)[:, None]
+    pos = tri[:, 0] + b1 * (tri[:, 1] - tri[:, 0]) + b2 * (tri[:, 2] - tri[:, 0])
+    out = closure.default_tangents(prim.shape[0])
+    out[got] = prepared.hit_shader.tangents(prim[got], pos, tab, hit_rows)
+    return out
 
 
 def _trace_map(prepared, sources, counts, targets_per_source, mode, store_rule, seed: int,

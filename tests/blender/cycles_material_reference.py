@@ -9,7 +9,8 @@ light (glass and the thin wall also refract the world through the sphere).
 ``MATERIALS`` names each material and the node tree that makes it: every plain lobe of
 issue 13 (Diffuse with and without roughness, Glossy, Metallic, Glass, Refraction,
 Translucent, Sheen) and the Principled BSDF (default; roughness 0 / 0.25 / 0.6 x metallic
-0 / 1; coat; sheen; rough glass; thin wall, Blender 5.2's input), a Mix Shader of Diffuse
+0 / 1; coat; sheen; rough glass; thin wall, Blender 5.2's input; an anisotropic gold
+metal, whose unlinked Tangent is Cycles' radial default), a Mix Shader of Diffuse
 and Glossy and an Add Shader of Diffuse and Sheen; two Principled BSDFs driven by node
 graphs (issue 14's shader programs: Noise into Base Color and a ColorRamp into Roughness,
 Mapping + Checker into Base Color).
@@ -176,6 +177,8 @@ MATERIALS = {
         "Base Color": (1.0, 1.0, 1.0, 1.0), "Transmission Weight": 1.0}),
     "thin_wall": lambda: principled("ThinWall", Roughness=0.0, IOR=1.5, **{
         "Base Color": (1.0, 1.0, 1.0, 1.0), "Transmission Weight": 1.0, "Thin Wall": True}),
+    "principled_aniso": lambda: principled("PrincipledAniso", Roughness=0.3, Metallic=1.0, **{
+        "Base Color": GOLD, "Anisotropic": 0.8}),
     "mix_diffuse_glossy": lambda: combined("MixDiffuseGlossy", "MIX"),
     "add_diffuse_sheen": lambda: combined("AddDiffuseSheen", "ADD"),
     "noise_roughness": lambda: textured("NoiseRoughness", "noise"),

@@ -407,7 +407,8 @@ def test_bsdf_gather_ray_weights_average_to_the_diffuse_albedo(kind, back):
     up = np.array([[0.0, 0.0, 1.0]])
     o, d, weight, ok = np.empty((g, 3)), np.empty((g, 3)), np.empty((g, 3)), np.empty(g, bool)
     gather._bsdf_gather_rays_kernel(tab, np.zeros(1, np.int32), np.ones((1, 3)), wo,
-                                    np.ones(1, bool), np.zeros((1, 3)), up, up, np.full(1, 1e-4),
+                                    closure.default_tangents(1), np.ones(1, bool),
+                                    np.zeros((1, 3)), up, up, np.full(1, 1e-4),
                                     np.full(1, back), g, rng.random(g), rng.random(g), o, d,
                                     weight, ok)
     assert np.isfinite(weight).all() and (weight >= 0).all()

@@ -65,7 +65,8 @@ def scatter_wavefront(rows, d, *, flux=None, mode=MODE_GLOBAL, store_rule=STORE_
                d_new=np.empty((n, 3), np.float32), f_new=np.empty((n, 3)))
     scatter.scatter_kernel(tri_v, tri_n, tri_mat, 2.0, closure.table(mats),
                            np.any(m["diffuse"] > 0, axis=1), has_specular, np.zeros((0, 3)),
-                           np.zeros(0, np.int32), np.zeros(0), prim, b[:, 0].copy(), b[:, 1].copy(), d32, flux,
+                           np.zeros(0, np.int32), np.zeros((0, 3)), np.zeros(0), prim,
+                           b[:, 0].copy(), b[:, 1].copy(), d32, flux,
                            np.arange(n, dtype=np.int64), nd, ns, np.zeros(n), np.int64(seed), DIMS,
                            np.int64(bounce), mode, np.int64(store_rule), last,
                            out["store"], out["s_pos"], out["s_flux"], out["s_dir"],
