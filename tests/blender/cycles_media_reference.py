@@ -111,36 +111,63 @@ def reference_path(name) -> pathlib.Path:
 def load_reference(name) -> dict:
     """The cached Cycles render of ``name``: image (H, W, 3), its halves image_a and image_b
     (the odd and the even seeds), block_sigma, samples, fingerprint."""
-    path = reference_path(name)
-    regenerate = f"re-render it with: .venv/bin/python tests/blender/cycles_media_reference.py {name}"
-    assert path.exists(), f"missing Cycles reference {path.relative_to(ROOT)}; {regenerate}"
-    data = dict(np.load(path))
-    assert str(data["fingerprint"]) == fingerprint(), \
-        f"{path.relative_to(ROOT)} was made from other scene code; {regenerate}"
-    return data
+    return ref.load_cached(reference_path(name), fingerprint(), f"cycles_media_reference.py {name}")
+
+
+PHOTON_MAP_SETTINGS = dict(samples=16, seed=1, global_photons=100_000, caustic_photons=100_000,
+                           photon_max_bounces=BOUNCES, max_specular_depth=BOUNCES,
+                           indirect_mode='preview', light_samples=2)
+"""The Photon Map settings the media tests render with (tests/blender/test_cycles_media.py,
+test_cycles_mesh_media.py)."""
+
+
+def render_photon_map(scene) -> dict:
+    """Every pass of a Photon Map render of ``scene`` at PHOTON_MAP_SETTINGS."""
+    scenes.use_photon_map(scene, **PHOTON_MAP_SETTINGS)
+    return scenes.render_passes(scene)
+
+
+def figures(name, passes, reference) -> dict:
+    """``cycles_reference.compare`` of the Combined pass against the cached Cycles render
+    ``reference`` (a ``load_reference`` dict), printed; the image must be finite and >= 0."""
+    image = passes["Combined"][..., :3]
+    assert np.all(np.isfinite(image)) and image.min() >= 0
+    f = ref.compare(image, reference["image"])
+    print(f"\n{name}: channel means PM/Cycles - 1 = {np.round(100 * f['channel'], 2)} %, "
+          f"worst block {100 * f['worst_block']:.1f} %, median |block| "
+          f"{100 * np.nanmedian(np.abs(f['blocks'])):.2f} %")
+    return f
+
+
+def save_reference(path, build, samples, seeds, stamp):
+    """Render ``build()`` with Cycles (configure_cycles_media) at seeds 1..``seeds`` of
+    ``samples`` each and cache the mean in ``path`` with its odd- and even-seed halves
+    (image_a, image_b: their difference gives the noise), block_sigma and fingerprint
+    ``stamp``."""
+    import time
+
+    started = time.perf_counter()
+    runs = []
+    for seed in range(1, seeds + 1):
+        scene = configure_cycles_media(build(), samples, seed)
+        runs.append(scenes.render_passes(scene)["Combined"][..., :3].astype(np.float64))
+    a = np.mean(runs[0::2], axis=0)
+    b = np.mean(runs[1::2], axis=0)
+    np.savez_compressed(
+        path, image=((a + b) / 2).astype(np.float32),
+        image_a=a.astype(np.float32), image_b=b.astype(np.float32),
+        block_sigma=ref.block_sigma(a, b).astype(np.float32),
+        samples=np.int64(seeds * samples), fingerprint=np.str_(stamp),
+        bounces=np.int64(BOUNCES), blender=np.str_(bpy.app.version_string))
+    print(f"{path.relative_to(ROOT)}: {seeds} x {samples} spp in "
+          f"{time.perf_counter() - started:.1f} s, mean "
+          f"{((a + b) / 2).reshape(-1, 3).mean(axis=0)}", flush=True)
 
 
 def main(names=None):
-    import time
-
     for name in names or list(SCENES):
-        started = time.perf_counter()
-        runs = []
-        for seed in range(1, CYCLES_SEEDS + 1):
-            scene = configure_cycles_media(SCENES[name](), CYCLES_SAMPLES, seed)
-            runs.append(scenes.render_passes(scene)["Combined"][..., :3].astype(np.float64))
-        # Odd and even seeds make two independent halves: their difference gives the noise.
-        a = np.mean(runs[0::2], axis=0)
-        b = np.mean(runs[1::2], axis=0)
-        np.savez_compressed(
-            reference_path(name), image=((a + b) / 2).astype(np.float32),
-            image_a=a.astype(np.float32), image_b=b.astype(np.float32),
-            block_sigma=ref.block_sigma(a, b).astype(np.float32),
-            samples=np.int64(CYCLES_SEEDS * CYCLES_SAMPLES), fingerprint=np.str_(fingerprint()),
-            bounces=np.int64(BOUNCES), blender=np.str_(bpy.app.version_string))
-        print(f"{reference_path(name).relative_to(ROOT)}: {CYCLES_SEEDS} x {CYCLES_SAMPLES} spp in "
-              f"{time.perf_counter() - started:.1f} s, mean "
-              f"{((a + b) / 2).reshape(-1, 3).mean(axis=0)}", flush=True)
+        save_reference(reference_path(name), SCENES[name], CYCLES_SAMPLES, CYCLES_SEEDS,
+                       fingerprint())
 
 
 if __name__ == "__main__":

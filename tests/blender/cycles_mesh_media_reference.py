@@ -27,7 +27,6 @@ import math
 import pathlib
 import sys
 
-import numpy as np
 
 import bpy
 
@@ -106,34 +105,14 @@ def reference_path(name) -> pathlib.Path:
 
 def load_reference(name) -> dict:
     """The cached Cycles render of ``name``: image (H, W, 3), block_sigma, fingerprint."""
-    path = reference_path(name)
-    regenerate = (f"re-render it with: .venv/bin/python "
-                  f"tests/blender/cycles_mesh_media_reference.py {name}")
-    assert path.exists(), f"missing Cycles reference {path.relative_to(ROOT)}; {regenerate}"
-    data = dict(np.load(path))
-    assert str(data["fingerprint"]) == fingerprint(), \
-        f"{path.relative_to(ROOT)} was made from other scene code; {regenerate}"
-    return data
+    return ref.load_cached(reference_path(name), fingerprint(),
+                           f"cycles_mesh_media_reference.py {name}")
 
 
 def main(names=None):
-    import time
-
     for name in names or list(SCENES):
-        started = time.perf_counter()
-        runs = []
-        for seed in (1, 2):
-            scene = media_ref.configure_cycles_media(SCENES[name](), CYCLES_SAMPLES, seed)
-            runs.append(scenes.render_passes(scene)["Combined"][..., :3].astype(np.float32))
-        a, b = runs
-        np.savez_compressed(
-            reference_path(name), image=((a + b) / 2).astype(np.float32),
-            block_sigma=ref.block_sigma(a, b).astype(np.float32),
-            samples=np.int64(2 * CYCLES_SAMPLES), fingerprint=np.str_(fingerprint()),
-            bounces=np.int64(BOUNCES), blender=np.str_(bpy.app.version_string))
-        print(f"{reference_path(name).relative_to(ROOT)}: 2 x {CYCLES_SAMPLES} spp in "
-              f"{time.perf_counter() - started:.1f} s, mean "
-              f"{((a + b) / 2).reshape(-1, 3).mean(axis=0)}", flush=True)
+        media_ref.save_reference(reference_path(name), SCENES[name], CYCLES_SAMPLES, 2,
+                                 fingerprint())
 
 
 if __name__ == "__main__":

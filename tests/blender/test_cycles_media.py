@@ -11,32 +11,17 @@ bpy = pytest.importorskip("bpy")
 
 from tests.blender import cycles_media_reference as media  # noqa: E402
 from tests.blender import cycles_reference as ref  # noqa: E402
-from tests.blender import scenes  # noqa: E402
 
 # About 3 minutes on the shared 2 cores; the small version of the same path (a fog render
 # through Blender, its passes summed) is tests/blender/test_media.py in the default suite.
 pytestmark = [pytest.mark.blender, pytest.mark.slow]
 
-SETTINGS = dict(samples=16, seed=1, global_photons=100_000, caustic_photons=100_000,
-                photon_max_bounces=media.BOUNCES, max_specular_depth=media.BOUNCES,
-                indirect_mode='preview', light_samples=2)
-
-
 def _render(name):
-    scene = media.SCENES[name]()
-    scenes.use_photon_map(scene, **SETTINGS)
-    return scenes.render_passes(scene)
+    return media.render_photon_map(media.SCENES[name]())
 
 
 def _figures(name, passes):
-    cycles = media.load_reference(name)
-    image = passes["Combined"][..., :3]
-    assert np.all(np.isfinite(image)) and image.min() >= 0
-    f = ref.compare(image, cycles["image"])
-    print(f"\n{name}: channel means PM/Cycles - 1 = {np.round(100 * f['channel'], 2)} %, "
-          f"worst block {100 * f['worst_block']:.1f} %, median |block| "
-          f"{100 * np.nanmedian(np.abs(f['blocks'])):.2f} %")
-    return f
+    return media.figures(name, passes, media.load_reference(name))
 
 
 @pytest.fixture(scope="module")
@@ -69,8 +54,7 @@ def test_an_index_matched_glass_sphere_changes_nothing_in_fog(fog_spot):
     plain = fog_spot["Combined"][..., :3]
     scene = media.SCENES["fog_caustic"]()
     bpy.data.materials["Glass"].node_tree.nodes["Glass BSDF"].inputs["IOR"].default_value = 1.0
-    scenes.use_photon_map(scene, **SETTINGS)
-    matched = scenes.render_passes(scene)["Combined"][..., :3]
+    matched = media.render_photon_map(scene)["Combined"][..., :3]
     # 12 x 12 blocks within 12 %: at 100k photons the volume photons' noise alone moves
     # the dim outer blocks by up to 10 % (their paths change where photons meet the sphere);
     # measured -0.65 % in the means, worst block -8.4 % (the outer ones; those below the

@@ -10,32 +10,17 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
+from tests.blender import cycles_media_reference as media  # noqa: E402
 from tests.blender import cycles_mesh_media_reference as mesh_media  # noqa: E402
-from tests.blender import cycles_reference as ref  # noqa: E402
-from tests.blender import scenes  # noqa: E402
 
 pytestmark = [pytest.mark.blender]
 
-SETTINGS = dict(samples=16, seed=1, global_photons=100_000, caustic_photons=100_000,
-                photon_max_bounces=mesh_media.BOUNCES, max_specular_depth=mesh_media.BOUNCES,
-                indirect_mode='preview', light_samples=2)
-
-
 def _render(name):
-    scene = mesh_media.SCENES[name]()
-    scenes.use_photon_map(scene, **SETTINGS)
-    return scenes.render_passes(scene)
+    return media.render_photon_map(mesh_media.SCENES[name]())
 
 
 def _figures(name, passes):
-    cycles = mesh_media.load_reference(name)
-    image = passes["Combined"][..., :3]
-    assert np.all(np.isfinite(image)) and image.min() >= 0
-    f = ref.compare(image, cycles["image"])
-    print(f"\n{name}: channel means PM/Cycles - 1 = {np.round(100 * f['channel'], 2)} %, "
-          f"worst block {100 * f['worst_block']:.1f} %, median |block| "
-          f"{100 * np.nanmedian(np.abs(f['blocks'])):.2f} %")
-    return f
+    return media.figures(name, passes, mesh_media.load_reference(name))
 
 
 @pytest.fixture(scope="module")
