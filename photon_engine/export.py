@@ -26,7 +26,8 @@ import numpy as np
 from ..core.scene.contract import Lights, Materials, Mesh, Scene, World
 from ..core.scene.media import Media
 from ..core.shading.hash import object_random_id
-from .export_camera import export_camera, relative_camera, relative_matrix, render_origin
+from .export_camera import camera_view, export_camera, relative_camera, relative_matrix, \
+    render_origin
 from .export_errors import ExportError, NoCameraError  # noqa: F401  (re-exported)
 from .export_lights import light_row
 from .export_materials import ImageTable, default_row, read_material, read_world, volume_only
@@ -66,6 +67,7 @@ def export_scene(depsgraph, camera=None, origin=None) -> ExportResult:
     origin = render_origin(camera) if origin is None else np.asarray(origin, np.float64)
     camera = relative_camera(camera, origin)
     materials = _MaterialTable(warnings)
+    materials.view = camera_view(depsgraph)  # the scene camera, also in the 3D viewport
     geometry = _Geometry(warnings)
     light_rows = []
     flagged = set()
@@ -166,6 +168,8 @@ class _MaterialTable:
         self.images = ImageTable(warnings)
         self.program_images = ProgramImageTable(warnings)
         self.attributes = AttributeNames()
+        self.view = None
+        """The render camera for the programs' Texture Coordinate Camera / Window."""
         self.left_out: set[int] = set()
         """Indices of volume-only materials: their faces are not surfaces (null
         interfaces) and only bound their medium."""
@@ -189,7 +193,8 @@ class _MaterialTable:
                 row = default_row(mat.name)
             else:
                 row = default_row() if mat is None else read_material(
-                    mat, self._warnings, self.images, self.program_images, self.attributes)
+                    mat, self._warnings, self.images, self.program_images, self.attributes,
+                    self.view)
             self._index[key] = len(self.rows)
             self.rows.append(row)
         return self._index[key]

@@ -204,3 +204,36 @@ def relative_matrix(matrix, origin) -> np.ndarray:
 def relative_camera(camera: Camera, origin) -> Camera:
     """``camera`` in the render frame whose origin is at world ``origin`` (3,) metres."""
     return dataclasses.replace(camera, to_world=relative_matrix(camera.to_world, origin))
+
+
+@dataclasses.dataclass(frozen=True)
+class CameraView:
+    """The render camera as the Texture Coordinate node's Camera and Window outputs see it
+    (Cycles' kernel_data.cam.worldtocamera and worldtondc), for world points in metres.
+
+    world_to_camera: (4, 4) float64, world -> Cycles' camera space (x right, y up, +z in
+    front of the camera: Blender's camera axes with z negated; no scale).
+    world_to_ndc: (4, 4) float64, projective: world -> (x, y in [0, 1] over the render
+    frame, 0, w); divide by w (row 3). Blender's own projection
+    (``Object.calc_matrix_camera``: sensor fit, shift, pixel aspect)."""
+    world_to_camera: np.ndarray
+    world_to_ndc: np.ndarray
+
+
+def camera_view(depsgraph) -> "CameraView | None":
+    """The scene camera's CameraView, or None without a camera object."""
+    scene = depsgraph.scene
+    cam_obj = scene.camera
+    if cam_obj is None or cam_obj.type != 'CAMERA':
+        return None
+    cam_obj = cam_obj.evaluated_get(depsgraph)
+    to_world = without_scale(cam_obj.matrix_world, f"camera '{cam_obj.name}'")
+    to_camera = np.linalg.inv(to_world)
+    flip = np.diag([1.0, 1.0, -1.0, 1.0])
+    width, height = render_size(scene.render)
+    proj = np.array(cam_obj.calc_matrix_camera(
+        depsgraph, x=max(width, 1), y=max(height, 1),
+        scale_x=scene.render.pixel_aspect_x, scale_y=scene.render.pixel_aspect_y), np.float64)
+    to_ndc = np.array([[0.5, 0.0, 0.0, 0.5], [0.0, 0.5, 0.0, 0.5], [0.0, 0.0, 0.0, 0.0],
+                       [0.0, 0.0, 0.0, 1.0]])
+    return CameraView(flip @ to_camera, to_ndc @ proj @ to_camera)

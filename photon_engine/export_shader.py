@@ -362,12 +362,74 @@ def _find_input(node, key):
 
 # --- node handlers: (builder, node, path) -> [output values by index] or {identifier: value}
 
+def _transform(b, point, matrix, projective=False):
+    """OP_TRANSFORM of vector value ``point`` by the constant (4, 4) ``matrix`` (rows)."""
+    m = np.asarray(matrix, np.float64)
+    rows = []
+    for i in range(4):
+        rows += [b.const(m[i, :3], "v"), b.const(m[i, 3], "f")]
+    out = b.new("v")
+    b.emit(pg.OP_TRANSFORM, [int(projective)], [point] + rows, [out])
+    return out
+
+
 def _tex_coord(b, node, path):
-    if getattr(node, "object", None) is not None:
-        b.warn(("texco-object", path, node.name), f"node '{node.name}': Texture Coordinate "
-               f"from another object is not supported (the object's own coordinates are used)")
-    return {"Generated": b.source(pg.SOURCE_GENERATED), "Normal": b.source(pg.SOURCE_OBJECT_NORMAL),
-            "UV": b.source(pg.SOURCE_UV, 0), "Object": b.source(pg.SOURCE_OBJECT)}
+    """Texture Coordinate (Cycles' svm_node_tex_coord). Camera and Window read the render
+    camera (``b.view``: export_camera.CameraView); Object with the node's ``object``
+    set is that object's inverse world matrix at the point, as Cycles."""
+    position = b.source(pg.SOURCE_POSITION)
+    other = getattr(node, "object", None)
+    if other is not None:
+        obj = _transform(b, position, np.linalg.inv(np.array(other.matrix_world, np.float64)))
+    else:
+        obj = b.source(pg.SOURCE_OBJECT)
+    outs = {"Generated": b.source(pg.SOURCE_GENERATED),
+            "Normal": b.source(pg.SOURCE_OBJECT_NORMAL), "UV": b.source(pg.SOURCE_UV, 0),
+            "Object": obj}
+    for name in ("Camera", "Window"):
+        if not node.outputs[name].is_linked:
+            continue
+        if b.view is None:
+            b.warn(("view", path, node.name), f"node '{node.name}': no scene camera for "
+                   f"its {name} output, which takes its default value")
+            continue
+        outs[name] = _transform(b, position, b.view.world_to_camera) if name == "Camera" \
+            else _transform(b, position, b.view.world_to_ndc, projective=True)
+    if node.outputs["Reflection"].is_linked:  # 2 dot(N, I) N - I = -reflect(I, N)
+        zero, one = b.const((0, 0, 0), "v"), b.const(1.0, "f")
+        mirrored, minus, junk = b.new("v"), b.new("v"), b.new("f")
+        b.emit(pg.OP_VECTOR_MATH, [cn.VECTOR_MATH_OPS["REFLECT"]],
+               [b.source(pg.SOURCE_INCOMING), b.source(pg.SOURCE_NORMAL), zero, one],
+               [mirrored, junk])
+        b.emit(pg.OP_VECTOR_MATH, [cn.VECTOR_MATH_OPS["SCALE"]],
+               [mirrored, zero, zero, b.const(-1.0, "f")], [minus, b.new("f")])
+        outs["Reflection"] = minus
+    return outs
+
+
+def _view_normal(b, node, path):
+    """A Fresnel / Layer Weight Normal input: the linked vector as it is, else the
+    shading normal (Cycles' sd->N)."""
+    sock = _find_input(node, "Normal")
+    if sock is None or not [lk for lk in sock.links if not getattr(lk, "is_muted", False)]:
+        return b.source(pg.SOURCE_NORMAL)
+    return b.as_kind(b.socket_value(sock, path), "v")
+
+
+def _fresnel(b, node, path):
+    out = b.new("f")
+    b.emit(pg.OP_FRESNEL, [], [b.input(node, "IOR", path, "f"), _view_normal(b, node, path),
+                               b.source(pg.SOURCE_INCOMING),
+                               b.source(pg.SOURCE_BACKFACING, 0, "f")], [out])
+    return [out]
+
+
+def _layer_weight(b, node, path):
+    fres, facing = b.new("f"), b.new("f")
+    b.emit(pg.OP_LAYER_WEIGHT, [], [b.input(node, "Blend", path, "f"),
+                                    _view_normal(b, node, path), b.source(pg.SOURCE_INCOMING),
+                                    b.source(pg.SOURCE_BACKFACING, 0, "f")], [fres, facing])
+    return {"Fresnel": fres, "Facing": facing}
 
 
 def _uv_map(b, node, path):
@@ -529,7 +591,7 @@ def _combine(kind, mode_of):
 
 
 def _color_mode(node):
-    return {"RGB": 0, "HSV": 1}.get(node.mode)
+    return {"RGB": 0, "HSV": 1, "HSL": 2}.get(node.mode)
 
 
 def _ramp(b, node, path):
@@ -672,16 +734,20 @@ def _blackbody(b, node, path):
     return [out]
 
 
-def _curve_table(b, mapping, curves, rgb):
+def _curve_table(b, mapping, curves, rgb, vector=False):
     """Bake a CurveMapping like Cycles' curvemapping_*_to_array: 256 rows over the x range
-    spanned by the curves' end points. Returns (first row, min x, max x)."""
+    spanned by the curves' end points (RGB: the combined curve, then R, G, B; vector:
+    the X, Y, Z curves each in its channel). Returns (first row, min x, max x)."""
     mapping.update()
     lo = min(c.points[0].location[0] for c in curves)
     hi = max(c.points[len(c.points) - 1].location[0] for c in curves)
     first = len(b.tables)
     for i in range(RAMP_TABLE_SIZE):
         t = lo + i / (RAMP_TABLE_SIZE - 1) * (hi - lo)
-        if rgb:
+        if vector:
+            b.tables.append(tuple(mapping.evaluate(mapping.curves[c], t)
+                                  for c in range(3)) + (0.0,))
+        elif rgb:
             combined = mapping.evaluate(mapping.curves[3], t)
             b.tables.append(tuple(mapping.evaluate(mapping.curves[c], combined)
                                   for c in range(3)) + (0.0,))
@@ -698,6 +764,34 @@ def _rgb_curves(b, node, path):
     out = b.new("c")
     b.emit(pg.OP_CURVES, [first, RAMP_TABLE_SIZE, int(m.extend == "EXTRAPOLATED")], ins,
            [out])
+    return [out]
+
+
+def _vector_curves(b, node, path):
+    """Vector Curves: Cycles' svm_node_curves on a table of the X, Y, Z curves over the
+    x range of the three."""
+    m = node.mapping
+    first, lo, hi = _curve_table(b, m, list(m.curves)[:3], False, vector=True)
+    ins = [b.input(node, "Fac", path, "f"), b.input(node, "Vector", path, "v"),
+           b.const(lo, "f"), b.const(hi, "f")]
+    out = b.new("v")
+    b.emit(pg.OP_CURVES, [first, RAMP_TABLE_SIZE, int(m.extend == "EXTRAPOLATED")], ins,
+           [out])
+    return [out]
+
+
+XYZ_TO_SCENE_LINEAR = ((3.2409699, -1.5373832, -0.4986108),
+                       (-0.9692436, 1.8759675, 0.0415551),
+                       (0.0556301, -0.2039770, 1.0569715))
+"""Wavelength's CIE XYZ (D65) -> scene linear matrix for Blender's default OCIO
+configuration (scene linear = Linear Rec.709: its config.ocio's CIE-XYZ-D65 -> Rec.709
+matrix, which Cycles' init_xyz_transforms obtains through the aces_interchange role)."""
+
+
+def _wavelength(b, node, path):
+    rows = [b.const(row, "v") for row in XYZ_TO_SCENE_LINEAR]
+    out = b.new("c")
+    b.emit(pg.OP_WAVELENGTH, [], [b.input(node, "Wavelength", path, "f")] + rows, [out])
     return [out]
 
 
@@ -771,14 +865,16 @@ SUPPORTED = {
     "ShaderNodeTexNoise": _noise, "ShaderNodeTexVoronoi": _voronoi,
     "ShaderNodeTexWave": _wave, "ShaderNodeTexMagic": _magic, "ShaderNodeTexBrick": _brick,
     "ShaderNodeBlackbody": _blackbody, "ShaderNodeRGBCurve": _rgb_curves,
-    "ShaderNodeFloatCurve": _float_curve,
+    "ShaderNodeFloatCurve": _float_curve, "ShaderNodeFresnel": _fresnel,
+    "ShaderNodeLayerWeight": _layer_weight, "ShaderNodeVectorCurve": _vector_curves,
+    "ShaderNodeWavelength": _wavelength,
 }
 """bl_idname -> handler of every node the compiler translates (plus Reroute, Group,
 Group Input / Output and muted nodes, handled by the walk itself)."""
 
 
 def compile_sockets(material, targets, uv_maps=(), attributes=(),
-                    luminance=cn.LUMINANCE_REC709, images=None) -> ShaderCompile:
+                    luminance=cn.LUMINANCE_REC709, images=None, view=None) -> ShaderCompile:
     """Compile the values of input sockets of ``material``'s node tree.
 
     targets: [(socket, target, closure, slot)]: an input socket of a node of the
@@ -789,10 +885,13 @@ def compile_sockets(material, targets, uv_maps=(), attributes=(),
       them) or names, in the order of ``ShadingInputs.attributes``. luminance: the scene-linear RGB -> Y weights.
     images: the export's ``export_images.ProgramImageTable`` Image Texture nodes read
       their images into (None: such a node gives the missing-image magenta, reported).
+    view: the render camera (``export_camera.CameraView``) for Texture Coordinate Camera
+      and Window; None: those outputs take their defaults, reported.
     """
     warnings: list[str] = []
     b = _Builder(material.name, uv_maps, attributes, luminance, warnings, images)
     b.group_bindings = {}
+    b.view = view
     values = []
     for sock, target, closure, slot in targets:
         kind = _socket_kind(sock) or "f"

@@ -19,7 +19,9 @@ from . import program as pg
 from .inputs import ShadingInputs
 from .converters import math_op, vector_math, map_range, vector_map_range_1, mapping, \
     ramp_lookup, curve_lookup, clamp
-from .color import blend, rgb_to_hsv, hsv_to_rgb, blackbody_rec709
+from .color import blend, rgb_to_hsv, hsv_to_rgb, rgb_to_hsl, hsl_to_rgb, \
+    blackbody_rec709, wavelength_xyz, WAVELENGTH_SCALE
+from .facing import fresnel_node, layer_weight
 from .textures import checker, gradient, white_noise, wave, magic, brick
 from .noise import noise_texture
 from .voronoi import voronoi_texture
@@ -124,11 +126,15 @@ def _run(r, ins, tables, im_bytes, im_shorts, im_floats, im_tiles, im_first, im_
         x, y, z = r[a[0]], r[a[0] + 1], r[a[0] + 2]
         if ins[1] == 1:
             x, y, z = rgb_to_hsv(x, y, z)
+        elif ins[1] == 2:
+            x, y, z = rgb_to_hsl(x, y, z)
         r[a[1]], r[a[2]], r[a[3]] = x, y, z
     elif op == pg.OP_COMBINE:
         x, y, z = r[a[0]], r[a[1]], r[a[2]]
         if ins[1] == 1:
             x, y, z = hsv_to_rgb(x, y, z)
+        elif ins[1] == 2:
+            x, y, z = hsl_to_rgb(x, y, z)
         r[a[3]], r[a[3] + 1], r[a[3] + 2] = x, y, z
     elif op == pg.OP_RAMP:
         f = r[a[0]]
@@ -248,6 +254,30 @@ def _run(r, ins, tables, im_bytes, im_shorts, im_floats, im_tiles, im_first, im_
         image_sample(im_bytes, im_shorts, im_floats, im_tiles, im_first, im_count, ins[1],
                      r[a[0]], r[a[0] + 1], ins[2], ins[3], ins[4] != 0, px)
         r[a[1]], r[a[1] + 1], r[a[1] + 2], r[a[2]] = px[0], px[1], px[2], px[3]
+    elif op == pg.OP_FRESNEL or op == pg.OP_LAYER_WEIGHT:
+        cosi = (r[a[1]] * r[a[2]] + r[a[1] + 1] * r[a[2] + 1]
+                + r[a[1] + 2] * r[a[2] + 2])
+        back = r[a[3]] != 0.0
+        if op == pg.OP_FRESNEL:
+            r[a[4]] = fresnel_node(r[a[0]], cosi, back)
+        else:
+            r[a[4]], r[a[5]] = layer_weight(r[a[0]], cosi, back)
+    elif op == pg.OP_TRANSFORM:
+        x, y, z = r[a[0]], r[a[0] + 1], r[a[0] + 2]
+        w = 1.0
+        if ins[1] == 1:
+            m = a[7]
+            w = r[m] * x + r[m + 1] * y + r[m + 2] * z + r[a[8]]
+            w = 1.0 / w if w != 0.0 else 0.0
+        for c in range(3):
+            m = a[1 + 2 * c]
+            r[a[9] + c] = (r[m] * x + r[m + 1] * y + r[m + 2] * z + r[a[2 + 2 * c]]) * w
+    elif op == pg.OP_WAVELENGTH:
+        x, y, z = wavelength_xyz(r[a[0]])
+        for c in range(3):  # row c of the XYZ -> scene linear matrix is operand 1 + c
+            m = a[1 + c]
+            r[a[4] + c] = max((r[m] * x + r[m + 1] * y + r[m + 2] * z) * WAVELENGTH_SCALE,
+                              0.0)
 
 
 @njit(parallel=True, **dict(cache=True, error_model="numpy"))

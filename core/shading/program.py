@@ -37,7 +37,8 @@ FIRST_OPERAND = 5
  OP_MIX_COLOR, OP_MAP_RANGE, OP_VECTOR_MAP_RANGE, OP_CLAMP, OP_SEPARATE, OP_COMBINE, OP_RAMP,
  OP_MAPPING, OP_INVERT, OP_GAMMA, OP_HSV, OP_BRIGHT_CONTRAST, OP_RGB_TO_BW, OP_CHECKER,
  OP_GRADIENT, OP_WHITE_NOISE, OP_NOISE, OP_VORONOI, OP_WAVE, OP_MAGIC, OP_BRICK, OP_BLACKBODY,
- OP_CURVES, OP_FLOAT_CURVE, OP_IMAGE) = range(31)
+ OP_CURVES, OP_FLOAT_CURVE, OP_IMAGE, OP_FRESNEL, OP_LAYER_WEIGHT, OP_TRANSFORM,
+ OP_WAVELENGTH) = range(35)
 
 SIGNATURES = {
     OP_INPUT: ">v",                  # ints: source (SOURCE_*), index (UV map / attribute)
@@ -83,6 +84,12 @@ SIGNATURES = {
     OP_IMAGE: "v>vf",                # vector -> colour, alpha; ints: image slot
                                      # (core.scene.images; -1 missing), interpolation,
                                      # extension (core.shading.images), unassociate alpha
+    OP_FRESNEL: "fvvf>f",            # IOR, normal, incoming, backfacing (core.shading.facing)
+    OP_LAYER_WEIGHT: "fvvf>ff",      # blend, normal, incoming, backfacing -> Fresnel, Facing
+    OP_TRANSFORM: "vvfvfvfvf>v",     # point, the 4 rows of a 4 x 4 matrix (xyz, w each);
+                                     # ints: 0 affine (rows 0-2), 1 projective (rows 0-2
+                                     # divided by row 3 at the point; 0 where it is 0)
+    OP_WAVELENGTH: "fvvv>v",         # wavelength (nm), the 3 rows of XYZ -> scene linear
 }
 """Register operands of each opcode: ``f`` one register, ``v`` three; ``>`` separates the
 inputs from the outputs."""
@@ -97,7 +104,9 @@ OP_NAMES = {OP_INPUT: "INPUT", OP_MATH: "MATH", OP_VECTOR_MATH: "VECTOR_MATH",
             OP_CHECKER: "CHECKER", OP_GRADIENT: "GRADIENT", OP_WHITE_NOISE: "WHITE_NOISE",
             OP_NOISE: "NOISE", OP_VORONOI: "VORONOI", OP_WAVE: "WAVE", OP_MAGIC: "MAGIC",
             OP_BRICK: "BRICK", OP_BLACKBODY: "BLACKBODY", OP_CURVES: "CURVES",
-            OP_FLOAT_CURVE: "FLOAT_CURVE", OP_IMAGE: "IMAGE"}
+            OP_FLOAT_CURVE: "FLOAT_CURVE", OP_IMAGE: "IMAGE", OP_FRESNEL: "FRESNEL",
+            OP_LAYER_WEIGHT: "LAYER_WEIGHT", OP_TRANSFORM: "TRANSFORM",
+            OP_WAVELENGTH: "WAVELENGTH"}
 
 # --- OP_INPUT sources (ints column 1); all write 3 registers, scalars in the first -------
 (SOURCE_POSITION, SOURCE_NORMAL, SOURCE_TRUE_NORMAL, SOURCE_INCOMING, SOURCE_BACKFACING,

@@ -24,6 +24,7 @@ from photon_map.photon_engine.export_shader import compile_sockets  # noqa: E402
 from photon_map.photon_engine.export_images import ProgramImageTable  # noqa: E402
 from photon_map.photon_engine.export import object_info, read_attributes, read_mesh  # noqa: E402
 from photon_map.photon_engine.export_shader import AttributeNames  # noqa: E402
+from photon_map.photon_engine.export_camera import camera_view  # noqa: E402
 
 CELL = 2.0      # metres per plane (Blender's default plane)
 PIXELS = 32     # pixels per plane side
@@ -150,6 +151,7 @@ def compile_planes(planes):
     Textures sample, the attribute names it reads)], and every warning (the image
     table's too)."""
     out, warnings = [], []
+    view = camera_view(bpy.context.evaluated_depsgraph_get())
     for plane in planes:
         mat = plane.data.materials[0]
         em = next(n for n in mat.node_tree.nodes if n.bl_idname == "ShaderNodeEmission")
@@ -157,7 +159,7 @@ def compile_planes(planes):
         names = AttributeNames()
         result = compile_sockets(mat, [(em.inputs["Color"], pg.TARGET_EMISSION, 0, 0)],
                                  uv_maps=[u.name for u in plane.data.uv_layers],
-                                 images=table, attributes=names)
+                                 images=table, attributes=names, view=view)
         warnings += result.warnings
         out.append((plane, result, table.images(), names.names))
     return out, warnings
