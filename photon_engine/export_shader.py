@@ -332,7 +332,7 @@ class _Builder:
             i += w
 
 
-_NOT_FOLDED = (pg.OP_INPUT, pg.OP_IMAGE)
+_NOT_FOLDED = (pg.OP_INPUT, pg.OP_IMAGE, pg.OP_IMAGE_PROJECTED)
 """Instructions never run at export time (per-point inputs; images live in the scene)."""
 
 
@@ -834,10 +834,13 @@ def _image(b, node, path):
     vec = b.source(pg.SOURCE_UV, 0) if sock is None or not sock.links else \
         b.as_kind(b.socket_value(sock, path), "v")
     color, alpha = b.new("c"), b.new("f")
-    if node.projection != "FLAT":  # Box: our weights and sides did not match Cycles
-        b.warn(("proj", path, node.name), f"node '{node.name}': projection "
-               f"'{node.projection}' is not supported; Flat is used")
-    b.emit(pg.OP_IMAGE, [slot, interp, ext, unassociate], [vec], [color, alpha])
+    projection = ci.PROJECTIONS.get(node.projection, 0)
+    if projection == 0:
+        b.emit(pg.OP_IMAGE, [slot, interp, ext, unassociate], [vec], [color, alpha])
+    else:  # Box reads the object-space normal (Cycles' svm_node_tex_image_box)
+        b.emit(pg.OP_IMAGE_PROJECTED, [slot, interp, ext, unassociate | (projection << 1)],
+               [vec, b.source(pg.SOURCE_OBJECT_NORMAL),
+                b.const(float(node.projection_blend), "f")], [color, alpha])
     return {"Color": color, "Alpha": alpha}
 
 

@@ -5,6 +5,7 @@ pixels, the worst error beyond our value's variation within 0.2 pixel (Cycles' o
 off-centre sample) and at the centre, and the fraction of edge pixels.
 
     .venv/bin/python tools/shader_agreement.py > /tmp/agreement.md
+    .venv/bin/python tools/shader_agreement.py "Fresnel" "HSL"   # only the scenes named so
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ import numpy as np  # noqa: E402
 
 from tests.blender import shader_scenes as ss  # noqa: E402
 from tests.blender import test_shader_nodes as t  # noqa: E402
+from tests.blender import test_shader_nodes_view as tv  # noqa: E402
 
 
 def scenes():
@@ -89,12 +91,17 @@ def scenes():
               ("Float Curve", t.float_curve_plane)]
     specs += [("Group used twice", t.group_twice), ("Group in a group", t.group_in_group)]
     yield "Textures, groups", specs
+    yield "Fresnel, Layer Weight, Texture Coordinate", tv.VIEW_SPECS
+    yield "HSL, Vector Curves, Wavelength", tv.COLOR_SPECS
 
 
 def main():
     print("| node (plane) | 99th percentile | max beyond 0.2 px | max at the centre | edge pixels |")
     print("|---|---:|---:|---:|---:|")
+    only = sys.argv[1:]
     for title, specs in scenes():
+        if only and not any(o in title for o in only):
+            continue
         result = ss.compare(specs)
         figures = ss.per_plane(result, lambda e, edge, loose: (
             float(e[~edge].max()) if (~edge).any() else 0.0,

@@ -156,3 +156,103 @@ def image_sample(bytes_, shorts, floats, tiles, slot_first, slot_count, slot, x,
     if tiles[row, 5] == 1:
         for c in range(3):
             out[c] = _srgb_decode(out[c])
+
+
+PROJECTIONS = {"FLAT": 0, "BOX": 1, "SPHERE": 2, "TUBE": 3}
+"""ShaderNodeTexImage.projection -> code (OP_IMAGE_PROJECTED's flags >> 1)."""
+
+
+@njit(**_KW)
+def map_to_sphere(x, y, z):
+    """Cycles' map_to_sphere of a point in [-1, 1]^3: (u, v)."""
+    ln = x * x + y * y + z * z
+    if not ln > 0.0:
+        return 0.0, 0.0
+    u = 0.0 if (x == 0.0 and y == 0.0) else 0.5 - math.atan2(x, y) / (2.0 * math.pi)
+    c = min(max(z / math.sqrt(ln), -1.0), 1.0)  # Cycles' safe_acosf
+    return u, 1.0 - math.acos(c) / math.pi
+
+
+@njit(**_KW)
+def map_to_tube(x, y, z):
+    """Cycles' map_to_tube of a point in [-1, 1]^3: (u, v)."""
+    ln = math.sqrt(x * x + y * y)
+    if not ln > 0.0:
+        return 0.0, 0.0
+    return (1.0 - math.atan2(x / ln, y / ln) / math.pi) * 0.5, (z + 1.0) * 0.5
+
+
+@njit(**_KW)
+def box_weights(nx, ny, nz, blend):
+    """Cycles' svm_node_tex_image_box weights of the X, Y and Z projections for the
+    object-space normal (nx, ny, nz) and the node's Blend in [0, 1]."""
+    ax, ay, az = abs(nx), abs(ny), abs(nz)
+    s = ax + ay + az
+    if s > 0.0:
+        ax, ay, az = ax / s, ay / s, az / s
+    limit = 0.5 * (1.0 + blend)
+    wx = wy = wz = 0.0
+    if ax > limit * (ax + ay) and ax > limit * (ax + az):
+        wx = 1.0
+    elif ay > limit * (ax + ay) and ay > limit * (ay + az):
+        wy = 1.0
+    elif az > limit * (ax + az) and az > limit * (ay + az):
+        wz = 1.0
+    elif blend > 0.0:
+        if az < (1.0 - limit) * (ay + ax):
+            wx = min(max((ax / (ax + ay) - 0.5 * (1.0 - blend)) / blend, 0.0), 1.0)
+            wy = 1.0 - wx
+        elif ax < (1.0 - limit) * (ay + az):
+            wy = min(max((ay / (ay + az) - 0.5 * (1.0 - blend)) / blend, 0.0), 1.0)
+            wz = 1.0 - wy
+        elif ay < (1.0 - limit) * (ax + az):
+            wx = min(max((ax / (ax + az) - 0.5 * (1.0 - blend)) / blend, 0.0), 1.0)
+            wz = 1.0 - wx
+        else:
+            d = 2.0 * limit - 1.0
+            wx = ((2.0 - limit) * ax + (limit - 1.0)) / d
+            wy = ((2.0 - limit) * ay + (limit - 1.0)) / d
+            wz = ((2.0 - limit) * az + (limit - 1.0)) / d
+    else:  # Cycles' "desperate mode": no valid choice, one side
+        wx = 1.0
+    return wx, wy, wz
+
+
+@njit(**_KW)
+def image_projected(bytes_, shorts, floats, tiles, slot_first, slot_count, slot, x, y, z,
+                    nx, ny, nz, blend, interp, ext, unassociate, projection, out, tmp):
+    """The Image Texture with its Box, Sphere or Tube projection (Cycles'
+    svm_node_tex_image and svm_node_tex_image_box) of the vector (x, y, z), the
+    object-space normal (nx, ny, nz) for Box: (Color, Alpha) into out[0:4]; tmp (4,)
+    scratch. Box blends up to three flat lookups, each decoded and unassociated on its own
+    as Cycles does."""
+    if projection == 2 or projection == 3:
+        px, py, pz = (x - 0.5) * 2.0, (y - 0.5) * 2.0, (z - 0.5) * 2.0
+        if projection == 2:
+            u, v = map_to_sphere(px, py, pz)
+        else:
+            u, v = map_to_tube(px, py, pz)
+        image_sample(bytes_, shorts, floats, tiles, slot_first, slot_count, slot, u, v,
+                     interp, ext, unassociate, out)
+        return
+    if projection == 0:
+        image_sample(bytes_, shorts, floats, tiles, slot_first, slot_count, slot, x, y,
+                     interp, ext, unassociate, out)
+        return
+    wx, wy, wz = box_weights(nx, ny, nz, blend)
+    for c in range(4):
+        out[c] = 0.0
+    for side in range(3):
+        w = wx if side == 0 else (wy if side == 1 else wz)
+        if not w > 0.0:
+            continue
+        if side == 0:  # "map so that no textures are flipped" (Cycles' orientation)
+            u, v = (1.0 - y if nx < 0.0 else y), z
+        elif side == 1:
+            u, v = (1.0 - x if ny > 0.0 else x), z
+        else:
+            u, v = (1.0 - y if nz > 0.0 else y), x
+        image_sample(bytes_, shorts, floats, tiles, slot_first, slot_count, slot, u, v,
+                     interp, ext, unassociate, tmp)
+        for c in range(4):
+            out[c] += w * tmp[c]

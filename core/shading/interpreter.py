@@ -25,7 +25,7 @@ from .facing import fresnel_node, layer_weight
 from .textures import checker, gradient, white_noise, wave, magic, brick
 from .noise import noise_texture
 from .voronoi import voronoi_texture
-from .images import image_sample
+from .images import image_sample, image_projected
 from ..scene.images import ProgramImages
 
 _F = pg.FIRST_OPERAND
@@ -82,7 +82,7 @@ def _load_input(r, ins, i, P, N, Ng, I, back, gen, obj, objn, oloc, orand, ocol,
 @njit(inline="always", **dict(cache=True, error_model="numpy"))
 def _run(r, ins, tables, im_bytes, im_shorts, im_floats, im_tiles, im_first, im_count, px):
     """Execute one instruction (not OP_INPUT) on register file r (float64); the im_*
-    arrays are ``ProgramImages``' fields, px a (4,) float64 scratch."""
+    arrays are ``ProgramImages``' fields, px a (8,) float64 scratch."""
     op = ins[0]
     a = ins[_F:]
     if op == pg.OP_MATH:
@@ -254,6 +254,12 @@ def _run(r, ins, tables, im_bytes, im_shorts, im_floats, im_tiles, im_first, im_
         image_sample(im_bytes, im_shorts, im_floats, im_tiles, im_first, im_count, ins[1],
                      r[a[0]], r[a[0] + 1], ins[2], ins[3], ins[4] != 0, px)
         r[a[1]], r[a[1] + 1], r[a[1] + 2], r[a[2]] = px[0], px[1], px[2], px[3]
+    elif op == pg.OP_IMAGE_PROJECTED:
+        image_projected(im_bytes, im_shorts, im_floats, im_tiles, im_first, im_count, ins[1],
+                        r[a[0]], r[a[0] + 1], r[a[0] + 2], r[a[1]], r[a[1] + 1], r[a[1] + 2],
+                        r[a[2]], ins[2], ins[3], (ins[4] & 1) != 0, ins[4] >> 1, px[:4],
+                        px[4:])
+        r[a[3]], r[a[3] + 1], r[a[3] + 2], r[a[4]] = px[0], px[1], px[2], px[3]
     elif op == pg.OP_FRESNEL or op == pg.OP_LAYER_WEIGHT:
         cosi = (r[a[1]] * r[a[2]] + r[a[1] + 1] * r[a[2] + 1]
                 + r[a[1] + 2] * r[a[2] + 2])
@@ -292,7 +298,7 @@ def evaluate_kernel(instructions, constants, tables, n_registers, outputs, P, N,
     n_chunks = (n + _CHUNK - 1) // _CHUNK
     for c in prange(n_chunks):
         r = np.zeros(n_registers, np.float64)
-        px = np.zeros(4, np.float64)
+        px = np.zeros(8, np.float64)
         for i in range(c * _CHUNK, min(n, (c + 1) * _CHUNK)):
             for j in range(k):
                 r[j] = constants[j]

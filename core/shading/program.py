@@ -38,7 +38,7 @@ FIRST_OPERAND = 5
  OP_MAPPING, OP_INVERT, OP_GAMMA, OP_HSV, OP_BRIGHT_CONTRAST, OP_RGB_TO_BW, OP_CHECKER,
  OP_GRADIENT, OP_WHITE_NOISE, OP_NOISE, OP_VORONOI, OP_WAVE, OP_MAGIC, OP_BRICK, OP_BLACKBODY,
  OP_CURVES, OP_FLOAT_CURVE, OP_IMAGE, OP_FRESNEL, OP_LAYER_WEIGHT, OP_TRANSFORM,
- OP_WAVELENGTH) = range(35)
+ OP_WAVELENGTH, OP_IMAGE_PROJECTED) = range(36)
 
 SIGNATURES = {
     OP_INPUT: ">v",                  # ints: source (SOURCE_*), index (UV map / attribute)
@@ -90,6 +90,9 @@ SIGNATURES = {
                                      # ints: 0 affine (rows 0-2), 1 projective (rows 0-2
                                      # divided by row 3 at the point; 0 where it is 0)
     OP_WAVELENGTH: "fvvv>v",         # wavelength (nm), the 3 rows of XYZ -> scene linear
+    OP_IMAGE_PROJECTED: "vvf>vf",    # vector, object-space normal, blend -> colour, alpha;
+                                     # ints as OP_IMAGE but column 4: unassociate (bit 0)
+                                     # | projection << 1 (core.shading.images.PROJECTIONS)
 }
 """Register operands of each opcode: ``f`` one register, ``v`` three; ``>`` separates the
 inputs from the outputs."""
@@ -106,7 +109,7 @@ OP_NAMES = {OP_INPUT: "INPUT", OP_MATH: "MATH", OP_VECTOR_MATH: "VECTOR_MATH",
             OP_BRICK: "BRICK", OP_BLACKBODY: "BLACKBODY", OP_CURVES: "CURVES",
             OP_FLOAT_CURVE: "FLOAT_CURVE", OP_IMAGE: "IMAGE", OP_FRESNEL: "FRESNEL",
             OP_LAYER_WEIGHT: "LAYER_WEIGHT", OP_TRANSFORM: "TRANSFORM",
-            OP_WAVELENGTH: "WAVELENGTH"}
+            OP_WAVELENGTH: "WAVELENGTH", OP_IMAGE_PROJECTED: "IMAGE_PROJECTED"}
 
 # --- OP_INPUT sources (ints column 1); all write 3 registers, scalars in the first -------
 (SOURCE_POSITION, SOURCE_NORMAL, SOURCE_TRUE_NORMAL, SOURCE_INCOMING, SOURCE_BACKFACING,
@@ -189,7 +192,7 @@ class ShaderProgram:
                                  f"beyond its signature {sig!r}")
             if op == OP_INPUT and not 0 <= row[1] < SOURCE_COUNT:
                 raise ValueError(f"{who}: instruction {i} reads unknown input source {row[1]}")
-            if op == OP_IMAGE and not (row[1] >= -1 and 0 <= row[2] <= 2
+            if op in (OP_IMAGE, OP_IMAGE_PROJECTED) and not (row[1] >= -1 and 0 <= row[2] <= 2
                                                        and 0 <= row[3] <= 3):
                 raise ValueError(f"{who}: instruction {i} ({OP_NAMES[op]}) has image slot "
                                  f"{row[1]}, interpolation {row[2]}, extension {row[3]}")

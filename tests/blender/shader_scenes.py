@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 import bpy
+from mathutils import Euler
 
 from tests.blender import scenes
 from tests.conftest import load_extension_package
@@ -122,28 +123,42 @@ def plane_inputs(plane, g, offset=(0.0, 0.0), attributes=()) -> ShadingInputs:
     y = ly + CELL / 2 - (i + 0.5 + offset[1]) * px
     X, Y = np.meshgrid(x, y)
     P = np.stack([X.ravel(), Y.ravel(), np.zeros(X.size)], 1)
-    obj = P - np.array(plane.location)
+    M = np.array(plane.matrix_world, np.float64)  # a plane may be rotated with its mesh
+    obj = (P - M[:3, 3]) @ np.linalg.inv(M[:3, :3]).T  # counter-rotated (turn_mesh)
     mesh = plane.data
     tl, ts = np.array(mesh.texspace_location), np.array(mesh.texspace_size)
     gen = np.where(ts != 0, (obj - tl) / np.where(ts != 0, 2 * ts, 1) + 0.5, 0.5)
-    co = np.array([mesh.vertices[lp.vertex_index].co[:2] for lp in mesh.loops])
+    co = np.array([mesh.vertices[lp.vertex_index].co[:] for lp in mesh.loops])
     uv_layer = mesh.uv_layers[0].data
     uvs = np.array([d.uv[:] for d in uv_layer])
     A = np.linalg.lstsq(np.c_[co, np.ones(len(co))], uvs, rcond=None)[0]
-    uv = np.c_[obj[:, :2], np.ones(len(obj))] @ A
+    uv = np.c_[obj, np.ones(len(obj))] @ A
     up = np.tile([0.0, 0.0, 1.0], (len(P), 1))
+    onrm = up @ M[:3, :3]  # Cycles' object_inverse_normal_transform: M^T n
+    onrm /= np.linalg.norm(onrm, axis=1)[:, None]
     depsgraph = bpy.context.evaluated_depsgraph_get()
     for inst in depsgraph.object_instances:  # an instance is valid only in its step
         if inst.object.name == plane.name:
             info = object_info(inst)
             break
     return ShadingInputs.build(P, up, incoming=up, generated=gen, object_coords=obj,
-                               object_normal=up,
+                               object_normal=onrm,
                                object_location=np.tile(plane.location, (len(P), 1)),
                                object_color=np.tile(info[:3], (len(P), 1)),
                                object_random=np.full(len(P), info[3]),
                                object_index=np.full(len(P), info[4]), uv=uv[None],
                                attributes=plane_attributes(plane, obj, attributes))
+
+
+def turn_mesh(plane, rotation):
+    """Rotate ``plane`` by the Euler angles ``rotation`` (radians) and its mesh by the
+    inverse: the same surface in the world, seen from another side in object space (its
+    object-space normal is R^-1 +Z)."""
+    r = Euler(rotation).to_matrix().to_4x4()
+    plane.data.transform(r.inverted())
+    plane.data.update()
+    plane.rotation_euler = rotation
+    bpy.context.view_layer.update()
 
 
 def compile_planes(planes):

@@ -250,3 +250,56 @@ def test_byte_images_are_stored_as_bytes(image_files):
     # the 8-bit texels are the file's bytes, exactly (row 0 at the bottom)
     np.testing.assert_array_equal(images.bytes.reshape(H, W, 4), texels(np.uint8)[::-1])
     np.testing.assert_array_equal(images.shorts.reshape(H, W, 4), texels(np.uint16, 4)[::-1])
+
+
+BOX_NORMALS = [  # object-space normals: each zone of Cycles' box weights, both signs
+    ("X", (0.95, 0.2, 0.1)), ("-X", (-0.9, 0.3, -0.2)), ("-Y", (0.3, -0.9, 0.2)),
+    ("Y", (0.1, 0.9, 0.25)), ("-Z", (0.2, 0.1, -0.95)), ("XY", (0.6, 0.55, 0.1)),
+    ("-YZ", (0.1, -0.55, 0.6)), ("-XZ", (-0.58, 0.1, 0.55)), ("XYZ", (0.57, -0.57, 0.58))]
+
+
+def projected_plane(path, projection, blend=0.3, interpolation="Linear"):
+    """Object coordinates -> Mapping -> Image Texture with ``projection``: the vector
+    crosses the image's edges (Repeat) and, for Sphere / Tube, has z != 0.5."""
+    def build(tree, color):
+        img = load(path, "sRGB")
+        tc = node(tree, "ShaderNodeTexCoord")
+        mp = node(tree, "ShaderNodeMapping", vector_type='POINT')
+        mp.inputs["Scale"].default_value = (0.7, 0.6, 0.8)
+        mp.inputs["Location"].default_value = (0.45, 0.55, 0.7)
+        link(tree, tc.outputs["Object"], mp.inputs["Vector"])
+        tex = node(tree, "ShaderNodeTexImage", image=img, interpolation=interpolation,
+                   projection=projection)
+        tex.projection_blend = blend
+        link(tree, mp.outputs[0], tex.inputs["Vector"])
+        link(tree, tex.outputs["Color"], color)
+    return build
+
+
+def turn_to(normals):
+    """setup for ss.compare: plane k shows its object-space normal normals[k] (None:
+    unturned) to the camera (shader_scenes.turn_mesh)."""
+    from mathutils import Vector
+
+    def setup(planes):
+        for plane, n in zip(planes, normals):
+            if n is not None:
+                q = Vector(n).normalized().rotation_difference(Vector((0.0, 0.0, 1.0)))
+                ss.turn_mesh(plane, tuple(q.to_euler()))
+    return setup
+
+
+def test_box_sphere_and_tube_projections_match_cycles(image_files):
+    """Box on the faces of a turned cube (each plane's mesh counter-rotated, so its
+    object-space normal is one of BOX_NORMALS: every zone of Cycles' weights, blend 0.3,
+    and one with blend 0), Sphere and Tube on an unturned plane."""
+    png = image_files["png8"]
+    specs = [(f"Box {k} blend 0.3", projected_plane(png, "BOX")) for k, _ in BOX_NORMALS]
+    specs += [("Box XY blend 0", projected_plane(png, "BOX", blend=0.0)),
+              ("Box XYZ Closest", projected_plane(png, "BOX", interpolation="Closest")),
+              ("Sphere", projected_plane(png, "SPHERE")), ("Tube", projected_plane(png, "TUBE"))]
+    normals = [n for _, n in BOX_NORMALS] + [BOX_NORMALS[5][1], BOX_NORMALS[8][1], None, None]
+    result = ss.compare(specs, setup=turn_to(normals))
+    assert not result["warnings"], result["warnings"]
+    figures = check(result, [n for n, _ in specs])
+    print({k: tuple(round(x, 6) for x in v) for k, v in figures.items()})
