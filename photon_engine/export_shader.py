@@ -32,7 +32,7 @@ from ..core.shading.noise import NOISE_TYPES
 from ..core.shading.voronoi import FEATURES, METRICS
 from ..core.shading import images as ci
 from . import compat
-from .export_images import ImageTable
+from .export_images import is_raw_space
 
 RAMP_TABLE_SIZE = 256
 """Rows per baked ColorRamp (Cycles' RAMP_TABLE_SIZE)."""
@@ -826,7 +826,7 @@ def _image(b, node, path):
         b.warn(("ext", path, node.name), f"node '{node.name}': extension "
                f"'{node.extension}' is not supported; Repeat is used")
         ext = 0
-    data = image.colorspace_settings.name.startswith(ImageTable.LINEAR_SPACES)
+    data = is_raw_space(image.colorspace_settings.name)
     alpha_out = node.outputs.get("Alpha")
     unassociate = int(alpha_out is not None and alpha_out.is_linked and not data
                       and image.alpha_mode not in ("CHANNEL_PACKED", "NONE"))

@@ -303,3 +303,40 @@ def test_box_sphere_and_tube_projections_match_cycles(image_files):
     assert not result["warnings"], result["warnings"]
     figures = check(result, [n for n, _ in specs])
     print({k: tuple(round(x, 6) for x in v) for k, v in figures.items()})
+
+
+def test_other_colour_spaces_and_packed_images_match_cycles(tmp_path):
+    """Byte images in OCIO spaces other than sRGB and scene linear (converted texel by
+    texel to scene linear: Blender's conversion here, OCIO's in Cycles), 16-bit in one, and
+    a packed image whose file is gone. Texels in [0.35, 0.65]: the Rec.2020 -> Rec.709
+    conversion stays positive (our images are clamped at 0)."""
+    rng = np.random.default_rng(11)
+    mid = rng.integers(90, 166, (H, W, 4)).astype(np.uint8)
+    mid[..., 3] = 255
+    png = write_png(str(tmp_path / "mid.png"), mid)
+    mid16 = (mid.astype(np.uint16) * 257)
+    png16 = write_png(str(tmp_path / "mid16.png"), mid16)
+    packed_path = write_png(str(tmp_path / "packed.png"), texels(np.uint8, 8))
+
+    def packed(tree, color):
+        img = load(packed_path)
+        img.pack()
+        tex = node(tree, "ShaderNodeTexImage", image=img)
+        tc = node(tree, "ShaderNodeTexCoord")
+        link(tree, tc.outputs["UV"], tex.inputs["Vector"])
+        link(tree, tex.outputs["Color"], color)
+
+    specs = [(f"8-bit {s}", image_plane(png, colorspace=s))
+             for s in ("Linear Rec.2020", "Filmic Log", "Display P3", "ACEScg")]
+    specs += [("16-bit Linear Rec.2020", image_plane(png16, colorspace="Linear Rec.2020")),
+              ("8-bit Linear Rec.2020 Closest", image_plane(png, "Closest",
+                                                           colorspace="Linear Rec.2020")),
+              ("Packed, file removed", packed)]
+    import os
+
+    def setup(planes):
+        os.remove(packed_path)  # Cycles and the exporter read the packed copy
+    result = ss.compare(specs, setup=setup)
+    assert not result["warnings"], result["warnings"]
+    figures = check(result, [n for n, _ in specs])
+    print({k: tuple(round(x, 6) for x in v) for k, v in figures.items()})
