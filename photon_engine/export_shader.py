@@ -678,7 +678,7 @@ def _voronoi(b, node, path):
     if dims not in (2, 3) or node.feature not in FEATURES:
         b.warn(("voronoi", path, node.name), f"node '{node.name}': Voronoi "
                f"{dims}D {node.feature} is not supported (2D and 3D F1, F2, Smooth F1, "
-               f"Distance to Edge are)")
+               f"Distance to Edge, N-Sphere Radius are)")
         return []
     names = ("W", "Scale", "Detail", "Roughness", "Lacunarity", "Smoothness", "Exponent",
              "Randomness")
@@ -687,6 +687,8 @@ def _voronoi(b, node, path):
     b.emit(pg.OP_VORONOI, [dims, FEATURES[node.feature], METRICS[node.distance],
                            int(node.normalize) | (0 if compat.VORONOI_PCG_HASH else 2)],
            ins, [dist, color, pos, w])
+    if node.feature == "N_SPHERE_RADIUS":  # the kernel returns the radius as distance
+        return {"Radius": dist}
     return {"Distance": dist, "Color": color, "Position": pos, "W": w}
 
 

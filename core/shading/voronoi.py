@@ -1,5 +1,5 @@
-"""Cycles' Voronoi Texture (kernel/svm/voronoi.h) in 2 and 3 D: F1, F2, smooth F1 and
-distance to edge, with the Euclidean, Manhattan, Chebychev and Minkowski metrics and the
+"""Cycles' Voronoi Texture (kernel/svm/voronoi.h) in 2 and 3 D: F1, F2, smooth F1,
+distance to edge and n-sphere radius, with the Euclidean, Manhattan, Chebychev and Minkowski metrics and the
 fractal octaves (detail, roughness, lacunarity, normalize) of Blender 4.0+. Feature
 points come from the PCG integer hashes (Blender 5.0+), or with ``legacy`` from lookup3
 on the cell's float coordinates (Blender 4.x, before Cycles commit c24e0712c of June 2025).
@@ -24,7 +24,9 @@ F1 = 0
 F2 = 1
 SMOOTH_F1 = 2
 DISTANCE_TO_EDGE = 3
-FEATURES = {"F1": F1, "F2": F2, "SMOOTH_F1": SMOOTH_F1, "DISTANCE_TO_EDGE": DISTANCE_TO_EDGE}
+N_SPHERE_RADIUS = 4
+FEATURES = {"F1": F1, "F2": F2, "SMOOTH_F1": SMOOTH_F1, "DISTANCE_TO_EDGE": DISTANCE_TO_EDGE,
+            "N_SPHERE_RADIUS": N_SPHERE_RADIUS}
 EUCLIDEAN = 0
 MANHATTAN = 1
 CHEBYCHEV = 2
@@ -190,6 +192,41 @@ def distance_to_edge(x, y, z, dims, randomness, legacy):
 
 
 @njit(**_JIT)
+def n_sphere_radius(x, y, z, dims, randomness, legacy):
+    """Cycles' voronoi_n_sphere_radius: half the (Euclidean) distance from the nearest
+    feature point to its own nearest one (searched among the cells around its cell)."""
+    fx, fy, fz = math.floor(x), math.floor(y), math.floor(z) if dims == 3 else 0.0
+    lx, ly, lz = x - fx, y - fy, (z - fz) if dims == 3 else 0.0
+    cx, cy, cz = int(fx), int(fy), int(fz)
+    kr = 1 if dims == 3 else 0
+    best = 3.4028234663852886e38
+    qx = qy = qz = 0.0
+    oi = oj = ok = 0
+    for k in range(-kr, kr + 1):
+        for j in range(-1, 2):
+            for i in range(-1, 2):
+                ox, oy, oz = _cell_point(cx + i, cy + j, cz + k, dims, legacy)
+                px, py, pz = i + ox * randomness, j + oy * randomness, k + oz * randomness
+                d = _distance(px - lx, py - ly, pz - lz, EUCLIDEAN, 1.0)
+                if d < best:
+                    best, qx, qy, qz, oi, oj, ok = d, px, py, pz, i, j, k
+    best = 3.4028234663852886e38
+    rx = ry = rz = 0.0
+    for k in range(-kr, kr + 1):
+        for j in range(-1, 2):
+            for i in range(-1, 2):
+                if i == 0 and j == 0 and k == 0:
+                    continue
+                ii, jj, kk = i + oi, j + oj, k + ok
+                ox, oy, oz = _cell_point(cx + ii, cy + jj, cz + kk, dims, legacy)
+                px, py, pz = ii + ox * randomness, jj + oy * randomness, kk + oz * randomness
+                d = _distance(qx - px, qy - py, qz - pz, EUCLIDEAN, 1.0)
+                if d < best:
+                    best, rx, ry, rz = d, px, py, pz
+    return _distance(rx - qx, ry - qy, rz - qz, EUCLIDEAN, 1.0) / 2.0
+
+
+@njit(**_JIT)
 def voronoi_texture(x, y, z, dims, feature, metric, normalize, scale, detail, roughness,
                     lacunarity, smoothness, exponent, randomness, legacy=False):
     """Cycles' Voronoi Texture node at vector (x, y, z):
@@ -202,6 +239,8 @@ def voronoi_texture(x, y, z, dims, feature, metric, normalize, scale, detail, ro
     x, y, z = x * scale, y * scale, z * scale
     zero_input = detail == 0.0 or roughness == 0.0
     half = 0.5 + 0.5 * randomness
+    if feature == N_SPHERE_RADIUS:  # one octave, no normalisation (Cycles)
+        return n_sphere_radius(x, y, z, dims, randomness, legacy), 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
     if feature == DISTANCE_TO_EDGE:
         amp = 1.0
         max_amp = half

@@ -1,7 +1,7 @@
 """More shader nodes against Cycles, through emission (the pattern and tolerances of
 tests/blender/test_shader_nodes.py): Fresnel and Layer Weight (a varying Normal input, and
 the shading normal), Texture Coordinate Camera / Window / Reflection / Object from another
-object, Separate / Combine Color HSL, Vector Curves, Wavelength.
+object, Separate / Combine Color HSL, Vector Curves, Wavelength, Voronoi N-Sphere Radius.
 
 The planes face an orthographic camera, so the incoming direction is +Z everywhere; the
 view-dependent nodes vary through their Normal input (a tilted unit vector from the UV, all
@@ -15,7 +15,7 @@ bpy = pytest.importorskip("bpy")
 
 from tests.blender import shader_scenes as ss  # noqa: E402
 from tests.blender.test_shader_nodes import (  # noqa: E402
-    available, check, link, node, setdef, to_color, two_colors, uv_scalars)
+    check, link, node, setdef, to_color, two_colors, uv_scalars, voronoi_plane)
 
 pytestmark = [pytest.mark.blender, pytest.mark.api]
 
@@ -148,6 +148,9 @@ COLOR_SPECS = [
     ("Vector Curves", vector_curves_plane(False)),
     ("Vector Curves extrapolated", vector_curves_plane(True)),
     ("Wavelength", wavelength_plane),
+    ("Voronoi 2D N-Sphere Radius", voronoi_plane("2D", "N_SPHERE_RADIUS", output="Radius")),
+    ("Voronoi 3D N-Sphere Radius", voronoi_plane("3D", "N_SPHERE_RADIUS", output="Radius",
+                                                 Randomness=0.8)),
 ]
 
 
@@ -157,7 +160,7 @@ def test_fresnel_layer_weight_and_texture_coordinates_match_cycles():
     check(result, [n for n, _ in VIEW_SPECS])
 
 
-def test_hsl_vector_curves_and_wavelength_match_cycles():
+def test_hsl_vector_curves_wavelength_and_n_sphere_radius_match_cycles():
     result = ss.compare(COLOR_SPECS)
     assert not result["warnings"], result["warnings"]
     check(result, [n for n, _ in COLOR_SPECS])
