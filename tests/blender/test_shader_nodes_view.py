@@ -164,3 +164,43 @@ def test_hsl_vector_curves_wavelength_and_n_sphere_radius_match_cycles():
     result = ss.compare(COLOR_SPECS)
     assert not result["warnings"], result["warnings"]
     check(result, [n for n, _ in COLOR_SPECS])
+
+
+def test_window_coordinates_in_a_render_follow_the_camera():
+    """End to end (export_scene's camera view, the render frame's origin, the program at
+    camera hits): a sun-lit diffuse plane whose colour is (Window x, Window y, 0.5) renders,
+    averaged over each 8 x 8 pixel block, that colour at the block's centre x E cos / pi
+    (a linear colour: the block mean is its centre value)."""
+    from tests.blender import test_textures as tt
+
+    def material():
+        mat = bpy.data.materials.new("Window")
+        tree = ss.scenes.ensure_node_tree(mat)
+        tree.nodes.clear()
+        out = node(tree, "ShaderNodeOutputMaterial")
+        bsdf = node(tree, "ShaderNodeBsdfDiffuse")
+        link(tree, bsdf.outputs[0], out.inputs["Surface"])
+        tc = node(tree, "ShaderNodeTexCoord")
+        sep = node(tree, "ShaderNodeSeparateXYZ")
+        link(tree, tc.outputs["Window"], sep.inputs[0])
+        comb = node(tree, "ShaderNodeCombineXYZ")
+        link(tree, sep.outputs[0], comb.inputs[0])
+        link(tree, sep.outputs[1], comb.inputs[1])
+        comb.inputs[2].default_value = 0.5
+        link(tree, comb.outputs[0], bsdf.inputs["Color"])
+        return mat
+
+    scene = tt.sun_plane_scene(material)
+    scene.camera.location = (0.05, -0.05, 3.0)  # off the world origin, still inside the plane
+    img = tt.render_photon_map(scene)
+    n = tt.RES // 8
+    blocks = img.reshape(n, 8, n, 8, 3).mean(axis=(1, 3))  # row 0 at the top
+    centre = (np.arange(n) + 0.5) / n
+    want = np.empty((n, n, 3))
+    want[..., 0] = centre[None, :]
+    want[..., 1] = centre[::-1, None]
+    want[..., 2] = 0.5
+    want *= tt.SUN * np.cos(tt.TILT) / np.pi
+    rel = np.abs(blocks - want) / want
+    print(f"\nworst block {100 * rel.max():.3f} % off (Window x, y, 0.5) x E cos / pi")
+    assert rel.max() < 0.01
