@@ -37,7 +37,7 @@ from ..photons.importance import VisibleView, prepass_resolution
 from ..prepared import PreparedScene
 from ..scene import camera, geometry
 from ..scene.contract import Camera
-from . import denoise_features, direct
+from . import denoise_features, direct, volume
 
 
 DIM_JITTER = sampling.stream(sampling.PIXEL_JITTER, sampling.PROGRESSIVE)
@@ -367,14 +367,21 @@ class VisiblePoints:
 
 def visible_points(prepared: PreparedScene, cam: Camera, seed: int, k: int, max_depth: int,
                    direct: np.ndarray,
-                   features: denoise_features.FeatureAccumulator | None = None) -> VisiblePoints:
+                   features: denoise_features.FeatureAccumulator | None = None,
+                   media: volume.VolumeTerms | None = None,
+                   stats: dict | None = None) -> VisiblePoints:
     """Pass k's visible points (one jittered camera ray per pixel of ``cam``'s region, sample k),
     adding the radiance seen on the way (emitters, lights, background) to direct (P, 3)
     float64 (see core/integrators/sppm.py, step 1).
 
     features: Cycles' denoising features of this pass's paths (one sample per region pixel,
     in ``camera.region_pixels`` order), written at their hits as the photon-mapping
-    integrator writes them (denoise_features.py)."""
+    integrator writes them (denoise_features.py).
+
+    media: the scene's media terms (core/integrators/volume.py) with this pass's volume
+    photon map, or None (no medium): every segment of the paths adds its Volume Direct,
+    beam estimate and emission to direct and attenuates what lies behind it (the visible
+    points' weights included); stats receives the volume counters."""
     mats = prepared.materials
     frame = int(cam.width) * int(cam.height)
     # The Render Region's pixels only (all of them without one), by frame index: each
@@ -397,6 +404,10 @@ def visible_points(prepared: PreparedScene, cam: Camera, seed: int, k: int, max_
     transmitted = np.zeros(n, bool)
     world = prepared.world
     out = []
+    if media is not None:
+        seen_media = np.zeros((n, 3))  # per row of pixel: the media's light
+        n_inside = np.ones(n)  # the dielectric each path is in (volume.add_segments)
+        stats = {} if stats is None else stats
     for depth in range(max_depth + 1):
         if rows.shape[0] == 0:
             break
@@ -404,9 +415,15 @@ def visible_points(prepared: PreparedScene, cam: Camera, seed: int, k: int, max_
         hits = intersect(prepared, seed, origins, dirs, tmax, rows, pixel, sample,
                          lambda layer, depth=depth: sampling.stream(sampling.CUTOUT_CHOICE, depth,
                                                                     layer, sampling.PROGRESSIVE))
-        hit, miss, shown, light_l = lights_along(prepared, first, transmitted, origins, dirs, hits)
+        thr_light = thr  # the lights along the rays are attenuated to themselves
+        if media is not None:  # the segments' media: their light, then their transmittance
+            thr = volume.add_segments(
+                media, origins, dirs, np.where(hits.prim >= 0, hits.t, np.inf), thr, rows,
+                pixel, sample, depth, seen_media, seen_media, seen_media, stats, n_inside)
+        hit, miss, shown, light_l = lights_along(prepared, first, transmitted, origins, dirs, hits,
+                                                 medium=None if media is None else media.medium)
         if shown is not None:
-            direct[pixel[rows[shown]]] += thr[shown] * light_l[shown]
+            direct[pixel[rows[shown]]] += thr_light[shown] * light_l[shown]
         # Rays that escape see the world
         if np.any(world > 0) and np.any(miss) and (not first or prepared.scene.world.visible_to_camera):
             direct[pixel[rows[miss]]] += thr[miss] * world
@@ -414,6 +431,8 @@ def visible_points(prepared: PreparedScene, cam: Camera, seed: int, k: int, max_
         if h.size == 0:
             break
         rows, thr, d, transmitted = rows[h], thr[h], dirs[h], transmitted[h]
+        if media is not None:
+            n_inside = n_inside[h]
         sp = geometry.surface_points(prepared.tri_vertices, prepared.tri_normals,
                                      prepared.tri_material, hits.prim[h], hits.u[h], hits.v[h],
                                      d, prepared.extent)
@@ -452,8 +471,14 @@ def visible_points(prepared: PreparedScene, cam: Camera, seed: int, k: int, max_
         if depth == max_depth:
             break
         g = np.flatnonzero(go_on)
+        if media is not None:  # entering a dielectric at its front face, leaving at its back
+            front = np.einsum("ij,ij->i", d[g], sp.geometric_normal[g]) < 0.0
+            n_inside = np.where(new_tr[g] & front, mats["ior"][sp.material[g]],
+                                np.where(new_tr[g] & ~front, 1.0, n_inside[g]))
         rows, origins, dirs = rows[g], new_o[g], new_d[g]
         thr, transmitted, tmax = new_thr[g], new_tr[g], None
+    if media is not None:
+        direct[pixel] += seen_media
     if not out:
         z3 = np.zeros((0, 3))
         return VisiblePoints(np.zeros(0, np.int64), z3, z3, z3, z3, np.zeros(0, np.int32), z3, z3,

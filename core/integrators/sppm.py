@@ -79,7 +79,8 @@ from ..materials import bsdf
 from ..passes import ProgressFn, RenderOutput, StopFn, TileFn
 from ..photons.hash_grid import HashGrid, within
 from ..photons.store import STORE_ALL, STORE_NOT_DIRECT
-from ..photons.tracing import photon_sources, trace_stored_photons
+from ..photons.beam import VolumePhotonMap, photon_radii
+from ..photons.tracing import MIN_VOLUME_RADIUS, photon_sources, trace_stored_photons
 from ..prepared import PreparedScene, prepare
 from ..scene import camera
 from ..scene.contract import Scene
@@ -88,6 +89,7 @@ from ..settings import (MAX_PHOTONS_PER_PASS, MAX_PROGRESSIVE_PASSES as MAX_PASS
 from . import camera_paths
 from . import denoise_features
 from . import direct as direct_light
+from . import volume
 
 INITIAL_PHOTONS = 12.0
 """K0 of the automatic first-pass radius: photons expected in a disc on a uniformly lit
@@ -288,11 +290,6 @@ class PassRenderer:
     def __init__(self, prepared: PreparedScene, settings: RenderSettings):
         self.prepared, self.settings = prepared, settings
         scene = prepared.scene
-        medium = prepared.medium
-        if medium is not None:
-            raise SettingsError(
-                f'"integrator" is "progressive", which does not render participating media '
-                f"yet (the media {medium.name}); use the \"photon_map\" integrator")
         self.width, self.height = int(scene.camera.width), int(scene.camera.height)
         self.photons_per_pass = int(settings.photons_per_pass)
         self.alpha = float(settings.progressive_alpha)
@@ -306,7 +303,14 @@ class PassRenderer:
             # The sample index of the shadow rays' random numbers is the pass, in a set of
             # progressive_passes (a setting, so every pass's numbers are fixed by it).
             self.shadow_rays = direct_light.prepare(settings, prepared,
-                                                    int(settings.progressive_passes))
+                                                    int(settings.progressive_passes), None,
+                                                    prepared.medium)
+        # Media: Volume Direct by shadow rays along the camera segments (with shadow-ray
+        # direct light; else by photons), the rest by the pass's volume photons.
+        self.media = volume.prepare(settings, prepared, int(settings.progressive_passes))
+        if self.media is not None:
+            self.media.single_scattering = self.shadow_rays is not None
+        self.beam_k = int(settings.global_k)
         self._radii = radius_schedule(self.r1, self.alpha, 1)
 
     def radius(self, k: int) -> float:
@@ -345,6 +349,13 @@ class PassRenderer:
         image = np.zeros((self.width * self.height, 3))
         t0 = time.perf_counter()
         vps = None
+        traced = None
+        if self.media is not None and self.has_geometry:
+            # The beam estimate runs along the camera segments, so this pass's photons
+            # come first (without media they follow the visible points, which may need none).
+            traced = self._trace(k, st)
+            self.media.volume_map = self.beam_map(traced[3], k)
+        t_media = time.perf_counter() - t0
         if self.has_geometry:
             acc = None
             if settings.denoising_data and features is not None:
@@ -352,7 +363,8 @@ class PassRenderer:
                     camera.region_pixels(scene.camera).shape[0],
                     camera.camera_frame(scene.camera)[1:])
             vps = camera_paths.visible_points(prepared, scene.camera, seed, k,
-                                              int(settings.max_specular_depth), image, acc)
+                                              int(settings.max_specular_depth), image, acc,
+                                              self.media, st)
             if acc is not None:  # one sample per region pixel, in region_pixels order
                 frame = camera.region_pixels(scene.camera)
                 for name, value in (("denoising_albedo", acc.albedo),
@@ -379,11 +391,9 @@ class PassRenderer:
         t1 = time.perf_counter()
         stored = 0
         if vps is not None and vps.pixel.size:
-            pos, flux, wdir, counters = trace_stored_photons(
-                prepared, self.sources, self.photons_per_pass, seed=sampling.pass_seed(seed, k),
-                max_bounces=int(settings.photon_max_bounces),
-                store_rule=STORE_NOT_DIRECT if self.shadow_rays is not None else STORE_ALL)
-            st["rays_photon"] += counters["rays"]
+            if traced is None:
+                traced = self._trace(k, st)
+            pos, flux, wdir = traced[:3]
             t2 = time.perf_counter()
             r = self.radius(k)
             phi, count = gather_photons(vps.position, vps.ng, vps.ns, vps.wo, vps.material,
@@ -398,6 +408,10 @@ class PassRenderer:
         else:
             t2 = time.perf_counter()
         t3 = time.perf_counter()
+        traced = None
+        if self.media is not None:
+            self.media.volume_map = None  # one pass's photons held at a time
+            t1 -= t_media  # the photons were traced first: their time is theirs
         st["photons_emitted"] += self.photons_per_pass if self.sources else 0
         st["photons_stored"].append(stored)
         st["photons_alive_max"] = max(st["photons_alive_max"], stored)
@@ -406,6 +420,41 @@ class PassRenderer:
         st["time_photons"] += t2 - t1
         st["time_gather"] += t3 - t2
         return image
+
+    def _trace(self, k: int, st: dict):
+        """Pass k's photons: (positions, flux, directions (M, 3) float32, the volume photons
+        (``trace_stored_photons(volume=True)``) or None)."""
+        settings = self.settings
+        out = trace_stored_photons(
+            self.prepared, self.sources, self.photons_per_pass,
+            seed=sampling.pass_seed(int(settings.seed), k),
+            max_bounces=int(settings.photon_max_bounces),
+            store_rule=STORE_NOT_DIRECT if self.shadow_rays is not None else STORE_ALL,
+            volume=self.media is not None)
+        st["rays_photon"] += out[3]["rays"]
+        return out[0], out[1], out[2], (out[4] if self.media is not None else None)
+
+    def beam_map(self, photons, k: int) -> VolumePhotonMap | None:
+        """Pass k's volume photon map for the beam estimate along the camera segments:
+        the photons (positions, flux, directions, camera flags) of ``_trace``, those for
+        the camera only with shadow-ray Volume Direct (a light's first collisions are
+        the shadow rays'), all of them with photon direct light. Radii: the distance to the
+        ``global_k``-th nearest of the pass's photons (as the photon-mapping integrator's
+        map; it adapts to the photon density) times the schedule's r_k / r_1, so the beam
+        radius shrinks as the surface radius does: the estimate's 2-D kernel across the ray
+        is the one Knaus & Zwicker's ratio (j + alpha) / (j + 1) of r^2 is made for
+        (progressive photon beams, Jarosz et al. 2011, use it for their beam width)."""
+        if photons is None:
+            return None
+        pos, flux, direction, camera_rows = photons
+        sel = camera_rows if self.shadow_rays is not None else slice(None)
+        pos, flux, direction = pos[sel], flux[sel], direction[sel]
+        if pos.shape[0] < 2:
+            return None
+        scale = self.radius(k) / self.r1
+        radii = np.maximum(photon_radii(pos, min(self.beam_k, pos.shape[0])),
+                           MIN_VOLUME_RADIUS) * np.float32(scale)
+        return VolumePhotonMap(pos, flux, direction, np.maximum(radii, MIN_VOLUME_RADIUS))
 
     def base_stats(self) -> dict:
         """The run's constants, for RenderOutput.stats."""
