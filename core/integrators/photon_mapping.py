@@ -31,9 +31,9 @@ Photon maps: ``render`` first traces them (core/integrators/photon_terms.py, ove
 render's PreparedScene) unless ``photon_maps`` is given (tests pass hand-built maps); the
 photon pass takes PHOTON_SHARE of the progress bar.
 
-Specular rays: one delta lobe is picked per hit (``bsdf.sample_delta``: mirror vs glass by
-tint, reflection vs refraction with probability clamp(F, 1/8, 7/8) like Cycles' camera
-paths) and the path weight is lobe / probability, so paths never split.
+Specular rays: one lobe is sampled per hit (``camera_paths.follow_bsdf``,
+``closure.sample_bsdf``: by the closures' sample weights, as Cycles picks a closure) and the
+path weight is lobe / probability, so paths never split.
 
 Sampling: pixel jitter, light samples and lobe choices are stratified over each pixel's
 samples (``sampling.stratified2``, scrambled Sobol). Determinism: every random number is a
