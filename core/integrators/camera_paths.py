@@ -362,7 +362,8 @@ class VisiblePoints:
     diffuse albedo there (textured), eps (V,) metres, the ray offset there; texel (V, 3)
     the texel colour (``PreparedScene.texels``), prim (V,) int32, u, v (V,) float32 the
     triangle and barycentrics (``HitShader.closures_at`` at the points); lam (V,) float64
-    the paths' wavelengths in nm (0: RGB, docs/dispersion.md)."""
+    the paths' wavelengths in nm (0: RGB, docs/dispersion.md); front (V,) bool, the point
+    was reached from the front of the mesh's geometric normal."""
 
     pixel: np.ndarray
     position: np.ndarray
@@ -378,6 +379,7 @@ class VisiblePoints:
     u: np.ndarray
     v: np.ndarray
     lam: np.ndarray
+    front: np.ndarray
 
 
 def visible_points(prepared: PreparedScene, cam: Camera, seed: int, k: int, max_depth: int,
@@ -470,6 +472,7 @@ def visible_points(prepared: PreparedScene, cam: Camera, seed: int, k: int, max_
                 sampling.CAMERA_WAVELENGTH, depth, sampling.PROGRESSIVE))
             thr = np.array(thr)
             pick_wavelengths(prepared.closures, sp.material, u_lam, lam, thr)
+        front = np.einsum("ij,ij->i", d, sp.geometric_normal) < 0.0
         ng, ns = sp.geometric_normal.copy(), sp.shading_normal.copy()
         vp, go_on, new_tr = np.empty(m, bool), np.empty(m, bool), np.empty(m, bool)
         new_o, new_d, new_thr = np.empty((m, 3)), np.empty((m, 3)), np.empty((m, 3))
@@ -488,14 +491,13 @@ def visible_points(prepared: PreparedScene, cam: Camera, seed: int, k: int, max_
         if s.size:
             out.append((pixel[rows[s]], sp.position[s], ng[s], ns[s], -d[s], sp.material[s], new_thr[s],
                         albedo[s], sp.eps[s], texel[s], hits.prim[h][s], hits.u[h][s],
-                        hits.v[h][s], lam[s]))
+                        hits.v[h][s], lam[s], front[s]))
         if depth == max_depth:
             break
         g = np.flatnonzero(go_on)
         if media is not None:  # entering a dielectric at its front face, leaving at its back
-            front = np.einsum("ij,ij->i", d[g], sp.geometric_normal[g]) < 0.0
-            n_inside = np.where(new_tr[g] & front, mats["ior"][sp.material[g]],
-                                np.where(new_tr[g] & ~front, 1.0, n_inside[g]))
+            n_inside = np.where(new_tr[g] & front[g], mats["ior"][sp.material[g]],
+                                np.where(new_tr[g] & ~front[g], 1.0, n_inside[g]))
         rows, origins, dirs, lam = rows[g], new_o[g], new_d[g], lam[g]
         thr, transmitted, tmax = new_thr[g], new_tr[g], None
     if media is not None:
@@ -504,7 +506,7 @@ def visible_points(prepared: PreparedScene, cam: Camera, seed: int, k: int, max_
         z3 = np.zeros((0, 3))
         return VisiblePoints(np.zeros(0, np.int64), z3, z3, z3, z3, np.zeros(0, np.int32), z3, z3,
                              np.zeros(0), z3, np.zeros(0, np.int32), np.zeros(0, np.float32),
-                             np.zeros(0, np.float32), np.zeros(0))
+                             np.zeros(0, np.float32), np.zeros(0), np.zeros(0, bool))
     cols = [np.concatenate(c) for c in zip(*out)]
     return VisiblePoints(*[np.ascontiguousarray(c) for c in cols])
 

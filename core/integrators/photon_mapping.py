@@ -162,9 +162,17 @@ def _photon_terms(ctx: _CameraPass, rows, pos, ngf, nsf, eps, mat, thr, pixel, s
         g = sel[blur]
         if g.size:
             t0 = time.perf_counter()
-            est = (gather.cached_radiance(terms, pos[g], ngf[g], albedo[g]) if terms.cache is not None
-                   else gather.preview(terms, pos[g], ngf[g], albedo[g]))
-            _add(indirect_target, rows[g], thr[g] * est)
+            # Non-Lambert diffuse-like lobes: the BSDF estimate (photons of both sides; the
+            # cache holds rho / pi E, so it is not read there)
+            g, gb, hb = gather.bsdf_terms(terms, tab, g, mat, crow, texel, d, nsf, front, tangent)
+            if hb is not None:
+                _add(indirect_target, rows[gb],
+                     thr[gb] * gather.preview(terms, pos[gb], ngf[gb], None, hb))
+            if g.size:
+                est = (gather.cached_radiance(terms, pos[g], ngf[g], albedo[g])
+                       if terms.cache is not None
+                       else gather.preview(terms, pos[g], ngf[g], albedo[g]))
+                _add(indirect_target, rows[g], thr[g] * est)
             ctx.stats["time_global_after_glossy"] = (ctx.stats.get("time_global_after_glossy", 0.0)
                                                      + time.perf_counter() - t0)
             ctx.stats["hits_global_after_glossy"] = ctx.stats.get("hits_global_after_glossy", 0) + g.size

@@ -75,11 +75,12 @@ from numba import njit, prange
 
 from .. import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
 from .. import sampling
-from ..materials import bsdf
+from ..materials import bsdf, closure
 from ..passes import ProgressFn, RenderOutput, StopFn, TileFn
 from ..photons.hash_grid import HashGrid, within
 from ..photons.store import STORE_ALL, STORE_NOT_DIRECT
 from ..photons.beam import VolumePhotonMap, photon_radii
+from ..photons.estimate import BsdfHits
 from ..photons.tracing import MIN_VOLUME_RADIUS, photon_sources, trace_stored_photons
 from ..prepared import PreparedScene, prepare
 from ..scene import camera
@@ -107,9 +108,16 @@ hybrid against)."""
 
 @njit(cache=True, parallel=True, error_model="numpy")
 def _gather_kernel(vp_pos, vp_ng, vp_ns, vp_wo, vp_mat, radius, ph_pos, ph_flux, ph_dir, cells,
-                   start, order, lo, inv_h, mask, vp_albedo, specular, alpha, phi, count):
+                   start, order, lo, inv_h, mask, vp_albedo, specular, alpha, tab, vp_row,
+                   vp_texel, vp_tan, vp_front, vp_lam, vp_bsdf, phi, count):
     """phi[i] = sum f(wo, w_p) Phi_p and count[i] = M over this pass's photons within
-    radius[i] of visible point i on its visible side."""
+    radius[i] of visible point i. Lambert points (vp_bsdf[i] False): photons of the visible
+    side (n_g . w_p > 0), f = albedo / pi + the material's rough glossy lobe. Points whose
+    diffuse-like lobes are not Lambert (Oren-Nayar, sheen, Translucent): f is the closures'
+    f_d + f_glossy at the photon's direction (``closure.hit_lobes`` / ``parts_at``, row
+    vp_row[i] of tab, texel, tangent, front, wavelength lam nm), photons of both sides
+    counting (a lobe that transmits sees the far side's), as
+    ``estimate._bsdf_estimate_kernel`` weighs the photon-mapping integrator's photons."""
     for i in prange(vp_pos.shape[0]):
         px, py, pz = vp_pos[i, 0], vp_pos[i, 1], vp_pos[i, 2]
         r2 = radius[i] * radius[i]
@@ -118,11 +126,29 @@ def _gather_kernel(vp_pos, vp_ng, vp_ns, vp_wo, vp_mat, radius, ph_pos, ph_flux,
         a1 = 0.0
         a2 = 0.0
         c = 0
+        use_bsdf = vp_bsdf[i]
+        gx, gy, gz = vp_ng[i, 0], vp_ng[i, 1], vp_ng[i, 2]
+        if use_bsdf:
+            L, F = closure.hit_lobes(tab, vp_row[i], vp_texel[i, 0], vp_texel[i, 1],
+                                     vp_texel[i, 2], vp_wo[i, 0], vp_wo[i, 1], vp_wo[i, 2],
+                                     vp_ns[i, 0], vp_ns[i, 1], vp_ns[i, 2], gx, gy, gz,
+                                     vp_tan[i, 0], vp_tan[i, 1], vp_tan[i, 2], vp_front[i],
+                                     vp_lam[i])
+        else:
+            L, F = np.empty((0, closure.NL)), np.empty(12)
         ring = np.int64(np.ceil(radius[i] * inv_h))
         for k in within(px, py, pz, r2, ring, ph_pos, lo, inv_h, mask, cells, start, order):
             wx, wy, wz = ph_dir[k, 0], ph_dir[k, 1], ph_dir[k, 2]
+            if use_bsdf:
+                c += 1
+                d0, d1, d2, g0, g1, g2, _ = closure.parts_at(L, F, wx, wy, wz, gx, gy, gz,
+                                                             True, False)
+                a0 += (d0 + g0) * ph_flux[k, 0]
+                a1 += (d1 + g1) * ph_flux[k, 1]
+                a2 += (d2 + g2) * ph_flux[k, 2]
+                continue
             # Front-side test: the photon arrived on the side the camera sees.
-            if vp_ng[i, 0] * wx + vp_ng[i, 1] * wy + vp_ng[i, 2] * wz <= 0.0:
+            if gx * wx + gy * wy + gz * wz <= 0.0:
                 continue
             c += 1
             kd, ks = bsdf.eval_reflection(
@@ -136,12 +162,13 @@ def _gather_kernel(vp_pos, vp_ng, vp_ns, vp_wo, vp_mat, radius, ph_pos, ph_flux,
 
 
 def gather_photons(vp_pos, vp_ng, vp_ns, vp_wo, vp_mat, radius, ph_pos, ph_flux, ph_dir, mats,
-                   vp_albedo=None):
+                   vp_albedo, hits: BsdfHits, non_lambert, vp_lam):
     """Phi (V, 3) float64 and M (V,) int64 of step 3 for V visible points and one pass's
     photons (positions, flux, directions (P, 3) float32); mats: ``bsdf.material_table``;
-    vp_albedo (V, 3): the points' (textured) diffuse albedo, default the materials'."""
-    if vp_albedo is None:
-        vp_albedo = mats["diffuse"][vp_mat]
+    vp_albedo (V, 3): the points' (textured) diffuse albedo; hits: the points' closures
+    (``estimate.BsdfHits``: rows, texel, tangent, front); non_lambert (M,) bool per
+    material (``closure.lobe_masks``): those points weigh each photon by their closures
+    (``_gather_kernel``); vp_lam (V,) float64 their wavelengths in nm (0: RGB)."""
     v = vp_pos.shape[0]
     phi = np.zeros((v, 3))
     count = np.zeros(v, np.int64)
@@ -154,10 +181,12 @@ def gather_photons(vp_pos, vp_ng, vp_ns, vp_wo, vp_mat, radius, ph_pos, ph_flux,
     _gather_kernel(vp_pos, vp_ng, vp_ns, vp_wo, vp_mat, np.ascontiguousarray(radius, np.float64),
                    ph_pos, ph_flux, ph_dir, g.cells, g.start, g.order, g.lo, g.inv_h, g.mask,
                    np.ascontiguousarray(vp_albedo, np.float64), mats["specular"], mats["alpha"],
-                   phi, count)
+                   hits.closures, np.ascontiguousarray(hits.material, np.int32),
+                   np.ascontiguousarray(hits.texel, np.float64), hits.tangents(),
+                   np.ascontiguousarray(hits.front, np.bool_),
+                   np.ascontiguousarray(vp_lam, np.float64),
+                   np.ascontiguousarray(non_lambert[vp_mat], np.bool_), phi, count)
     return phi, count
-
-
 
 
 # --- the radius schedule --------------------------------------------------------------------
@@ -311,6 +340,9 @@ class PassRenderer:
         if self.media is not None:
             self.media.single_scattering = self.shadow_rays is not None
         self.beam_k = int(settings.global_k)
+        # Diffuse-like lobes that are not Lambert (Oren-Nayar, sheen, Translucent): their
+        # visible points weigh photons by the closures (_gather_kernel)
+        self.non_lambert = closure.lobe_masks(prepared.closures)["non_lambert"]
         self._radii = radius_schedule(self.r1, self.alpha, 1)
 
     def radius(self, k: int) -> float:
@@ -371,17 +403,21 @@ class PassRenderer:
                                     ("denoising_normal", acc.normal)):
                     total = features.setdefault(name, np.zeros_like(image))
                     total[frame] += value
-            if vps.pixel.size and self.shadow_rays is not None:
+            if vps.pixel.size:
                 tab, rows = prepared.hit_shader.closures_at(vps.prim, vps.u, vps.v, -vps.wo,
                                                             vps.material)
+                tangent = prepared.hit_shader.tangents(vps.prim, vps.position, tab, rows)
+                vp_closures = BsdfHits(tab, rows, vps.texel, vps.wo, vps.ns, vps.front,
+                                       tangent=tangent)
+            if vps.pixel.size and self.shadow_rays is not None:
                 # With programmed points, their own closures and the texel colour; else
                 # the material's and shade's texel from the albedo (as before programs).
                 programmed = rows is not vps.material
                 points = direct_light.ShadingPoints(
                     vps.position, vps.ng, vps.ns, -vps.wo, rows, vps.eps, vps.weight,
                     vps.albedo, vps.pixel, texel=vps.texel if programmed else None,
-                    closures=tab,
-                    tangent=prepared.hit_shader.tangents(vps.prim, vps.position, tab, rows))
+                    closures=tab, front=vps.front,
+                    wavelength=vps.lam if np.any(vps.lam > 0) else None, tangent=tangent)
                 before = int(self.shadow_rays.stats.get("rays_shadow", 0))
                 direct_light.shade(self.shadow_rays, points, vps.pixel,
                                    np.full(vps.pixel.size, k, np.int64), 0, image)
@@ -398,7 +434,8 @@ class PassRenderer:
             r = self.radius(k)
             phi, count = gather_photons(vps.position, vps.ng, vps.ns, vps.wo, vps.material,
                                         np.full(vps.pixel.size, r), pos, flux, wdir,
-                                        prepared.materials, vps.albedo)
+                                        prepared.materials, vps.albedo, vp_closures,
+                                        self.non_lambert, vps.lam)
             s = np.flatnonzero(count > 0)
             image[vps.pixel[s]] += vps.weight[s] * phi[s] / (np.pi * r * r)
             stored = int(pos.shape[0])
