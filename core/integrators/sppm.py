@@ -7,13 +7,17 @@ Pass k = 0, 1, 2, ... (0-based; K&Z's pass i = k + 1) is a function of (scene, s
 k) alone:
 
 1. Visible points. One jittered camera ray per pixel (point k of a per-pixel Owen-scrambled
-   Sobol sequence) follows mirrors and glass (``bsdf.sample_delta``) to the first surface
-   with a diffuse lobe: the pixel's visible point x_k, with path weight beta_k (the
-   throughput, lobe value / probability). Emitters, visible lights and the background seen
-   along the way are the pass's directly seen radiance D_k. At a material with both a
-   diffuse and a delta lobe the path stops at the diffuse lobe with probability
-   p = mean(diffuse) / (mean(diffuse) + delta weight) and beta is divided by p (or by
-   1 - p when it goes on), so there is one visible point per pixel and pass.
+   Sobol sequence) follows mirrors and glass (``closure.sample_delta``, at the path's
+   wavelength once it met a dispersive surface) to the first surface with a diffuse lobe:
+   the pixel's visible point x_k, with path weight beta_k (the throughput, lobe value /
+   probability). Emitters, visible lights and the background seen along the way are the
+   pass's directly seen radiance D_k. At a material with both a diffuse and a delta lobe
+   the path stops at the non-delta lobes with probability 1 - s, s the delta lobes' share
+   of the closures' sample weights, and beta is divided by 1 - s (or by s when it goes
+   on), so there is one visible point per pixel and pass. In a medium every camera
+   segment adds its Volume Direct (shadow rays), beam estimate (this pass's volume
+   photons, radii shrinking as r_k / r_1) and emission, and attenuates what lies behind
+   (core/integrators/volume.py; docs/volumes.md).
    Direct light at the visible point comes from shadow rays to every light, emissive
    triangle and the world (``direct.shade``, the photon-map integrator's own estimator,
    ``light_samples`` per light and pass, sample index k of a set of
@@ -29,6 +33,8 @@ k) alone:
    For every visible point, over the photons of this pass with |x_p - x| <= r_k on its
    visible side (n_g . w_p > 0, the front-side test; n_g faces the camera ray):
        Phi = sum_p f(w_o, w_p) Phi_p        (f = diffuse / pi + rough glossy lobe)
+   (points whose diffuse-like lobes are not Lambert: f from their closures, photons of
+   both sides counting; ``_gather_kernel``)
    and the pass's estimate is L_k = D_k + beta_k Phi / (pi r_k^2).
 4. The image after n passes is the plain average: L = (1/n) sum_k L_k.
 
@@ -385,7 +391,7 @@ class PassRenderer:
         if self.media is not None and self.has_geometry:
             # The beam estimate runs along the camera segments, so this pass's photons
             # come first (without media they follow the visible points, which may need none).
-            traced = self._trace(k, st)
+            traced = self.trace_pass(k, st)
             self.media.volume_map = self.beam_map(traced[3], k)
         t_media = time.perf_counter() - t0
         if self.has_geometry:
@@ -428,7 +434,7 @@ class PassRenderer:
         stored = 0
         if vps is not None and vps.pixel.size:
             if traced is None:
-                traced = self._trace(k, st)
+                traced = self.trace_pass(k, st)
             pos, flux, wdir = traced[:3]
             t2 = time.perf_counter()
             r = self.radius(k)
@@ -458,7 +464,7 @@ class PassRenderer:
         st["time_gather"] += t3 - t2
         return image
 
-    def _trace(self, k: int, st: dict):
+    def trace_pass(self, k: int, st: dict):
         """Pass k's photons: (positions, flux, directions (M, 3) float32, the volume photons
         (``trace_stored_photons(volume=True)``) or None)."""
         settings = self.settings
@@ -473,7 +479,7 @@ class PassRenderer:
 
     def beam_map(self, photons, k: int) -> VolumePhotonMap | None:
         """Pass k's volume photon map for the beam estimate along the camera segments:
-        the photons (positions, flux, directions, camera flags) of ``_trace``, those for
+        the photons (positions, flux, directions, camera flags) of ``trace_pass``, those for
         the camera only with shadow-ray Volume Direct (a light's first collisions are
         the shadow rays'), all of them with photon direct light. Radii: the distance to the
         ``global_k``-th nearest of the pass's photons (as the photon-mapping integrator's
