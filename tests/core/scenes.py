@@ -80,7 +80,7 @@ def fog_scene(width=24, height=24, sigma_s=0.25, sigma_a=0.05, g=0.3) -> Scene:
     seen by a width x height pinhole camera from 3 m away: the light's glow in the fog,
     its single and multiple scattering, and the floor seen through the fog. The scene of
     the progressive mode's media tests (tests/core/integrators/test_sppm_media.py) and
-    benchmarks/sppm_convergence.py --fog."""
+    benchmarks/sppm_fog_convergence.py."""
     mesh = shapes.assemble([(shapes.quad([0, 0, 0], [2, 0, 0], [0, 2, 0]), 0),
                             (shapes.quad([0, 2, 1.5], [2, 0, 0], [0, 0, 1.5]), 1)])
     mats = Materials.from_list([{"diffuse": [0.8] * 3}, {"diffuse": [0.6] * 3}])
