@@ -7,7 +7,7 @@
   rays escape to the world;
 - ``pick_wavelengths``: the wavelength a path picks at its first dispersive surface
   (docs/dispersion.md), before the hit is shaded;
-- ``follow_delta``: one mirror or glass lobe sampled per path (``bsdf.continue_delta``),
+- ``follow_delta``: one mirror or glass lobe sampled per path (``closure.sample_delta``),
   the path weight divided by its probability, so paths never split;
 - ``visible_points``: the progressive integrator's camera pass (one jittered ray per pixel
   and pass, through mirrors and glass to the first diffuse lobe), also the photon-importance
@@ -29,7 +29,6 @@ from numba import njit, prange
 
 from .. import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
 from .. import sampling
-from .. import spectral
 from ..lights import light_set as lights
 from ..materials import bsdf
 from ..materials import closure
@@ -37,7 +36,7 @@ from ..photons.importance import VisibleView, prepass_resolution
 from ..prepared import PreparedScene
 from ..scene import camera, geometry
 from ..scene.contract import Camera
-from . import denoise_features, direct
+from . import denoise_features, direct, volume
 
 
 DIM_JITTER = sampling.stream(sampling.PIXEL_JITTER, sampling.PROGRESSIVE)
@@ -106,22 +105,56 @@ def lights_along(prepared: PreparedScene, first: bool, transmitted, origins, dir
     return hit, ~hit, seen, light_l
 
 
-def follow_delta(materials: dict, pos, ngf, nsf, d, front, mat, eps, u_lobe, u_pick, thr):
-    """Continue K paths through one sampled mirror or glass lobe each (``bsdf.sample_delta``).
+@njit(cache=True, parallel=True, error_model="numpy")
+def _delta_kernel(tab, pos, ngf, nsf, tan, d, front, mat, eps, texel, thr, lam, u_lobe, u_pick,
+                  new_o, new_d, new_thr, transmitted, ok):
+    """One singular lobe per hit (``closure.sample_delta``) and the next ray: origin offset
+    by eps along ngf to the side it leaves on, throughput thr times the delta lobes'
+    weight; ok False where the path ends (no delta lobe, a failed sample, zero weight)."""
+    for i in prange(pos.shape[0]):
+        ox, oy, oz, w0, w1, w2, _, flags = closure.sample_delta(
+            tab, mat[i], texel[i, 0], texel[i, 1], texel[i, 2], -d[i, 0], -d[i, 1], -d[i, 2],
+            nsf[i, 0], nsf[i, 1], nsf[i, 2], ngf[i, 0], ngf[i, 1], ngf[i, 2],
+            tan[i, 0], tan[i, 1], tan[i, 2], front[i], u_lobe[i], u_pick[i], u_pick[i], lam[i])
+        t0, t1, t2 = thr[i, 0] * w0, thr[i, 1] * w1, thr[i, 2] * w2
+        ok[i] = flags != 0 and (t0 > 0.0 or t1 > 0.0 or t2 > 0.0)
+        tr = ox * ngf[i, 0] + oy * ngf[i, 1] + oz * ngf[i, 2] < 0.0
+        side = -eps[i] if tr else eps[i]
+        new_o[i, 0] = pos[i, 0] + side * ngf[i, 0]
+        new_o[i, 1] = pos[i, 1] + side * ngf[i, 1]
+        new_o[i, 2] = pos[i, 2] + side * ngf[i, 2]
+        new_d[i, 0], new_d[i, 1], new_d[i, 2] = ox, oy, oz
+        new_thr[i, 0], new_thr[i, 1], new_thr[i, 2] = t0, t1, t2
+        transmitted[i] = tr
 
-    Inputs (K, ...) at the hits: pos, ngf, nsf (K, 3), d (K, 3) the arriving directions,
-    front (K,) bool, mat (K,) int32, eps (K,), u_lobe / u_pick (K,) uniforms, thr (K, 3).
-    Returns (keep, origins, directions, throughput, transmitted) of the paths that go on:
-    keep (J,) indices into the K, then (J, 3), (J, 3), (J, 3) and (J,) bool.
+
+def follow_delta(prepared: PreparedScene, pos, ngf, nsf, d, front, mat, eps, texel, u_lobe,
+                 u_pick, thr, lam, closures=None, tangent=None):
+    """Continue K paths through one sampled mirror or glass lobe each
+    (``closure.sample_delta``, the closures' own Fresnel and tints, the IOR at each path's
+    wavelength), the weight divided by the lobe's probability among the delta lobes.
+
+    Inputs (K, ...) at the hits: pos, ngf, nsf (K, 3) (normals facing the arriving ray),
+    d (K, 3) the arriving directions, front (K,) bool, mat (K,) int32 rows of ``closures``
+    (None: the prepared table), eps (K,), texel (K, 3) the texel colour, u_lobe / u_pick
+    (K,) uniforms, thr (K, 3), lam (K,) float64 nm (0: RGB); tangent (K, 3) or None.
+    Returns (keep, origins, directions, throughput, transmitted, lam) of the paths that go
+    on: keep (J,) indices into the K, then (J, 3) x 3, (J,) bool and (J,) float64.
     """
     k = pos.shape[0]
     new_o, new_d, new_thr = np.empty((k, 3)), np.empty((k, 3)), np.empty((k, 3))
     new_tr, ok = np.empty(k, bool), np.empty(k, bool)
-    bsdf.continue_delta(pos, ngf, nsf, d, front, mat, eps, materials["specular"],
-                        materials["alpha"], materials["transmission"], materials["ior"],
-                        u_lobe, u_pick, thr, new_o, new_d, new_thr, new_tr, ok)
+    tab = prepared.closures if closures is None else closures
+    tan = (closure.default_tangents(k) if tangent is None
+           else np.ascontiguousarray(tangent, np.float64))
+    _delta_kernel(tab, np.ascontiguousarray(pos, np.float64), np.ascontiguousarray(ngf, np.float64),
+                  np.ascontiguousarray(nsf, np.float64), tan, np.ascontiguousarray(d, np.float64),
+                  np.ascontiguousarray(front, np.bool_), np.ascontiguousarray(mat, np.int32),
+                  np.ascontiguousarray(eps, np.float64), np.ascontiguousarray(texel, np.float64),
+                  np.ascontiguousarray(thr, np.float64), np.ascontiguousarray(lam, np.float64),
+                  u_lobe, u_pick, new_o, new_d, new_thr, new_tr, ok)
     keep = np.flatnonzero(ok)
-    return keep, new_o[keep], new_d[keep], new_thr[keep], new_tr[keep]
+    return keep, new_o[keep], new_d[keep], new_thr[keep], new_tr[keep], lam[keep]
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
@@ -184,12 +217,8 @@ def _continue_kernel(tab, pos, ngf, nsf, tan, d, front, mat, eps, texel, thr, la
 @njit(cache=True, parallel=True, error_model="numpy")
 def _pick_kernel(tab, mat, u_lam, lam, thr):
     for i in prange(mat.shape[0]):
-        if lam[i] == 0.0 and closure.dispersive(tab, mat[i]):
-            li, _, s0, s1, s2 = spectral.sample_wavelength(u_lam[i])
-            lam[i] = li
-            thr[i, 0] *= s0
-            thr[i, 1] *= s1
-            thr[i, 2] *= s2
+        lam[i], thr[i, 0], thr[i, 1], thr[i, 2] = closure.pick_wavelength(
+            tab, mat[i], lam[i], u_lam[i], thr[i, 0], thr[i, 1], thr[i, 2])
 
 
 def pick_wavelengths(tab, mat, u_lam, lam, thr) -> None:
@@ -266,20 +295,21 @@ def world_weight(bsdf_pdf, prev_ns, d, light_samples: int):
 # --- the progressive integrator's visible points ------------------------------------------
 
 @njit(cache=True, parallel=True, error_model="numpy")
-def _path_kernel(pos, d, ng, ns, mat, eps, thr, u_vp, u_lobe, u_pick, albedo, specular, alpha,
-                 transmission, ior, tab, tan, sampled, texel, vp, new_o, new_d, new_thr, go_on,
-                 transmitted):
-    """At each hit: stop at the diffuse lobe (vp) or follow one delta lobe (go_on).
-    albedo (N, 3): the (textured) diffuse albedo at each hit. Materials with
+def _path_kernel(pos, d, ng, ns, mat, eps, thr, u_vp, u_lobe, u_pick, has_diffuse, tab, tan,
+                 sampled, texel, lam, vp, new_o, new_d, new_thr, go_on, transmitted):
+    """At each hit: stop at the non-singular lobes (vp) or follow one delta lobe (go_on),
+    by the closures' sample weights (``closure.sample_delta``: the delta lobes' share s of
+    the material's; the point stops with probability 1 - s where it has a diffuse lobe,
+    thr / (1 - s), else follows a delta lobe with its weight / s). Materials with
     sampled[m] (rough glossy lobes and no diffuse one: no photon is stored there, so no
-    visible point) go on through one lobe of ``closure.sample_bsdf`` (tab, tan (N, 3) the
-    frames' tangents, texel (N, 3)),
-    weight f |cos| / pdf: the lights, emission and world the path meets count in full
-    (no shadow rays are cast from such a hit).
+    visible point) go on through one lobe of ``closure.sample_bsdf``, weight f |cos| /
+    pdf: the lights, emission and world the path meets count in full (no shadow rays are
+    cast from such a hit). tab: the ClosureTable, tan (N, 3) the frames' tangents, texel
+    (N, 3) the texel colour, lam (N,) float64 each path's wavelength in nm (0: RGB; the
+    transmission lobes refract it at their IOR there, docs/dispersion.md).
 
-    ng, ns: normals as computed from the winding (flipped here to face the ray). thr is
-    divided by the probability of the branch taken; new_thr is the visible point's weight
-    when vp, the next ray's throughput when go_on."""
+    ng, ns: normals as computed from the winding (flipped here to face the ray). new_thr
+    is the visible point's weight when vp, the next ray's throughput when go_on."""
     for i in prange(d.shape[0]):
         m = mat[i]
         dx, dy, dz = d[i, 0], d[i, 1], d[i, 2]
@@ -296,41 +326,24 @@ def _path_kernel(pos, d, ng, ns, mat, eps, thr, u_vp, u_lobe, u_pick, albedo, sp
             ox, oy, oz, w0, w1, w2, pdf, flags = closure.sample_bsdf(
                 tab, m, texel[i, 0], texel[i, 1], texel[i, 2], -dx, -dy, -dz, sx, sy, sz,
                 gx, gy, gz, tan[i, 0], tan[i, 1], tan[i, 2], entering,
-                u_lobe[i], u_pick[i], u_vp[i])
-            t0, t1, t2 = thr[i, 0] * w0, thr[i, 1] * w1, thr[i, 2] * w2
-            if flags == 0 or not (t0 > 0.0 or t1 > 0.0 or t2 > 0.0):
+                u_lobe[i], u_pick[i], u_vp[i], lam[i])
+        else:
+            ox, oy, oz, w0, w1, w2, share, flags = closure.sample_delta(
+                tab, m, texel[i, 0], texel[i, 1], texel[i, 2], -dx, -dy, -dz, sx, sy, sz,
+                gx, gy, gz, tan[i, 0], tan[i, 1], tan[i, 2], entering,
+                u_lobe[i], u_pick[i], u_pick[i], lam[i])
+            if not u_vp[i] < share:  # the non-singular lobes, probability 1 - share
+                if has_diffuse[m]:
+                    vp[i] = True
+                    q = 1.0 - share
+                    new_thr[i, 0], new_thr[i, 1], new_thr[i, 2] = (
+                        thr[i, 0] / q, thr[i, 1] / q, thr[i, 2] / q)
                 continue
-            tr = ox * gx + oy * gy + oz * gz < 0.0
-            side = -eps[i] if tr else eps[i]
-            new_o[i, 0] = pos[i, 0] + gx * side
-            new_o[i, 1] = pos[i, 1] + gy * side
-            new_o[i, 2] = pos[i, 2] + gz * side
-            new_d[i, 0], new_d[i, 1], new_d[i, 2] = ox, oy, oz
-            new_thr[i, 0], new_thr[i, 1], new_thr[i, 2] = t0, t1, t2
-            go_on[i] = True
-            transmitted[i] = tr
+            w0, w1, w2 = w0 / share, w1 / share, w2 / share
+        t0, t1, t2 = thr[i, 0] * w0, thr[i, 1] * w1, thr[i, 2] * w2
+        if flags == 0 or not (t0 > 0.0 or t1 > 0.0 or t2 > 0.0):
             continue
-        kd = (albedo[i, 0] + albedo[i, 1] + albedo[i, 2]) / 3.0
-        mirror = alpha[m] * alpha[m] <= bsdf.SINGULAR_ALPHA2
-        kdel = (transmission[m, 0] + transmission[m, 1] + transmission[m, 2]) / 3.0
-        if mirror:
-            kdel += (specular[m, 0] + specular[m, 1] + specular[m, 2]) / 3.0
-        if kd + kdel <= 0.0:
-            continue
-        p = kd / (kd + kdel)
-        if u_vp[i] < p:
-            vp[i] = True
-            for c in range(3):
-                new_thr[i, c] = thr[i, c] / p
-            continue
-        ox, oy, oz, w0, w1, w2, tr, ok = bsdf.sample_delta(
-            specular[m, 0], specular[m, 1], specular[m, 2], alpha[m],
-            transmission[m, 0], transmission[m, 1], transmission[m, 2], ior[m],
-            dx, dy, dz, sx, sy, sz, gx, gy, gz, entering, u_lobe[i], u_pick[i])
-        q = 1.0 - p
-        t0, t1, t2 = thr[i, 0] * w0 / q, thr[i, 1] * w1 / q, thr[i, 2] * w2 / q
-        if not ok or not (t0 > 0.0 or t1 > 0.0 or t2 > 0.0):
-            continue
+        tr = ox * gx + oy * gy + oz * gz < 0.0
         side = -eps[i] if tr else eps[i]
         new_o[i, 0] = pos[i, 0] + gx * side
         new_o[i, 1] = pos[i, 1] + gy * side
@@ -348,7 +361,9 @@ class VisiblePoints:
     viewer, material (V,) int32, weight (V, 3) path throughput, albedo (V, 3) the
     diffuse albedo there (textured), eps (V,) metres, the ray offset there; texel (V, 3)
     the texel colour (``PreparedScene.texels``), prim (V,) int32, u, v (V,) float32 the
-    triangle and barycentrics (``HitShader.closures_at`` at the points)."""
+    triangle and barycentrics (``HitShader.closures_at`` at the points); lam (V,) float64
+    the paths' wavelengths in nm (0: RGB, docs/dispersion.md); front (V,) bool, the point
+    was reached from the front of the mesh's geometric normal."""
 
     pixel: np.ndarray
     position: np.ndarray
@@ -363,18 +378,27 @@ class VisiblePoints:
     prim: np.ndarray
     u: np.ndarray
     v: np.ndarray
+    lam: np.ndarray
+    front: np.ndarray
 
 
 def visible_points(prepared: PreparedScene, cam: Camera, seed: int, k: int, max_depth: int,
                    direct: np.ndarray,
-                   features: denoise_features.FeatureAccumulator | None = None) -> VisiblePoints:
+                   features: denoise_features.FeatureAccumulator | None = None,
+                   media: volume.VolumeTerms | None = None,
+                   stats: dict | None = None) -> VisiblePoints:
     """Pass k's visible points (one jittered camera ray per pixel of ``cam``'s region, sample k),
     adding the radiance seen on the way (emitters, lights, background) to direct (P, 3)
     float64 (see core/integrators/sppm.py, step 1).
 
     features: Cycles' denoising features of this pass's paths (one sample per region pixel,
     in ``camera.region_pixels`` order), written at their hits as the photon-mapping
-    integrator writes them (denoise_features.py)."""
+    integrator writes them (denoise_features.py).
+
+    media: the scene's media terms (core/integrators/volume.py) with this pass's volume
+    photon map, or None (no medium): every segment of the paths adds its Volume Direct,
+    beam estimate and emission to direct and attenuates what lies behind it (the visible
+    points' weights included); stats receives the volume counters."""
     mats = prepared.materials
     frame = int(cam.width) * int(cam.height)
     # The Render Region's pixels only (all of them without one), by frame index: each
@@ -395,8 +419,14 @@ def visible_points(prepared: PreparedScene, cam: Camera, seed: int, k: int, max_
     rows = np.arange(n, dtype=np.int64)  # into pixel / sample; pixel[rows] into direct
     thr = np.ones((n, 3))
     transmitted = np.zeros(n, bool)
+    lam = np.zeros(n)  # nm, 0 while RGB (picked at the first dispersive surface)
+    dispersive = bool(np.any(prepared.closures.abbe > 0))
     world = prepared.world
     out = []
+    if media is not None:
+        seen_media = np.zeros((n, 3))  # per row of pixel: the media's light
+        n_inside = np.ones(n)  # the dielectric each path is in (volume.add_segments)
+        stats = {} if stats is None else stats
     for depth in range(max_depth + 1):
         if rows.shape[0] == 0:
             break
@@ -404,16 +434,24 @@ def visible_points(prepared: PreparedScene, cam: Camera, seed: int, k: int, max_
         hits = intersect(prepared, seed, origins, dirs, tmax, rows, pixel, sample,
                          lambda layer, depth=depth: sampling.stream(sampling.CUTOUT_CHOICE, depth,
                                                                     layer, sampling.PROGRESSIVE))
-        hit, miss, shown, light_l = lights_along(prepared, first, transmitted, origins, dirs, hits)
+        thr_light = thr  # the lights along the rays are attenuated to themselves
+        if media is not None:  # the segments' media: their light, then their transmittance
+            thr = volume.add_segments(
+                media, origins, dirs, np.where(hits.prim >= 0, hits.t, np.inf), thr, rows,
+                pixel, sample, depth, seen_media, seen_media, seen_media, stats, n_inside)
+        hit, miss, shown, light_l = lights_along(prepared, first, transmitted, origins, dirs, hits,
+                                                 medium=None if media is None else media.medium)
         if shown is not None:
-            direct[pixel[rows[shown]]] += thr[shown] * light_l[shown]
+            direct[pixel[rows[shown]]] += thr_light[shown] * light_l[shown]
         # Rays that escape see the world
         if np.any(world > 0) and np.any(miss) and (not first or prepared.scene.world.visible_to_camera):
             direct[pixel[rows[miss]]] += thr[miss] * world
         h = np.flatnonzero(hit)
         if h.size == 0:
             break
-        rows, thr, d, transmitted = rows[h], thr[h], dirs[h], transmitted[h]
+        rows, thr, d, transmitted, lam = rows[h], thr[h], dirs[h], transmitted[h], lam[h]
+        if media is not None:
+            n_inside = n_inside[h]
         sp = geometry.surface_points(prepared.tri_vertices, prepared.tri_normals,
                                      prepared.tri_material, hits.prim[h], hits.u[h], hits.v[h],
                                      d, prepared.extent)
@@ -429,16 +467,21 @@ def visible_points(prepared: PreparedScene, cam: Camera, seed: int, k: int, max_
         pix, smp = pixel[rows], sample[rows]
         u_vp = sampling.uniform(seed, pix, smp, dim_lobe(depth))
         u_lobe, u_pick = sampling.uniform2(seed, pix, smp, dim_lobe(depth) + 1)
+        if dispersive:  # the path's wavelength, before the hit is shaded (pick_wavelengths)
+            u_lam = sampling.uniform(seed, pix, smp, sampling.stream(
+                sampling.CAMERA_WAVELENGTH, depth, sampling.PROGRESSIVE))
+            thr = np.array(thr)
+            pick_wavelengths(prepared.closures, sp.material, u_lam, lam, thr)
+        front = np.einsum("ij,ij->i", d, sp.geometric_normal) < 0.0
         ng, ns = sp.geometric_normal.copy(), sp.shading_normal.copy()
         vp, go_on, new_tr = np.empty(m, bool), np.empty(m, bool), np.empty(m, bool)
         new_o, new_d, new_thr = np.empty((m, 3)), np.empty((m, 3)), np.empty((m, 3))
         texel = prepared.texels.albedo(hits.prim[h], hits.u[h], hits.v[h], sp.material)
         _path_kernel(sp.position, d, ng, ns, sp.material, sp.eps, thr, u_vp, u_lobe, u_pick,
-                     albedo, mats["specular"], mats["alpha"], mats["transmission"],
-                     mats["ior"], prepared.closures,
+                     prepared.has_diffuse, prepared.closures,
                      prepared.hit_shader.tangents(hits.prim[h], sp.position, prepared.closures,
                                                   sp.material),
-                     prepared.sampled_only, texel, vp, new_o,
+                     prepared.sampled_only, texel, lam, vp, new_o,
                      new_d, new_thr, go_on, new_tr)
         if features is not None:  # ns now faces the ray, as the shading normal does there
             features.surface(rows, albedo, mats["specular"][sp.material],
@@ -448,17 +491,22 @@ def visible_points(prepared: PreparedScene, cam: Camera, seed: int, k: int, max_
         if s.size:
             out.append((pixel[rows[s]], sp.position[s], ng[s], ns[s], -d[s], sp.material[s], new_thr[s],
                         albedo[s], sp.eps[s], texel[s], hits.prim[h][s], hits.u[h][s],
-                        hits.v[h][s]))
+                        hits.v[h][s], lam[s], front[s]))
         if depth == max_depth:
             break
         g = np.flatnonzero(go_on)
-        rows, origins, dirs = rows[g], new_o[g], new_d[g]
+        if media is not None:  # entering a dielectric at its front face, leaving at its back
+            n_inside = np.where(new_tr[g] & front[g], mats["ior"][sp.material[g]],
+                                np.where(new_tr[g] & ~front[g], 1.0, n_inside[g]))
+        rows, origins, dirs, lam = rows[g], new_o[g], new_d[g], lam[g]
         thr, transmitted, tmax = new_thr[g], new_tr[g], None
+    if media is not None:
+        direct[pixel] += seen_media
     if not out:
         z3 = np.zeros((0, 3))
         return VisiblePoints(np.zeros(0, np.int64), z3, z3, z3, z3, np.zeros(0, np.int32), z3, z3,
                              np.zeros(0), z3, np.zeros(0, np.int32), np.zeros(0, np.float32),
-                             np.zeros(0, np.float32))
+                             np.zeros(0, np.float32), np.zeros(0), np.zeros(0, bool))
     cols = [np.concatenate(c) for c in zip(*out)]
     return VisiblePoints(*[np.ascontiguousarray(c) for c in cols])
 

@@ -442,6 +442,10 @@ def _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sa
     o, d = o[rows], d[rows]
     thr = np.ones((rows.shape[0], 3)) if bsdf is None else weight[rows]
     mats = prepared.materials
+    # Each gather ray's wavelength (nm, 0 while RGB): picked at its first dispersive
+    # surface, as camera paths pick theirs (docs/dispersion.md).
+    lam = np.zeros(rows.shape[0])
+    dispersive = bool(np.any(prepared.closures.abbe > 0))
     for bounce in range(st.max_specular_depth + 1):
         if rows.shape[0] == 0:
             break
@@ -454,10 +458,15 @@ def _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sa
             thr = _through_medium(terms, o, d, hits, thr, radiance, rows)
         hit = np.flatnonzero(hits.prim >= 0)
         # Escaping rays and light sources count nothing (direct light holds them).
-        rows, thr, d = rows[hit], thr[hit], d[hit]
+        rows, thr, d, lam = rows[hit], thr[hit], d[hit], lam[hit]
         p2, n2, s2, mat, e2, front = geometry.facing_surface_points(
             prepared.tri_vertices, prepared.tri_normals, prepared.tri_material, hits.prim[hit],
             hits.u[hit], hits.v[hit], d, prepared.extent)
+        if dispersive:  # before the hit's estimate, as camera_paths.pick_wavelengths says
+            u_lam = sampling.uniform(st.seed, ray_pixel[rows], index[rows], sampling.stream(
+                sampling.CAMERA_WAVELENGTH, depth, bounce, sampling.GATHER_LOBE))
+            thr = np.array(thr)
+            camera_paths.pick_wavelengths(prepared.closures, mat, u_lam, lam, thr)
         diff = np.flatnonzero(prepared.has_diffuse[mat])
         if diff.size and terms.bsdf_materials is not None:
             b = terms.bsdf_materials[mat[diff]]
@@ -502,9 +511,13 @@ def _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sa
         dim = sampling.stream(sampling.GATHER_LOBE, depth, bounce)
         u_lobe = sampling.uniform(st.seed, ray_pixel[rs], index[rs], 2 * dim)
         u_pick = sampling.uniform(st.seed, ray_pixel[rs], index[rs], 2 * dim + 1)
-        keep, o, d, thr, _ = camera_paths.follow_delta(
-            mats, p2[sd], n2[sd], s2[sd], d[sd], front[sd], mat[sd], e2[sd], u_lobe, u_pick,
-            thr[sd])
+        hs = hit[sd]
+        texel = prepared.texels.albedo(hits.prim[hs], hits.u[hs], hits.v[hs], mat[sd])
+        tangent = prepared.hit_shader.tangents(hits.prim[hs], p2[sd], prepared.closures,
+                                               mat[sd])
+        keep, o, d, thr, _, lam = camera_paths.follow_delta(
+            prepared, p2[sd], n2[sd], s2[sd], d[sd], front[sd], mat[sd], e2[sd], texel,
+            u_lobe, u_pick, thr[sd], lam[sd], tangent=tangent)
         rows = rs[keep]
     terms.stats["time_gather"] += time.perf_counter() - t_start
     return radiance.reshape(n, g, 3).mean(axis=1)

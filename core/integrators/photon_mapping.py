@@ -31,9 +31,9 @@ Photon maps: ``render`` first traces them (core/integrators/photon_terms.py, ove
 render's PreparedScene) unless ``photon_maps`` is given (tests pass hand-built maps); the
 photon pass takes PHOTON_SHARE of the progress bar.
 
-Specular rays: one delta lobe is picked per hit (``bsdf.sample_delta``: mirror vs glass by
-tint, reflection vs refraction with probability clamp(F, 1/8, 7/8) like Cycles' camera
-paths) and the path weight is lobe / probability, so paths never split.
+Specular rays: one lobe is sampled per hit (``camera_paths.follow_bsdf``,
+``closure.sample_bsdf``: by the closures' sample weights, as Cycles picks a closure) and the
+path weight is lobe / probability, so paths never split.
 
 Sampling: pixel jitter, light samples and lobe choices are stratified over each pixel's
 samples (``sampling.stratified2``, scrambled Sobol). Determinism: every random number is a
@@ -162,9 +162,17 @@ def _photon_terms(ctx: _CameraPass, rows, pos, ngf, nsf, eps, mat, thr, pixel, s
         g = sel[blur]
         if g.size:
             t0 = time.perf_counter()
-            est = (gather.cached_radiance(terms, pos[g], ngf[g], albedo[g]) if terms.cache is not None
-                   else gather.preview(terms, pos[g], ngf[g], albedo[g]))
-            _add(indirect_target, rows[g], thr[g] * est)
+            # Non-Lambert diffuse-like lobes: the BSDF estimate (photons of both sides; the
+            # cache holds rho / pi E, so it is not read there)
+            g, gb, hb = gather.bsdf_terms(terms, tab, g, mat, crow, texel, d, nsf, front, tangent)
+            if hb is not None:
+                _add(indirect_target, rows[gb],
+                     thr[gb] * gather.preview(terms, pos[gb], ngf[gb], None, hb))
+            if g.size:
+                est = (gather.cached_radiance(terms, pos[g], ngf[g], albedo[g])
+                       if terms.cache is not None
+                       else gather.preview(terms, pos[g], ngf[g], albedo[g]))
+                _add(indirect_target, rows[g], thr[g] * est)
             ctx.stats["time_global_after_glossy"] = (ctx.stats.get("time_global_after_glossy", 0.0)
                                                      + time.perf_counter() - t0)
             ctx.stats["hits_global_after_glossy"] = ctx.stats.get("hits_global_after_glossy", 0) + g.size

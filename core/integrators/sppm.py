@@ -7,13 +7,17 @@ Pass k = 0, 1, 2, ... (0-based; K&Z's pass i = k + 1) is a function of (scene, s
 k) alone:
 
 1. Visible points. One jittered camera ray per pixel (point k of a per-pixel Owen-scrambled
-   Sobol sequence) follows mirrors and glass (``bsdf.sample_delta``) to the first surface
-   with a diffuse lobe: the pixel's visible point x_k, with path weight beta_k (the
-   throughput, lobe value / probability). Emitters, visible lights and the background seen
-   along the way are the pass's directly seen radiance D_k. At a material with both a
-   diffuse and a delta lobe the path stops at the diffuse lobe with probability
-   p = mean(diffuse) / (mean(diffuse) + delta weight) and beta is divided by p (or by
-   1 - p when it goes on), so there is one visible point per pixel and pass.
+   Sobol sequence) follows mirrors and glass (``closure.sample_delta``, at the path's
+   wavelength once it met a dispersive surface) to the first surface with a diffuse lobe:
+   the pixel's visible point x_k, with path weight beta_k (the throughput, lobe value /
+   probability). Emitters, visible lights and the background seen along the way are the
+   pass's directly seen radiance D_k. At a material with both a diffuse and a delta lobe
+   the path stops at the non-delta lobes with probability 1 - s, s the delta lobes' share
+   of the closures' sample weights, and beta is divided by 1 - s (or by s when it goes
+   on), so there is one visible point per pixel and pass. In a medium every camera
+   segment adds its Volume Direct (shadow rays), beam estimate (this pass's volume
+   photons, radii shrinking as r_k / r_1) and emission, and attenuates what lies behind
+   (core/integrators/volume.py; docs/volumes.md).
    Direct light at the visible point comes from shadow rays to every light, emissive
    triangle and the world (``direct.shade``, the photon-map integrator's own estimator,
    ``light_samples`` per light and pass, sample index k of a set of
@@ -29,6 +33,8 @@ k) alone:
    For every visible point, over the photons of this pass with |x_p - x| <= r_k on its
    visible side (n_g . w_p > 0, the front-side test; n_g faces the camera ray):
        Phi = sum_p f(w_o, w_p) Phi_p        (f = diffuse / pi + rough glossy lobe)
+   (points whose diffuse-like lobes are not Lambert: f from their closures, photons of
+   both sides counting; ``_gather_kernel``)
    and the pass's estimate is L_k = D_k + beta_k Phi / (pi r_k^2).
 4. The image after n passes is the plain average: L = (1/n) sum_k L_k.
 
@@ -75,11 +81,13 @@ from numba import njit, prange
 
 from .. import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
 from .. import sampling
-from ..materials import bsdf
+from ..materials import bsdf, closure
 from ..passes import ProgressFn, RenderOutput, StopFn, TileFn
 from ..photons.hash_grid import HashGrid, within
 from ..photons.store import STORE_ALL, STORE_NOT_DIRECT
-from ..photons.tracing import photon_sources, trace_stored_photons
+from ..photons.beam import VolumePhotonMap, photon_radii
+from ..photons.estimate import BsdfHits
+from ..photons.tracing import MIN_VOLUME_RADIUS, photon_sources, trace_stored_photons
 from ..prepared import PreparedScene, prepare
 from ..scene import camera
 from ..scene.contract import Scene
@@ -88,6 +96,7 @@ from ..settings import (MAX_PHOTONS_PER_PASS, MAX_PROGRESSIVE_PASSES as MAX_PASS
 from . import camera_paths
 from . import denoise_features
 from . import direct as direct_light
+from . import volume
 
 INITIAL_PHOTONS = 12.0
 """K0 of the automatic first-pass radius: photons expected in a disc on a uniformly lit
@@ -105,9 +114,16 @@ hybrid against)."""
 
 @njit(cache=True, parallel=True, error_model="numpy")
 def _gather_kernel(vp_pos, vp_ng, vp_ns, vp_wo, vp_mat, radius, ph_pos, ph_flux, ph_dir, cells,
-                   start, order, lo, inv_h, mask, vp_albedo, specular, alpha, phi, count):
+                   start, order, lo, inv_h, mask, vp_albedo, specular, alpha, tab, vp_row,
+                   vp_texel, vp_tan, vp_front, vp_lam, vp_bsdf, phi, count):
     """phi[i] = sum f(wo, w_p) Phi_p and count[i] = M over this pass's photons within
-    radius[i] of visible point i on its visible side."""
+    radius[i] of visible point i. Lambert points (vp_bsdf[i] False): photons of the visible
+    side (n_g . w_p > 0), f = albedo / pi + the material's rough glossy lobe. Points whose
+    diffuse-like lobes are not Lambert (Oren-Nayar, sheen, Translucent): f is the closures'
+    f_d + f_glossy at the photon's direction (``closure.hit_lobes`` / ``parts_at``, row
+    vp_row[i] of tab, texel, tangent, front, wavelength lam nm), photons of both sides
+    counting (a lobe that transmits sees the far side's), as
+    ``estimate._bsdf_estimate_kernel`` weighs the photon-mapping integrator's photons."""
     for i in prange(vp_pos.shape[0]):
         px, py, pz = vp_pos[i, 0], vp_pos[i, 1], vp_pos[i, 2]
         r2 = radius[i] * radius[i]
@@ -116,11 +132,29 @@ def _gather_kernel(vp_pos, vp_ng, vp_ns, vp_wo, vp_mat, radius, ph_pos, ph_flux,
         a1 = 0.0
         a2 = 0.0
         c = 0
+        use_bsdf = vp_bsdf[i]
+        gx, gy, gz = vp_ng[i, 0], vp_ng[i, 1], vp_ng[i, 2]
+        if use_bsdf:
+            L, F = closure.hit_lobes(tab, vp_row[i], vp_texel[i, 0], vp_texel[i, 1],
+                                     vp_texel[i, 2], vp_wo[i, 0], vp_wo[i, 1], vp_wo[i, 2],
+                                     vp_ns[i, 0], vp_ns[i, 1], vp_ns[i, 2], gx, gy, gz,
+                                     vp_tan[i, 0], vp_tan[i, 1], vp_tan[i, 2], vp_front[i],
+                                     vp_lam[i])
+        else:
+            L, F = np.empty((0, closure.NL)), np.empty(12)
         ring = np.int64(np.ceil(radius[i] * inv_h))
         for k in within(px, py, pz, r2, ring, ph_pos, lo, inv_h, mask, cells, start, order):
             wx, wy, wz = ph_dir[k, 0], ph_dir[k, 1], ph_dir[k, 2]
+            if use_bsdf:
+                c += 1
+                d0, d1, d2, g0, g1, g2, _ = closure.parts_at(L, F, wx, wy, wz, gx, gy, gz,
+                                                             True, False)
+                a0 += (d0 + g0) * ph_flux[k, 0]
+                a1 += (d1 + g1) * ph_flux[k, 1]
+                a2 += (d2 + g2) * ph_flux[k, 2]
+                continue
             # Front-side test: the photon arrived on the side the camera sees.
-            if vp_ng[i, 0] * wx + vp_ng[i, 1] * wy + vp_ng[i, 2] * wz <= 0.0:
+            if gx * wx + gy * wy + gz * wz <= 0.0:
                 continue
             c += 1
             kd, ks = bsdf.eval_reflection(
@@ -134,12 +168,13 @@ def _gather_kernel(vp_pos, vp_ng, vp_ns, vp_wo, vp_mat, radius, ph_pos, ph_flux,
 
 
 def gather_photons(vp_pos, vp_ng, vp_ns, vp_wo, vp_mat, radius, ph_pos, ph_flux, ph_dir, mats,
-                   vp_albedo=None):
+                   vp_albedo, hits: BsdfHits, non_lambert, vp_lam):
     """Phi (V, 3) float64 and M (V,) int64 of step 3 for V visible points and one pass's
     photons (positions, flux, directions (P, 3) float32); mats: ``bsdf.material_table``;
-    vp_albedo (V, 3): the points' (textured) diffuse albedo, default the materials'."""
-    if vp_albedo is None:
-        vp_albedo = mats["diffuse"][vp_mat]
+    vp_albedo (V, 3): the points' (textured) diffuse albedo; hits: the points' closures
+    (``estimate.BsdfHits``: rows, texel, tangent, front); non_lambert (M,) bool per
+    material (``closure.lobe_masks``): those points weigh each photon by their closures
+    (``_gather_kernel``); vp_lam (V,) float64 their wavelengths in nm (0: RGB)."""
     v = vp_pos.shape[0]
     phi = np.zeros((v, 3))
     count = np.zeros(v, np.int64)
@@ -152,10 +187,12 @@ def gather_photons(vp_pos, vp_ng, vp_ns, vp_wo, vp_mat, radius, ph_pos, ph_flux,
     _gather_kernel(vp_pos, vp_ng, vp_ns, vp_wo, vp_mat, np.ascontiguousarray(radius, np.float64),
                    ph_pos, ph_flux, ph_dir, g.cells, g.start, g.order, g.lo, g.inv_h, g.mask,
                    np.ascontiguousarray(vp_albedo, np.float64), mats["specular"], mats["alpha"],
-                   phi, count)
+                   hits.closures, np.ascontiguousarray(hits.material, np.int32),
+                   np.ascontiguousarray(hits.texel, np.float64), hits.tangents(),
+                   np.ascontiguousarray(hits.front, np.bool_),
+                   np.ascontiguousarray(vp_lam, np.float64),
+                   np.ascontiguousarray(non_lambert[vp_mat], np.bool_), phi, count)
     return phi, count
-
-
 
 
 # --- the radius schedule --------------------------------------------------------------------
@@ -288,11 +325,6 @@ class PassRenderer:
     def __init__(self, prepared: PreparedScene, settings: RenderSettings):
         self.prepared, self.settings = prepared, settings
         scene = prepared.scene
-        medium = prepared.medium
-        if medium is not None:
-            raise SettingsError(
-                f'"integrator" is "progressive", which does not render participating media '
-                f"yet (the media {medium.name}); use the \"photon_map\" integrator")
         self.width, self.height = int(scene.camera.width), int(scene.camera.height)
         self.photons_per_pass = int(settings.photons_per_pass)
         self.alpha = float(settings.progressive_alpha)
@@ -306,7 +338,17 @@ class PassRenderer:
             # The sample index of the shadow rays' random numbers is the pass, in a set of
             # progressive_passes (a setting, so every pass's numbers are fixed by it).
             self.shadow_rays = direct_light.prepare(settings, prepared,
-                                                    int(settings.progressive_passes))
+                                                    int(settings.progressive_passes), None,
+                                                    prepared.medium)
+        # Media: Volume Direct by shadow rays along the camera segments (with shadow-ray
+        # direct light; else by photons), the rest by the pass's volume photons.
+        self.media = volume.prepare(settings, prepared, int(settings.progressive_passes))
+        if self.media is not None:
+            self.media.single_scattering = self.shadow_rays is not None
+        self.beam_k = int(settings.global_k)
+        # Diffuse-like lobes that are not Lambert (Oren-Nayar, sheen, Translucent): their
+        # visible points weigh photons by the closures (_gather_kernel)
+        self.non_lambert = closure.lobe_masks(prepared.closures)["non_lambert"]
         self._radii = radius_schedule(self.r1, self.alpha, 1)
 
     def radius(self, k: int) -> float:
@@ -345,6 +387,13 @@ class PassRenderer:
         image = np.zeros((self.width * self.height, 3))
         t0 = time.perf_counter()
         vps = None
+        traced = None
+        if self.media is not None and self.has_geometry:
+            # The beam estimate runs along the camera segments, so this pass's photons
+            # come first (without media they follow the visible points, which may need none).
+            traced = self.trace_pass(k, st)
+            self.media.volume_map = self.beam_map(traced[3], k)
+        t_media = time.perf_counter() - t0
         if self.has_geometry:
             acc = None
             if settings.denoising_data and features is not None:
@@ -352,24 +401,29 @@ class PassRenderer:
                     camera.region_pixels(scene.camera).shape[0],
                     camera.camera_frame(scene.camera)[1:])
             vps = camera_paths.visible_points(prepared, scene.camera, seed, k,
-                                              int(settings.max_specular_depth), image, acc)
+                                              int(settings.max_specular_depth), image, acc,
+                                              self.media, st)
             if acc is not None:  # one sample per region pixel, in region_pixels order
                 frame = camera.region_pixels(scene.camera)
                 for name, value in (("denoising_albedo", acc.albedo),
                                     ("denoising_normal", acc.normal)):
                     total = features.setdefault(name, np.zeros_like(image))
                     total[frame] += value
-            if vps.pixel.size and self.shadow_rays is not None:
+            if vps.pixel.size:
                 tab, rows = prepared.hit_shader.closures_at(vps.prim, vps.u, vps.v, -vps.wo,
                                                             vps.material)
+                tangent = prepared.hit_shader.tangents(vps.prim, vps.position, tab, rows)
+                vp_closures = BsdfHits(tab, rows, vps.texel, vps.wo, vps.ns, vps.front,
+                                       tangent=tangent)
+            if vps.pixel.size and self.shadow_rays is not None:
                 # With programmed points, their own closures and the texel colour; else
                 # the material's and shade's texel from the albedo (as before programs).
                 programmed = rows is not vps.material
                 points = direct_light.ShadingPoints(
                     vps.position, vps.ng, vps.ns, -vps.wo, rows, vps.eps, vps.weight,
                     vps.albedo, vps.pixel, texel=vps.texel if programmed else None,
-                    closures=tab,
-                    tangent=prepared.hit_shader.tangents(vps.prim, vps.position, tab, rows))
+                    closures=tab, front=vps.front,
+                    wavelength=vps.lam if np.any(vps.lam > 0) else None, tangent=tangent)
                 before = int(self.shadow_rays.stats.get("rays_shadow", 0))
                 direct_light.shade(self.shadow_rays, points, vps.pixel,
                                    np.full(vps.pixel.size, k, np.int64), 0, image)
@@ -379,16 +433,15 @@ class PassRenderer:
         t1 = time.perf_counter()
         stored = 0
         if vps is not None and vps.pixel.size:
-            pos, flux, wdir, counters = trace_stored_photons(
-                prepared, self.sources, self.photons_per_pass, seed=sampling.pass_seed(seed, k),
-                max_bounces=int(settings.photon_max_bounces),
-                store_rule=STORE_NOT_DIRECT if self.shadow_rays is not None else STORE_ALL)
-            st["rays_photon"] += counters["rays"]
+            if traced is None:
+                traced = self.trace_pass(k, st)
+            pos, flux, wdir = traced[:3]
             t2 = time.perf_counter()
             r = self.radius(k)
             phi, count = gather_photons(vps.position, vps.ng, vps.ns, vps.wo, vps.material,
                                         np.full(vps.pixel.size, r), pos, flux, wdir,
-                                        prepared.materials, vps.albedo)
+                                        prepared.materials, vps.albedo, vp_closures,
+                                        self.non_lambert, vps.lam)
             s = np.flatnonzero(count > 0)
             image[vps.pixel[s]] += vps.weight[s] * phi[s] / (np.pi * r * r)
             stored = int(pos.shape[0])
@@ -398,6 +451,10 @@ class PassRenderer:
         else:
             t2 = time.perf_counter()
         t3 = time.perf_counter()
+        traced = None
+        if self.media is not None:
+            self.media.volume_map = None  # one pass's photons held at a time
+            t1 -= t_media  # the photons were traced first: their time is theirs
         st["photons_emitted"] += self.photons_per_pass if self.sources else 0
         st["photons_stored"].append(stored)
         st["photons_alive_max"] = max(st["photons_alive_max"], stored)
@@ -406,6 +463,41 @@ class PassRenderer:
         st["time_photons"] += t2 - t1
         st["time_gather"] += t3 - t2
         return image
+
+    def trace_pass(self, k: int, st: dict):
+        """Pass k's photons: (positions, flux, directions (M, 3) float32, the volume photons
+        (``trace_stored_photons(volume=True)``) or None)."""
+        settings = self.settings
+        out = trace_stored_photons(
+            self.prepared, self.sources, self.photons_per_pass,
+            seed=sampling.pass_seed(int(settings.seed), k),
+            max_bounces=int(settings.photon_max_bounces),
+            store_rule=STORE_NOT_DIRECT if self.shadow_rays is not None else STORE_ALL,
+            volume=self.media is not None)
+        st["rays_photon"] += out[3]["rays"]
+        return out[0], out[1], out[2], (out[4] if self.media is not None else None)
+
+    def beam_map(self, photons, k: int) -> VolumePhotonMap | None:
+        """Pass k's volume photon map for the beam estimate along the camera segments:
+        the photons (positions, flux, directions, camera flags) of ``trace_pass``, those for
+        the camera only with shadow-ray Volume Direct (a light's first collisions are
+        the shadow rays'), all of them with photon direct light. Radii: the distance to the
+        ``global_k``-th nearest of the pass's photons (as the photon-mapping integrator's
+        map; it adapts to the photon density) times the schedule's r_k / r_1, so the beam
+        radius shrinks as the surface radius does: the estimate's 2-D kernel across the ray
+        is the one Knaus & Zwicker's ratio (j + alpha) / (j + 1) of r^2 is made for
+        (progressive photon beams, Jarosz et al. 2011, use it for their beam width)."""
+        if photons is None:
+            return None
+        pos, flux, direction, camera_rows = photons
+        sel = camera_rows if self.shadow_rays is not None else slice(None)
+        pos, flux, direction = pos[sel], flux[sel], direction[sel]
+        if pos.shape[0] < 2:
+            return None
+        scale = self.radius(k) / self.r1
+        radii = np.maximum(photon_radii(pos, min(self.beam_k, pos.shape[0])),
+                           MIN_VOLUME_RADIUS) * np.float32(scale)
+        return VolumePhotonMap(pos, flux, direction, np.maximum(radii, MIN_VOLUME_RADIUS))
 
     def base_stats(self) -> dict:
         """The run's constants, for RenderOutput.stats."""

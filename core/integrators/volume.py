@@ -57,6 +57,9 @@ class VolumeTerms:
     sample_bits: int
     volume_map: VolumePhotonMap | None = None
     caustic_map: VolumePhotonMap | None = None
+    single_scattering: bool = True
+    """Volume Direct by shadow rays (False: the volume maps hold the lights' first
+    collisions too, as standard SPPM's photon direct light, core/integrators/sppm.py)."""
 
 
 def prepare(settings: RenderSettings, prepared: PreparedScene, samples: int) -> VolumeTerms | None:
@@ -209,7 +212,7 @@ def add_segments(vt: VolumeTerms, origins, dirs, seg_t, thr, rows, pixel, sample
     scat = np.flatnonzero(np.any(st.sigma_s > 0, axis=1))
     if scat.size:
         sl = scat if scat.size < ray.size else slice(None)
-        if vt.prepared.light_set.count:
+        if vt.single_scattering and vt.prepared.light_set.count:
             out = _single_scattering(vt, s_o[sl], s_d[sl], s_len[sl], s_thr[sl],
                                      np.ascontiguousarray(st.sigma_s[sl]), sigma_t[sl],
                                      np.ascontiguousarray(st.g[sl]), pixel[s_rows[sl]],

@@ -13,25 +13,22 @@ winding): a ray with d . n_g < 0 enters, eta = ior; otherwise it leaves, eta = 1
 Like Cycles for camera paths, refraction does not scale radiance by eta^2 (Cycles'
 singular refraction returns weight (1 - F) / pick-probability, ``bsdf_microfacet.h``).
 
-Camera paths follow the delta lobes (mirror, smooth glass) as specular rays
-(``continue_delta``, core/integrators/camera_paths.py); photons scatter off every lobe,
-GGX included (core/photons/scatter.py). Camera paths evaluate the GGX lobe for direct light
-only (they do not sample glossy rays yet), and the transmission lobe is always smooth.
+The renderer samples and evaluates materials through their closures
+(core/materials/closure.py, which reads these lobes as closures); what is left here are the
+dielectric Fresnel and refraction formulas, GGX and their vectorised wrappers for tests,
+and ``material_table`` (the per-material arrays the integrators still read: diffuse albedo,
+emission, IOR).
 """
 
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 from .. import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
-from .. import sampling
 
 # Cycles treats a microfacet lobe as a perfect mirror below this alpha_x * alpha_y.
 SINGULAR_ALPHA2 = 1e-7
-# Camera paths pick reflection vs refraction with probability F clamped to this range
-# (Cycles' defensive sampling): neither branch starves where F is near 0 or 1.
-PICK_MIN, PICK_MAX = 0.125, 0.875
 
 
 @njit(cache=True, error_model="numpy")
@@ -117,69 +114,6 @@ def eval_reflection(diffuse, specular, alpha, nx, ny, nz, wox, woy, woz, wix, wi
     return kd, ks
 
 
-@njit(cache=True, error_model="numpy")
-def _mean3(a, b, c):
-    return (a + b + c) / 3.0
-
-
-@njit(cache=True, error_model="numpy")
-def sample_delta(s0, s1, s2, alpha, t0, t1, t2, ior, dx, dy, dz, nsx, nsy, nsz,
-                 ngx, ngy, ngz, entering, u_lobe, u_pick):
-    """Pick one delta lobe (mirror, dielectric reflection, dielectric refraction).
-
-    s*, t*: specular and transmission tints; d: incoming ray direction; ns, ng: shading
-    and geometric unit normals flipped to face the incoming ray (d . n < 0); entering:
-    the ray arrives on the front of the geometric normal (eta = ior, else 1 / ior).
-    u_lobe picks mirror vs dielectric in proportion to the tints' means; u_pick picks
-    reflection vs refraction with probability clamp(F, 0.125, 0.875).
-    Returns (ox, oy, oz, w0, w1, w2, transmitted, ok): the new direction and the path
-    weight (lobe value / probability), or ok = False when the material has no delta lobe.
-    """
-    wm = _mean3(s0, s1, s2) if alpha * alpha <= SINGULAR_ALPHA2 else 0.0
-    wg = _mean3(t0, t1, t2)
-    total = wm + wg
-    if total <= 0.0:
-        return 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, False, False
-    p_mirror = wm / total
-    if u_lobe < p_mirror:
-        ox, oy, oz = reflect(dx, dy, dz, nsx, nsy, nsz)
-        if ox * ngx + oy * ngy + oz * ngz <= 0.0:
-            ox, oy, oz = reflect(dx, dy, dz, ngx, ngy, ngz)
-        inv = 1.0 / p_mirror
-        return ox, oy, oz, s0 * inv, s1 * inv, s2 * inv, False, True
-    p_glass = 1.0 - p_mirror
-    eta = ior if entering else 1.0 / ior
-    cos_i = -(dx * nsx + dy * nsy + dz * nsz)
-    if cos_i <= 0.0:
-        # The shading normal disagrees with the side the ray arrived on: use the plane.
-        nsx, nsy, nsz = ngx, ngy, ngz
-        cos_i = -(dx * nsx + dy * nsy + dz * nsz)
-    f, cos_t = fresnel_dielectric(min(cos_i, 1.0), eta)
-    if f >= 1.0:
-        p_reflect = 1.0
-    elif f <= 0.0:
-        p_reflect = 0.0
-    else:
-        p_reflect = min(max(f, PICK_MIN), PICK_MAX)
-    if u_pick < p_reflect:
-        ox, oy, oz = reflect(dx, dy, dz, nsx, nsy, nsz)
-        if ox * ngx + oy * ngy + oz * ngz <= 0.0:
-            ox, oy, oz = reflect(dx, dy, dz, ngx, ngy, ngz)
-        k = f / (p_glass * p_reflect)
-        return ox, oy, oz, t0 * k, t1 * k, t2 * k, False, True
-    ox, oy, oz = refract(dx, dy, dz, nsx, nsy, nsz, eta, cos_i, cos_t)
-    if ox * ngx + oy * ngy + oz * ngz >= 0.0:
-        # Refracted back to the incoming side by a bent shading normal: use the plane.
-        cg = -(dx * ngx + dy * ngy + dz * ngz)
-        f2, ct2 = fresnel_dielectric(min(cg, 1.0), eta)
-        if f2 >= 1.0:
-            return 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, False, False
-        ox, oy, oz = refract(dx, dy, dz, ngx, ngy, ngz, eta, cg, ct2)
-    ln = np.sqrt(ox * ox + oy * oy + oz * oz)
-    k = (1.0 - f) / (p_glass * (1.0 - p_reflect))
-    return ox / ln, oy / ln, oz / ln, t0 * k, t1 * k, t2 * k, True, True
-
-
 # --- vectorised wrappers for tests ----------------------------------------------------------
 
 @njit(cache=True, error_model="numpy")
@@ -262,32 +196,3 @@ def material_table(materials) -> dict[str, np.ndarray]:
         "ior": materials.ior.astype(np.float64),
         "emission": materials.emission.astype(np.float64).reshape(-1, 3),
     }
-
-
-@njit(cache=True, parallel=True, error_model="numpy")
-def continue_delta(pos, ngf, nsf, d, front, mat, eps, specular, alpha, transmission, ior,
-                   u_lobe, u_pick, thr, new_o, new_d, new_thr, transmitted, ok):
-    """Batched sample_delta: pick one delta lobe per hit (N hits) and write the next ray
-    (origin offset by eps along the flipped geometric normal, to the side it leaves on),
-    its throughput thr * weight and whether it was transmitted. ok is False where the path
-    ends (no delta lobe, or zero throughput). Used by camera paths and gather rays."""
-    for i in prange(pos.shape[0]):
-        m = mat[i]
-        ox, oy, oz, w0, w1, w2, tr, good = sample_delta(
-            specular[m, 0], specular[m, 1], specular[m, 2], alpha[m],
-            transmission[m, 0], transmission[m, 1], transmission[m, 2], ior[m],
-            d[i, 0], d[i, 1], d[i, 2], nsf[i, 0], nsf[i, 1], nsf[i, 2],
-            ngf[i, 0], ngf[i, 1], ngf[i, 2], front[i], u_lobe[i], u_pick[i])
-        t0, t1, t2 = thr[i, 0] * w0, thr[i, 1] * w1, thr[i, 2] * w2
-        ok[i] = good and (t0 > 0.0 or t1 > 0.0 or t2 > 0.0)
-        side = -eps[i] if tr else eps[i]
-        new_o[i, 0] = pos[i, 0] + side * ngf[i, 0]
-        new_o[i, 1] = pos[i, 1] + side * ngf[i, 1]
-        new_o[i, 2] = pos[i, 2] + side * ngf[i, 2]
-        new_d[i, 0] = ox
-        new_d[i, 1] = oy
-        new_d[i, 2] = oz
-        new_thr[i, 0] = t0
-        new_thr[i, 1] = t1
-        new_thr[i, 2] = t2
-        transmitted[i] = tr

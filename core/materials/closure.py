@@ -56,6 +56,7 @@ from numba import njit, prange
 
 from .. import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
 from .. import sampling
+from .. import spectral
 from ..scene import closures as cl
 from . import albedo_tables, dispersion, fresnel, lambert, microfacet, oren_nayar, sheen
 
@@ -598,6 +599,20 @@ def dispersive(tab, m):
 
 
 @njit(cache=True, error_model="numpy")
+def pick_wavelength(tab, m, lam, u, t0, t1, t2):
+    """The wavelength rule of docs/dispersion.md at material row m, for photons
+    (core/photons/scatter.py) and camera paths (core/integrators/camera_paths.py) alike: a
+    path still RGB (lam 0) where ``dispersive(tab, m)`` holds picks its wavelength
+    ``spectral.sample_wavelength(u)`` (u a uniform in [0, 1)) and its throughput or flux
+    (t0, t1, t2) is multiplied by that wavelength's RGB weight (mean (1, 1, 1) per
+    channel). Returns (lam nm, t0, t1, t2), unchanged where there is no pick."""
+    if lam == 0.0 and dispersive(tab, m):
+        li, _, s0, s1, s2 = spectral.sample_wavelength(u)
+        return li, t0 * s0, t1 * s1, t2 * s2
+    return lam, t0, t1, t2
+
+
+@njit(cache=True, error_model="numpy")
 def lobe_presence(tab, m):
     """Which kinds of lobe material m has, seen at normal incidence with texel colour 1:
     (diffuse, rough, delta, transmits, non_lambert, diffuse_transmits) bools: a
@@ -954,6 +969,65 @@ def sample_bsdf(tab, m, c0, c1, c2, wox, woy, woz, nsx, nsy, nsz, ngx, ngy, ngz,
     if not pdf > 0.0:
         return 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0
     return wix, wiy, wiz, f0 / pdf, f1 / pdf, f2 / pdf, pdf, flags | _lobe_flags(L, k)
+
+
+@njit(cache=True, error_model="numpy")
+def sample_delta(tab, m, c0, c1, c2, wox, woy, woz, nsx, nsy, nsz, ngx, ngy, ngz,
+                 tx, ty, tz, entering, u_lobe, u1, u2, lam=0.0):
+    """Sample one of material m's singular lobes (mirror, smooth glass) by their sample
+    weights: (wix, wiy, wiz, w0, w1, w2, share, flags). w is the path weight of the delta
+    lobes as a whole (the chosen lobe's weight over the probability of choosing it among
+    them: E[w] = the sum of their weights); share = their sample weight over the
+    material's, all lobes (the probability ``sample_bsdf`` would follow one of them: the
+    progressive mode's visible points stop at the others with probability 1 - share);
+    flags LOBE_DELTA (| LOBE_TRANSMIT), 0 when no direction (no singular lobe, or the
+    sample failed). Arguments as ``sample_bsdf``; lam the path's wavelength in nm (0: RGB)."""
+    ux, uy, uz, bx, by, bz, nx, ny, nz = _local(nsx, nsy, nsz, ngx, ngy, ngz, tx, ty, tz,
+                                                wox, woy, woz)
+    lox, loy, loz = wox * ux + woy * uy + woz * uz, wox * bx + woy * by + woz * bz, \
+        wox * nx + woy * ny + woz * nz
+    if loz <= 0.0:
+        return 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0
+    L = _lobes(tab, m, c0, c1, c2, lox, loy, loz, entering, lam)
+    total = 0.0
+    singular = 0.0
+    for k in range(L.shape[0]):
+        total += L[k, SW]
+        t = int(L[k, T])
+        if ((t == L_GGX or t == L_DIELECTRIC or t == L_THIN_T)
+                and microfacet.is_singular(L[k, AX], L[k, AY])):
+            singular += L[k, SW]
+    if not (singular > 0.0 and total > 0.0):
+        return 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0
+    share = min(singular / total, 1.0)
+    target = u_lobe * singular
+    acc = 0.0
+    k = -1
+    for j in range(L.shape[0]):
+        t = int(L[j, T])
+        if not ((t == L_GGX or t == L_DIELECTRIC or t == L_THIN_T)
+                and microfacet.is_singular(L[j, AX], L[j, AY])) or L[j, SW] <= 0.0:
+            continue
+        k = j
+        if target < acc + L[j, SW]:
+            break
+        acc += L[j, SW]
+    swk = L[k, SW]
+    u3 = min(max((target - acc) / swk, 0.0), 1.0 - 1e-12)
+    lx, ly, lz, v0, v1, v2, _, delta, ok = lobe_sample(L, k, lox, loy, loz, u1, u2, u3)
+    if not ok or not delta:
+        return 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, share, 0
+    wix = lx * ux + ly * bx + lz * nx
+    wiy = lx * uy + ly * by + lz * ny
+    wiz = lx * uz + ly * bz + lz * nz
+    ln = np.sqrt(wix * wix + wiy * wiy + wiz * wiz)
+    wix, wiy, wiz = wix / ln, wiy / ln, wiz / ln
+    below = wix * ngx + wiy * ngy + wiz * ngz < 0.0
+    if below != (lz < 0.0):  # as sample_bsdf: the geometric side must agree with the lobe's
+        return 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, share, 0
+    q = singular / swk
+    return (wix, wiy, wiz, L[k, W] * v0 * q, L[k, W + 1] * v1 * q, L[k, W + 2] * v2 * q,
+            share, (LOBE_TRANSMIT if below else 0) | LOBE_DELTA)
 
 
 @njit(cache=True, error_model="numpy")

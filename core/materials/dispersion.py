@@ -7,6 +7,7 @@ n(587.6 nm) = n_d with n_F - n_C = (n_d - 1) / V_d, F = 486.1 nm, C = 656.3 nm:
     B = (n_d - 1) / (V_d (1 / lambda_F^2 - 1 / lambda_C^2)),   A = n_d - B / lambda_d^2.
 
 V_d = 0 means no dispersion (the default): ``ior_at`` returns n_d itself, bit for bit.
+The range of V_d (0 or >= ``contract.MIN_ABBE``) is checked once, by the scene contract.
 The material's IOR slot is n_d (Blender's IOR is the d-line value, as glass catalogues).
 """
 
@@ -16,7 +17,6 @@ import numpy as np
 from numba import njit
 
 from .. import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
-from ..scene.contract import MIN_ABBE
 
 LAMBDA_D = 0.5876  # um, helium d line
 LAMBDA_F = 0.4861  # um, hydrogen F line
@@ -50,19 +50,10 @@ def _vec_ior(n_d, abbe, lam, out):
         out[i] = ior_at(n_d, abbe, lam[i])
 
 
-def check(n_d: float, abbe: float, name: str = "material") -> None:
-    """Raise ValueError naming the material unless n_d > 0 and abbe is 0 or >= MIN_ABBE
-    (the scene contract's rule), finite."""
-    if not (np.isfinite(n_d) and n_d > 0):
-        raise ValueError(f"{name}: IOR must be finite and > 0, got {n_d}")
-    if not (np.isfinite(abbe) and (abbe == 0 or abbe >= MIN_ABBE)):
-        raise ValueError(f"{name}: Dispersion (Abbe number V_d) must be 0 (off) or "
-                         f">= {MIN_ABBE:g}, got {abbe}")
-
-
 def ior(n_d: float, abbe: float, lam_nm) -> np.ndarray:
-    """ior_at over wavelengths lam_nm (N,) nm -> (N,) float64."""
-    check(n_d, abbe)
+    """ior_at over wavelengths lam_nm (N,) nm -> (N,) float64. The Abbe number's range
+    (0 or >= MIN_ABBE) is the scene contract's to check (``Materials`` validation,
+    core/scene/contract.py), where every material enters the renderer."""
     lam = np.ascontiguousarray(np.asarray(lam_nm, np.float64).reshape(-1))
     out = np.empty_like(lam)
     _vec_ior(float(n_d), float(abbe), lam, out)

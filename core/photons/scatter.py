@@ -46,7 +46,6 @@ from ..materials import bsdf
 from ..materials import closure
 from ..scene import geometry
 from .. import sampling
-from .. import spectral
 
 from .store import MODE_CAUSTIC, stores
 
@@ -121,14 +120,11 @@ def _scatter_range(tri_v, tri_n, tri_mat, extent, tab, has_diffuse, has_specular
             alive[i] = True
             continue
         row = rows[i] if rows.shape[0] else m
-        li = lam[i]
-        if li == 0.0 and closure.dispersive(tab, row):
-            # The first dispersive surface: the photon picks its wavelength, its flux
-            # becomes that wavelength's RGB (E[weight] = 1 per channel: white stays white).
-            li, _, s0, s1, s2 = spectral.sample_wavelength(
-                sampling.hash_uniform(seed, pid[i], bounce, dims[4]))
-            f0, f1, f2 = f0 * s0, f1 * s1, f2 * s2
-            lam[i] = li
+        # The first dispersive surface: the photon picks its wavelength, its flux
+        # becomes that wavelength's RGB (E[weight] = 1 per channel: white stays white).
+        li, f0, f1, f2 = closure.pick_wavelength(
+            tab, row, lam[i], sampling.hash_uniform(seed, pid[i], bounce, dims[4]), f0, f1, f2)
+        lam[i] = li
         u1 = sampling.hash_uniform(seed, pid[i], bounce, dims[1])
         u2 = sampling.hash_uniform(seed, pid[i], bounce, dims[2])
         u_lobe = sampling.hash_uniform(seed, pid[i], bounce, dims[3])

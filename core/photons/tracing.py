@@ -305,7 +305,7 @@ def photon_sources(prepared: PreparedScene) -> list:
 
 
 def trace_stored_photons(prepared: PreparedScene, sources: list, n_photons: int, *, seed: int,
-                         max_bounces: int, store_rule: int = STORE_ALL):
+                         max_bounces: int, store_rule: int = STORE_ALL, volume: bool = False):
     """Trace ``n_photons`` unaimed photons (shared between ``sources`` by power) and return
     the photons stored at diffuse hits as raw arrays, without building a PhotonMap.
 
@@ -314,19 +314,32 @@ def trace_stored_photons(prepared: PreparedScene, sources: list, n_photons: int,
     (M, 3) float32 metres, flux (M, 3) float32 watts already divided by the photons
     emitted, incident directions (M, 3) float32 pointing back towards where each photon
     came from, counters dict).
+
+    volume=True (a scene with media, ``prepared.medium``): the photons fly through the
+    media as the global map's do (``_fly``, caustic paths kept with the rest) and a fifth
+    element is returned, the volume photons (positions, flux W, propagation directions
+    (V, 3) float32, camera (V,) bool: False for a light's first collision, which Volume
+    Direct's shadow rays take), or None without a medium.
     """
     counters = {"rays": 0, "time_emission": 0.0, "time_tracing": 0.0, "time_intersect": 0.0,
                 "time_scatter": 0.0, "time_balancing": 0.0}
+    medium = None
+    if volume and prepared.medium is not None:
+        medium = _Medium(prepared.medium, medium_flight.VolumeStore(), caustic_apart=False)
     if not sources or n_photons <= 0:
         z = np.zeros((0, 3), np.float32)
-        return z, z.copy(), z.copy(), counters
-    counts = emission.allocate(np.array([luminance(s.power) for s in sources]),
-                               int(n_photons))
-    store, _ = _trace_map(prepared, sources, counts, [(None, None)] * len(sources),
-                          MODE_GLOBAL, store_rule, int(seed), int(max_bounces), MAP_GLOBAL,
-                          counters, total_work=int(counts.sum()))
-    pos, flux, direction = store.take()
-    return pos, flux, direction, counters
+        out = (z, z.copy(), z.copy(), counters)
+    else:
+        counts = emission.allocate(np.array([luminance(s.power) for s in sources]),
+                                   int(n_photons))
+        store, _ = _trace_map(prepared, sources, counts, [(None, None)] * len(sources),
+                              MODE_GLOBAL, store_rule, int(seed), int(max_bounces), MAP_GLOBAL,
+                              counters, total_work=int(counts.sum()), medium=medium)
+        pos, flux, direction = store.take()
+        out = (pos, flux, direction, counters)
+    if not volume:
+        return out
+    return (*out, None if medium is None else medium.vstore.take())
 
 
 _KIND_NAMES = {0: "point", 1: "spot", 2: "sun", 3: "area"}

@@ -4,6 +4,7 @@ import numpy as np
 
 from core.scene import shapes
 from core.scene.contract import LIGHT_POINT, LIGHT_SPOT, Lights, Materials, Scene
+from core.scene.media import Media
 
 
 def caustic_scene(scale=1.0, width=32, height=32) -> Scene:
@@ -71,3 +72,21 @@ def prism_view_scene(abbe: float | None = 20.0, width=64, height=48, fov=0.4,
     mats = Materials.from_list([{"diffuse": [0, 0, 0], "emission": [1, 1, 1]}, glass])
     cam = shapes.pinhole([4.4, 0.0, 0.0], [0.25, 0.0, 1.433], width, height, fov)
     return Scene(mesh, mats, Lights.from_list([]), cam).validate()
+
+
+def fog_scene(width=24, height=24, sigma_s=0.25, sigma_a=0.05, g=0.3) -> Scene:
+    """A 4 m x 4 m diffuse floor (albedo 0.8) and a back wall (albedo 0.6) in World fog
+    (sigma_s, sigma_a 1/m grey, Henyey-Greenstein g), lit by a 300 W point light at 1.5 m,
+    seen by a width x height pinhole camera from 3 m away: the light's glow in the fog,
+    its single and multiple scattering, and the floor seen through the fog. The scene of
+    the progressive mode's media tests (tests/core/integrators/test_sppm_media.py) and
+    benchmarks/sppm_fog_convergence.py."""
+    mesh = shapes.assemble([(shapes.quad([0, 0, 0], [2, 0, 0], [0, 2, 0]), 0),
+                            (shapes.quad([0, 2, 1.5], [2, 0, 0], [0, 0, 1.5]), 1)])
+    mats = Materials.from_list([{"diffuse": [0.8] * 3}, {"diffuse": [0.6] * 3}])
+    lights = Lights.from_list([{"kind": LIGHT_POINT, "position": [0.4, 0.3, 1.5],
+                                "power": 300.0}])
+    media = Media.from_list([{"sigma_s": [sigma_s] * 3, "sigma_a": [sigma_a] * 3,
+                              "anisotropy": g, "name": "Fog"}])
+    cam = shapes.pinhole([0, -3.0, 1.2], [0, 0.5, 0.8], width, height, 0.9)
+    return Scene(mesh, mats, lights, cam, media=media).validate()

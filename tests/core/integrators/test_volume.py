@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from core import sampling
-from core.integrators import photon_mapping, sppm
+from core.integrators import photon_mapping
 from core.lights import kernels as light_kernels
 from core.lights.light_set import LightSet
 from core.media import regions
@@ -18,7 +18,7 @@ from core.scene import shapes
 from core.scene.contract import (CAMERA_ORTHOGRAPHIC, LIGHT_POINT, Camera, Lights, Materials,
                                  Scene, SceneError)
 from core.scene.media import Media
-from core.settings import RenderSettings, SettingsError
+from core.settings import RenderSettings
 
 pytestmark = pytest.mark.core
 
@@ -131,14 +131,9 @@ def test_volume_direct_matches_the_single_scattering_integral():
 
 
 def test_media_the_renderer_does_not_take_yet_are_refused_by_name():
-    mat = {"diffuse": [0.5] * 3}
     textured = Media.from_list([{"sigma_s": [1, 1, 1], "density_texture": 0, "name": "Smoke"}])
     with pytest.raises(SceneError, match="medium 'Smoke'.*heterogeneous density"):
         regions.renderable(textured, 1.0)
-    st = RenderSettings(integrator="progressive", progressive_passes=1, photons_per_pass=100,
-                        threads=2)
-    with pytest.raises(SettingsError, match='"integrator" is "progressive".*\'Fog\''):
-        sppm.render(_floor_scene(mat, media=_fog([0.1] * 3)), st)
 
 
 def test_photon_pass_stores_the_flux_each_scattering_order_carries():
