@@ -138,6 +138,7 @@ class HitShader:
         self.tri_material, self.extent = tri_material, float(extent)
         self.tri_uv = mesh.uvs
         self.tri_attributes = mesh.attributes  # (T, 3, A, 4) or None
+        self.tri_tangents = mesh.tangents  # (T, 3, G, 4) or None
         self.tri_object = mesh.object_index
         n_obj = int(mesh.object_index.max()) + 1 if mesh.triangle_count else 0
         if mesh.object_to_world is not None:
@@ -179,7 +180,10 @@ class HitShader:
                                   object_color=self.object_info[obj, :3],
                                   object_random=self.object_info[obj, 3],
                                   object_index=self.object_info[obj, 4], uv=uv[None],
-                                  attributes=self._attributes(prim, u, v, w))
+                                  attributes=self._attributes(prim, u, v, w),
+                                  tangents=self._tangents(prim, u, v, w),
+                                  normal_to_world=np.transpose(self.to_object[obj][:, :3, :3],
+                                                               (0, 2, 1)))
         return ins, mat
 
     def _attributes(self, prim, u, v, w) -> np.ndarray:
@@ -187,6 +191,16 @@ class HitShader:
         if self.tri_attributes is None:
             return np.zeros((0, prim.shape[0], 4), np.float32)
         c = self.tri_attributes[prim]  # (N, 3, A, 4)
+        a = w[:, None, None] * c[:, 0] + u[:, None, None] * c[:, 1] + v[:, None, None] * c[:, 2]
+        return np.ascontiguousarray(np.transpose(a, (1, 0, 2)), np.float32)
+
+    def _tangents(self, prim, u, v, w) -> np.ndarray:
+        """(G, N, 4) the tangent maps at the hits (tangent and sign interpolated like the
+        UVs, as Cycles interpolates its corner attributes; the tangent is not
+        normalised, Cycles' svm_node_normal_map reads it so)."""
+        if self.tri_tangents is None:
+            return np.zeros((0, prim.shape[0], 4), np.float32)
+        c = self.tri_tangents[prim]  # (N, 3, G, 4)
         a = w[:, None, None] * c[:, 0] + u[:, None, None] * c[:, 1] + v[:, None, None] * c[:, 2]
         return np.ascontiguousarray(np.transpose(a, (1, 0, 2)), np.float32)
 
@@ -230,12 +244,23 @@ class HitShader:
 
     def closures_at(self, prim, u, v, d, mat) -> tuple[closure.ClosureTable, np.ndarray]:
         """(tab, rows) for N hits (class doc): prim, u, v, d as for ``inputs``, mat (N,)
-        int32 their materials. rows is ``mat`` itself when no hit has a program."""
+        int32 their materials. rows is ``mat`` itself when no hit has a program. For the
+        shading normal the programs give too, ``shade``."""
+        tab, rows, _ = self.shade(prim, u, v, d, mat)
+        return tab, rows
+
+    def shade(self, prim, u, v, d, mat, ns=None):
+        """(tab, rows, ns) for N hits: ``closures_at``'s (tab, rows) and the hits' shading
+        normals, ns (N, 3) (the interpolated normals facing the ray, float64) with the
+        programmed hits' normal output (a Normal Map or Bump node into a BSDF's Normal
+        input) in place: normalised, facing where the program made it face (the program
+        reads the normal facing the ray, as Cycles' sd->N). ns is returned as given (the
+        same object) when no hit's program sets a normal; None stays None."""
         if not self.active or prim.shape[0] == 0:
-            return self.table, mat
+            return self.table, mat, ns
         hit = np.flatnonzero(self.programmed[mat])
         if hit.size == 0:
-            return self.table, mat
+            return self.table, mat, ns
         tab = self.table
         n_mat, n_cl = tab.first.shape[0], tab.kind.shape[0]
         ins, _ = self.inputs(prim[hit], u[hit], v[hit], np.asarray(d)[hit])
@@ -243,12 +268,17 @@ class HitShader:
         kinds, weights, params, textures, firsts, counts, abbes = [], [], [], [], [], [], []
         done = 0
         next_closure = n_cl
+        bent = ns
         for m in np.unique(mat[hit]):
             sel = np.flatnonzero(mat[hit] == m)
             f, k = int(tab.first[m]), int(tab.count[m])
             out = interpreter.closure_params(self.programs[m], _subset(ins, sel),
                                              tab.params[f:f + k].astype(np.float32),
                                              self.images)
+            if out["normal"] is not None and ns is not None:
+                if bent is ns:
+                    bent = np.array(ns, np.float64, copy=True)
+                bent[hit[sel]] = _unit_or(out["normal"], bent[hit[sel]])
             h = sel.size
             kinds.append(np.tile(tab.kind[f:f + k], h))
             weights.append(np.tile(tab.weight[f:f + k], (h, 1)))
@@ -269,7 +299,7 @@ class HitShader:
             first=cat([tab.first, *firsts]).astype(np.int32),
             count=cat([tab.count, *counts]).astype(np.int32),
             abbe=np.ascontiguousarray(cat([tab.abbe, *abbes])))
-        return batch, rows
+        return batch, rows, bent
 
 
     def diffuse_albedo(self, tab, rows, mat, texel, d, ns, albedo) -> np.ndarray:
@@ -299,6 +329,15 @@ class HitShader:
                                    albedo)
 
 
+def _unit_or(normal, fallback) -> np.ndarray:
+    """(N, 3) float64: the program's normals (N, 3) made unit length, ``fallback`` (N, 3)
+    where one is zero or not finite (Cycles' safe_normalize_fallback(N, sd->N))."""
+    n = np.asarray(normal, np.float64)
+    length = np.linalg.norm(n, axis=1)
+    ok = np.isfinite(length) & (length > 0)
+    return np.where(ok[:, None], n / np.where(ok, length, 1.0)[:, None], fallback)
+
+
 def _subset(ins: ShadingInputs, sel) -> ShadingInputs:
     """The inputs of points ``sel`` (already validated: no second check)."""
     pick = {k: getattr(ins, k)[sel] for k in (
@@ -306,7 +345,9 @@ def _subset(ins: ShadingInputs, sel) -> ShadingInputs:
         "object_coords", "object_normal", "object_location", "object_random",
         "object_color", "object_index")}
     return ShadingInputs(**pick, uv=np.ascontiguousarray(ins.uv[:, sel]),
-                         attributes=np.ascontiguousarray(ins.attributes[:, sel]))
+                         attributes=np.ascontiguousarray(ins.attributes[:, sel]),
+                         tangents=np.ascontiguousarray(ins.tangents[:, sel]),
+                         normal_to_world=np.ascontiguousarray(ins.normal_to_world[sel]))
 
 
 def diffuse_area(tri_vertices: np.ndarray, tri_material: np.ndarray,

@@ -72,8 +72,11 @@ class _Value:
 
 
 class _Builder:
-    def __init__(self, name, uv_maps, attributes, luminance, warnings, images=None):
+    def __init__(self, name, uv_maps, attributes, luminance, warnings, images=None,
+                 tangent_maps=None):
         self.name = name
+        self.tangent_maps = tangent_maps if isinstance(tangent_maps, AttributeNames) else \
+            AttributeNames(tangent_maps or ())
         self.images = images
         self.uv_maps = list(uv_maps)
         self.attributes = attributes if isinstance(attributes, AttributeNames) else \
@@ -747,7 +750,34 @@ def _image(b, node, path):
     return {"Color": color, "Alpha": alpha}
 
 
+def _normal_map(b, node, path):
+    """Normal Map (core/shading/normals.py): tangent space reads the MikkTSpace tangent
+    map of the node's UV map ("" = the active render one, as Cycles' default)."""
+    space = pg.NORMAL_MAP_SPACES.get(getattr(node, "space", "TANGENT"))
+    if space is None:
+        b.warn(("nmspace", path, node.name), f"node '{node.name}': space "
+               f"'{node.space}' is not supported; Tangent is used")
+        space = 0
+    if getattr(node, "invert_green", False):  # a later Blender's option (Cycles reads it)
+        b.warn(("nmgreen", path, node.name), f"node '{node.name}': Invert Green is not "
+               f"supported; ignored")
+    colour = b.input(node, "Color", path, "c")
+    strength = b.input(node, "Strength", path, "f")
+    if space == 0:
+        g = b.tangent_maps.index(getattr(node, "uv_map", "") or "")
+        tangent, sign = b.source(pg.SOURCE_TANGENT, g), b.source(pg.SOURCE_TANGENT_SIGN, g, "f")
+    else:
+        tangent, sign = b.const((0.0, 0.0, 0.0), "v"), b.const(0.0, "f")
+    rows = [b.source(pg.SOURCE_NORMAL_TO_WORLD, i) for i in range(3)]
+    out = b.new("v")
+    b.emit(pg.OP_NORMAL_MAP, [space], [colour, strength, tangent, sign,
+                                       b.source(pg.SOURCE_NORMAL),
+                                       b.source(pg.SOURCE_BACKFACING, 0, "f"), *rows], [out])
+    return {"Normal": out}
+
+
 SUPPORTED = {
+    "ShaderNodeNormalMap": _normal_map,
     "ShaderNodeTexImage": _image, "ShaderNodeAttribute": _attribute,
     "ShaderNodeVertexColor": _color_attribute,
     "ShaderNodeTexCoord": _tex_coord, "ShaderNodeUVMap": _uv_map,
@@ -778,7 +808,8 @@ Group Input / Output and muted nodes, handled by the walk itself)."""
 
 
 def compile_sockets(material, targets, uv_maps=(), attributes=(),
-                    luminance=cn.LUMINANCE_REC709, images=None) -> ShaderCompile:
+                    luminance=cn.LUMINANCE_REC709, images=None,
+                    tangent_maps=None) -> ShaderCompile:
     """Compile the values of input sockets of ``material``'s node tree.
 
     targets: [(socket, target, closure, slot)]: an input socket of a node of the
@@ -789,9 +820,13 @@ def compile_sockets(material, targets, uv_maps=(), attributes=(),
       them) or names, in the order of ``ShadingInputs.attributes``. luminance: the scene-linear RGB -> Y weights.
     images: the export's ``export_images.ProgramImageTable`` Image Texture nodes read
       their images into (None: such a node gives the missing-image magenta, reported).
+    tangent_maps: an ``AttributeNames`` of the UV maps whose MikkTSpace tangents the
+      programs read (``Mesh.tangent_maps``; "" the active render UV map), names added as
+      Normal Map nodes read them.
     """
     warnings: list[str] = []
-    b = _Builder(material.name, uv_maps, attributes, luminance, warnings, images)
+    b = _Builder(material.name, uv_maps, attributes, luminance, warnings, images,
+                 tangent_maps)
     b.group_bindings = {}
     values = []
     for sock, target, closure, slot in targets:

@@ -24,6 +24,7 @@ from .textures import checker, gradient, white_noise, wave, magic, brick
 from .noise import noise_texture
 from .voronoi import voronoi_texture
 from .images import image_sample
+from .normals import normal_map
 from ..scene.images import ProgramImages
 
 _F = pg.FIRST_OPERAND
@@ -31,7 +32,8 @@ _CHUNK = 256
 
 
 @njit(inline="always", **dict(cache=True, error_model="numpy"))
-def _load_input(r, ins, i, P, N, Ng, I, back, gen, obj, objn, oloc, orand, ocol, oidx, uv, attr):
+def _load_input(r, ins, i, P, N, Ng, I, back, gen, obj, objn, oloc, orand, ocol, oidx, uv, attr,
+                tan, n2w):
     src = ins[1]
     idx = ins[2]
     o = ins[_F]
@@ -73,6 +75,16 @@ def _load_input(r, ins, i, P, N, Ng, I, back, gen, obj, objn, oloc, orand, ocol,
                 r[o] = r[o + 1] = r[o + 2] = attr[idx, i, 3]
         else:
             r[o] = r[o + 1] = r[o + 2] = 0.0
+    elif src == 15 or src == 16:  # SOURCE_TANGENT, SOURCE_TANGENT_SIGN
+        if idx < tan.shape[0]:
+            if src == 15:
+                r[o], r[o + 1], r[o + 2] = tan[idx, i, 0], tan[idx, i, 1], tan[idx, i, 2]
+            else:
+                r[o] = r[o + 1] = r[o + 2] = tan[idx, i, 3]
+        else:
+            r[o] = r[o + 1] = r[o + 2] = 0.0
+    elif src == 17:  # SOURCE_NORMAL_TO_WORLD, row idx
+        r[o], r[o + 1], r[o + 2] = n2w[i, idx, 0], n2w[i, idx, 1], n2w[i, idx, 2]
     else:
         r[o], r[o + 1], r[o + 2] = a[i, 0], a[i, 1], a[i, 2]
 
@@ -248,12 +260,19 @@ def _run(r, ins, tables, im_bytes, im_shorts, im_floats, im_tiles, im_first, im_
         image_sample(im_bytes, im_shorts, im_floats, im_tiles, im_first, im_count, ins[1],
                      r[a[0]], r[a[0] + 1], ins[2], ins[3], ins[4] != 0, px)
         r[a[1]], r[a[1] + 1], r[a[1] + 2], r[a[2]] = px[0], px[1], px[2], px[3]
+    elif op == pg.OP_NORMAL_MAP:
+        c, t, n, m0, m1, m2 = a[0], a[2], a[4], a[6], a[7], a[8]
+        x, y, z = normal_map(ins[1], r[c], r[c + 1], r[c + 2], r[a[1]], r[t], r[t + 1],
+                             r[t + 2], r[a[3]], r[n], r[n + 1], r[n + 2], r[a[5]], r[m0],
+                             r[m0 + 1], r[m0 + 2], r[m1], r[m1 + 1], r[m1 + 2], r[m2],
+                             r[m2 + 1], r[m2 + 2])
+        r[a[9]], r[a[9] + 1], r[a[9] + 2] = x, y, z
 
 
 @njit(parallel=True, **dict(cache=True, error_model="numpy"))
 def evaluate_kernel(instructions, constants, tables, n_registers, outputs, P, N, Ng, I, back,
-                    gen, obj, objn, oloc, orand, ocol, oidx, uv, attr, im_bytes, im_shorts, im_floats,
-                    im_tiles, im_first, im_count, out):
+                    gen, obj, objn, oloc, orand, ocol, oidx, uv, attr, tan, n2w, im_bytes,
+                    im_shorts, im_floats, im_tiles, im_first, im_count, out):
     """Run the program on every point: out[i, o] = register outputs[o, 0] of point i.
     (N, O) float32 ``out``; every other array as ``ShadingInputs`` / ``ShaderProgram`` /
     ``ProgramImages`` (im_*)."""
@@ -270,7 +289,7 @@ def evaluate_kernel(instructions, constants, tables, n_registers, outputs, P, N,
                 ins = instructions[s]
                 if ins[0] == pg.OP_INPUT:
                     _load_input(r, ins, i, P, N, Ng, I, back, gen, obj, objn, oloc, orand,
-                                ocol, oidx, uv, attr)
+                                ocol, oidx, uv, attr, tan, n2w)
                 else:
                     _run(r, ins, tables, im_bytes, im_shorts, im_floats, im_tiles,
                          im_first, im_count, px)
@@ -296,7 +315,8 @@ def evaluate(program: pg.ShaderProgram, inputs: ShadingInputs,
                     inputs.true_normal, inputs.incoming, inputs.backfacing, inputs.generated,
                     inputs.object_coords, inputs.object_normal, inputs.object_location,
                     inputs.object_random, inputs.object_color, inputs.object_index,
-                    inputs.uv, inputs.attributes, im.bytes, im.shorts,
+                    inputs.uv, inputs.attributes, inputs.tangents, inputs.normal_to_world,
+                    im.bytes, im.shorts,
                     im.floats, im.tiles, im.slot_first, im.slot_count, out)
     return out
 

@@ -37,7 +37,7 @@ FIRST_OPERAND = 5
  OP_MIX_COLOR, OP_MAP_RANGE, OP_VECTOR_MAP_RANGE, OP_CLAMP, OP_SEPARATE, OP_COMBINE, OP_RAMP,
  OP_MAPPING, OP_INVERT, OP_GAMMA, OP_HSV, OP_BRIGHT_CONTRAST, OP_RGB_TO_BW, OP_CHECKER,
  OP_GRADIENT, OP_WHITE_NOISE, OP_NOISE, OP_VORONOI, OP_WAVE, OP_MAGIC, OP_BRICK, OP_BLACKBODY,
- OP_CURVES, OP_FLOAT_CURVE, OP_IMAGE) = range(31)
+ OP_CURVES, OP_FLOAT_CURVE, OP_IMAGE, OP_NORMAL_MAP) = range(32)
 
 SIGNATURES = {
     OP_INPUT: ">v",                  # ints: source (SOURCE_*), index (UV map / attribute)
@@ -83,6 +83,9 @@ SIGNATURES = {
     OP_IMAGE: "v>vf",                # vector -> colour, alpha; ints: image slot
                                      # (core.scene.images; -1 missing), interpolation,
                                      # extension (core.shading.images), unassociate alpha
+    OP_NORMAL_MAP: "vfvfvfvvv>v",    # colour, strength, tangent, sign, shading normal N,
+                                     # backfacing, the 3 rows of the object's normal
+                                     # transform -> normal; ints: NORMAL_MAP_SPACES code
 }
 """Register operands of each opcode: ``f`` one register, ``v`` three; ``>`` separates the
 inputs from the outputs."""
@@ -97,14 +100,22 @@ OP_NAMES = {OP_INPUT: "INPUT", OP_MATH: "MATH", OP_VECTOR_MATH: "VECTOR_MATH",
             OP_CHECKER: "CHECKER", OP_GRADIENT: "GRADIENT", OP_WHITE_NOISE: "WHITE_NOISE",
             OP_NOISE: "NOISE", OP_VORONOI: "VORONOI", OP_WAVE: "WAVE", OP_MAGIC: "MAGIC",
             OP_BRICK: "BRICK", OP_BLACKBODY: "BLACKBODY", OP_CURVES: "CURVES",
-            OP_FLOAT_CURVE: "FLOAT_CURVE", OP_IMAGE: "IMAGE"}
+            OP_FLOAT_CURVE: "FLOAT_CURVE", OP_IMAGE: "IMAGE", OP_NORMAL_MAP: "NORMAL_MAP"}
+
+NORMAL_MAP_SPACES = {"TANGENT": 0, "OBJECT": 1, "WORLD": 2, "BLENDER_OBJECT": 3,
+                     "BLENDER_WORLD": 4}
+"""Normal Map node space -> OP_NORMAL_MAP's int (Cycles' NodeNormalMapSpace order)."""
 
 # --- OP_INPUT sources (ints column 1); all write 3 registers, scalars in the first -------
 (SOURCE_POSITION, SOURCE_NORMAL, SOURCE_TRUE_NORMAL, SOURCE_INCOMING, SOURCE_BACKFACING,
  SOURCE_GENERATED, SOURCE_OBJECT, SOURCE_OBJECT_NORMAL, SOURCE_UV, SOURCE_OBJECT_LOCATION,
  SOURCE_OBJECT_RANDOM, SOURCE_ATTRIBUTE_COLOR, SOURCE_ATTRIBUTE_ALPHA, SOURCE_OBJECT_COLOR,
- SOURCE_OBJECT_INDEX) = range(15)
-SOURCE_COUNT = 15
+ SOURCE_OBJECT_INDEX, SOURCE_TANGENT, SOURCE_TANGENT_SIGN, SOURCE_NORMAL_TO_WORLD) = range(18)
+SOURCE_COUNT = 18
+# SOURCE_TANGENT / SOURCE_TANGENT_SIGN (index: the tangent map, ShadingInputs.tangents):
+# the interpolated MikkTSpace tangent (world space, unnormalised) and bitangent sign (0:
+# no tangent there); SOURCE_NORMAL_TO_WORLD (index 0-2): row i of the object's normal
+# transform inv(A)^T (ShadingInputs.normal_to_world).
 
 # --- output targets ----------------------------------------------------------------------
 TARGET_CLOSURE = 0    # closure parameter slot (core.scene.closures)
@@ -184,6 +195,9 @@ class ShaderProgram:
                                                        and 0 <= row[3] <= 3):
                 raise ValueError(f"{who}: instruction {i} ({OP_NAMES[op]}) has image slot "
                                  f"{row[1]}, interpolation {row[2]}, extension {row[3]}")
+            if op == OP_NORMAL_MAP and not 0 <= row[1] < len(NORMAL_MAP_SPACES):
+                raise ValueError(f"{who}: instruction {i} ({OP_NAMES[op]}) has unknown "
+                                 f"space {row[1]}")
             if op in (OP_RAMP, OP_CURVES, OP_FLOAT_CURVE) and not (row[2] >= 2 and 0 <= row[1]
                                       and row[1] + row[2] <= self.tables.shape[0]):
                 raise ValueError(f"{who}: instruction {i} ({OP_NAMES[op]}) rows [{row[1]}, "
