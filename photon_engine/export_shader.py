@@ -758,9 +758,7 @@ def _normal_map(b, node, path):
         b.warn(("nmspace", path, node.name), f"node '{node.name}': space "
                f"'{node.space}' is not supported; Tangent is used")
         space = 0
-    if getattr(node, "invert_green", False):  # a later Blender's option (Cycles reads it)
-        b.warn(("nmgreen", path, node.name), f"node '{node.name}': Invert Green is not "
-               f"supported; ignored")
+    invert_green = int(getattr(node, "convention", "OPENGL") == "DIRECTX")  # Blender 5.x
     colour = b.input(node, "Color", path, "c")
     strength = b.input(node, "Strength", path, "f")
     if space == 0:
@@ -770,7 +768,7 @@ def _normal_map(b, node, path):
         tangent, sign = b.const((0.0, 0.0, 0.0), "v"), b.const(0.0, "f")
     rows = [b.source(pg.SOURCE_NORMAL_TO_WORLD, i) for i in range(3)]
     out = b.new("v")
-    b.emit(pg.OP_NORMAL_MAP, [space], [colour, strength, tangent, sign,
+    b.emit(pg.OP_NORMAL_MAP, [space, invert_green], [colour, strength, tangent, sign,
                                        b.source(pg.SOURCE_NORMAL),
                                        b.source(pg.SOURCE_BACKFACING, 0, "f"), *rows], [out])
     return {"Normal": out}

@@ -262,7 +262,7 @@ def _run(r, ins, tables, im_bytes, im_shorts, im_floats, im_tiles, im_first, im_
         r[a[1]], r[a[1] + 1], r[a[1] + 2], r[a[2]] = px[0], px[1], px[2], px[3]
     elif op == pg.OP_NORMAL_MAP:
         c, t, n, m0, m1, m2 = a[0], a[2], a[4], a[6], a[7], a[8]
-        x, y, z = normal_map(ins[1], r[c], r[c + 1], r[c + 2], r[a[1]], r[t], r[t + 1],
+        x, y, z = normal_map(ins[1], ins[2], r[c], r[c + 1], r[c + 2], r[a[1]], r[t], r[t + 1],
                              r[t + 2], r[a[3]], r[n], r[n + 1], r[n + 2], r[a[5]], r[m0],
                              r[m0 + 1], r[m0 + 2], r[m1], r[m1 + 1], r[m1 + 2], r[m2],
                              r[m2 + 1], r[m2 + 2])

@@ -22,13 +22,14 @@ def _safe_normalize(x, y, z):
 
 
 @njit(**_JIT)
-def normal_map(space, cx, cy, cz, strength, tx, ty, tz, sign, nx, ny, nz, back,
+def normal_map(space, invert_green, cx, cy, cz, strength, tx, ty, tz, sign, nx, ny, nz, back,
                m00, m01, m02, m10, m11, m12, m20, m21, m22):
     """The Normal Map node's normal (3 floats, unit, world space) as Cycles'
     svm_node_normal_map.
 
     space: 0 tangent, 1 object, 2 world, 3 Blender object, 4 Blender world
-    (``program.NORMAL_MAP_SPACES``); (cx, cy, cz) the colour; strength; (tx, ty, tz) the
+    (``program.NORMAL_MAP_SPACES``); invert_green 1 for Blender 5's DirectX convention
+    (the green axis points the other way: Cycles' invert_green); (cx, cy, cz) the colour; strength; (tx, ty, tz) the
     interpolated MikkTSpace tangent and sign its bitangent sign (world space; sign 0: no
     tangent, the normal is returned unchanged as Cycles does without the attribute);
     (nx, ny, nz) the shading normal facing the viewer (Cycles' sd->N) and back 1 when the
@@ -42,6 +43,8 @@ def normal_map(space, cx, cy, cz, strength, tx, ty, tz, sign, nx, ny, nz, back,
     from sd->N. A zero or non-finite result gives sd->N.
     """
     cx, cy, cz = 2.0 * (cx - 0.5), 2.0 * (cy - 0.5), 2.0 * (cz - 0.5)
+    if invert_green:
+        cy = -cy
     flip = -1.0 if back > 0.5 else 1.0
     linear = True
     if space == 0:

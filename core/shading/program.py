@@ -85,7 +85,8 @@ SIGNATURES = {
                                      # extension (core.shading.images), unassociate alpha
     OP_NORMAL_MAP: "vfvfvfvvv>v",    # colour, strength, tangent, sign, shading normal N,
                                      # backfacing, the 3 rows of the object's normal
-                                     # transform -> normal; ints: NORMAL_MAP_SPACES code
+                                     # transform -> normal; ints: NORMAL_MAP_SPACES code,
+                                     # invert green (DirectX convention)
 }
 """Register operands of each opcode: ``f`` one register, ``v`` three; ``>`` separates the
 inputs from the outputs."""

@@ -30,7 +30,7 @@ def ins(op, ints, regs):
     return row + [-1] * (W - len(row))
 
 
-def normal_map_program(colour, space="TANGENT", strength=1.0):
+def normal_map_program(colour, space="TANGENT", strength=1.0, invert_green=False):
     """The shading normal = Normal Map (space) of a constant colour, strength."""
     # registers: 0-2 colour, 3 strength, 4-6 tangent, 7-9 sign, 10-12 N, 13-15 backfacing,
     # 16-24 normal transform rows, 25-27 the normal
@@ -41,7 +41,7 @@ def normal_map_program(colour, space="TANGENT", strength=1.0):
             ins(pg.OP_INPUT, [pg.SOURCE_NORMAL_TO_WORLD, 0], [16]),
             ins(pg.OP_INPUT, [pg.SOURCE_NORMAL_TO_WORLD, 1], [19]),
             ins(pg.OP_INPUT, [pg.SOURCE_NORMAL_TO_WORLD, 2], [22]),
-            ins(pg.OP_NORMAL_MAP, [pg.NORMAL_MAP_SPACES[space]],
+            ins(pg.OP_NORMAL_MAP, [pg.NORMAL_MAP_SPACES[space], int(invert_green)],
                 [0, 3, 4, 7, 10, 13, 16, 19, 22, 25])]
     outputs = [[25 + c, pg.TARGET_NORMAL, 0, c] for c in range(3)]
     return pg.ShaderProgram.build(code, list(colour) + [strength], outputs, 28,
@@ -61,22 +61,25 @@ def test_tangent_space_tilts_the_normal_towards_the_tangent_and_bitangent():
     n = np.array([0.0, 0.0, 1.0])
     m = np.eye(3).ravel()
     # +T: (sin a) T + (cos a) N
-    out = np.array(normal_map(0, *tilt_colour(a), 1.0, *t, 1.0, *n, 0.0, *m))
+    out = np.array(normal_map(0, 0, *tilt_colour(a), 1.0, *t, 1.0, *n, 0.0, *m))
     np.testing.assert_allclose(out, np.sin(a) * t + np.cos(a) * n, atol=1e-12)
     # green tilts along B = sign * N x T = (-1, 0, 0) for sign 1, (1, 0, 0) for sign -1
     c = (0.5, 0.5 + 0.5 * np.sin(a), 0.5 + 0.5 * np.cos(a))
     b = np.cross(n, t)
     for sign in (1.0, -1.0):
-        out = np.array(normal_map(0, *c, 1.0, *t, sign, *n, 0.0, *m))
+        out = np.array(normal_map(0, 0, *c, 1.0, *t, sign, *n, 0.0, *m))
         np.testing.assert_allclose(out, sign * np.sin(a) * b + np.cos(a) * n, atol=1e-12)
+    # DirectX convention: green points along -B
+    out = np.array(normal_map(0, 1, *c, 1.0, *t, 1.0, *n, 0.0, *m))
+    np.testing.assert_allclose(out, -np.sin(a) * b + np.cos(a) * n, atol=1e-12)
     # strength 0: the tangent-plane part vanishes and z -> 1: the normal itself
-    out = np.array(normal_map(0, *tilt_colour(a), 0.0, *t, 1.0, *n, 0.0, *m))
+    out = np.array(normal_map(0, 0, *tilt_colour(a), 0.0, *t, 1.0, *n, 0.0, *m))
     np.testing.assert_allclose(out, n, atol=1e-12)
     # a back face: the frame is built on the face's own normal, then flipped
-    out = np.array(normal_map(0, *tilt_colour(a), 1.0, *t, 1.0, *(-n), 1.0, *m))
+    out = np.array(normal_map(0, 0, *tilt_colour(a), 1.0, *t, 1.0, *(-n), 1.0, *m))
     np.testing.assert_allclose(out, -(np.sin(a) * t + np.cos(a) * n), atol=1e-12)
     # no tangent (sign 0, a mesh without the UV map): the normal unchanged, as Cycles
-    out = np.array(normal_map(0, *tilt_colour(a), 1.0, 0.0, 0.0, 0.0, 0.0, *n, 0.0, *m))
+    out = np.array(normal_map(0, 0, *tilt_colour(a), 1.0, 0.0, 0.0, 0.0, 0.0, *n, 0.0, *m))
     np.testing.assert_allclose(out, n)
 
 
@@ -88,17 +91,17 @@ def test_object_and_world_spaces():
     scale = np.diag([1.0, 2.0, 0.5])
     a = rot @ scale
     m = np.linalg.inv(a).T
-    world = np.array(normal_map(2, *c, 1.0, 0, 0, 0, 0, *n, 0.0, *m.ravel()))
+    world = np.array(normal_map(2, 0, *c, 1.0, 0, 0, 0, 0, *n, 0.0, *m.ravel()))
     np.testing.assert_allclose(world, v / np.linalg.norm(v), atol=1e-12)
-    obj = np.array(normal_map(1, *c, 1.0, 0, 0, 0, 0, *n, 0.0, *m.ravel()))
+    obj = np.array(normal_map(1, 0, *c, 1.0, 0, 0, 0, 0, *n, 0.0, *m.ravel()))
     np.testing.assert_allclose(obj, m @ v / np.linalg.norm(m @ v), atol=1e-12)
     vb = v * [1, -1, -1]  # Blender's object / world convention
-    bw = np.array(normal_map(4, *c, 1.0, 0, 0, 0, 0, *n, 0.0, *m.ravel()))
+    bw = np.array(normal_map(4, 0, *c, 1.0, 0, 0, 0, 0, *n, 0.0, *m.ravel()))
     np.testing.assert_allclose(bw, vb / np.linalg.norm(vb), atol=1e-12)
-    bo = np.array(normal_map(3, *c, 1.0, 0, 0, 0, 0, *n, 0.0, *m.ravel()))
+    bo = np.array(normal_map(3, 0, *c, 1.0, 0, 0, 0, 0, *n, 0.0, *m.ravel()))
     np.testing.assert_allclose(bo, m @ vb / np.linalg.norm(m @ vb), atol=1e-12)
     # strength 0.5 outside tangent space: the linear mix from N, normalised
-    half = np.array(normal_map(2, *c, 0.5, 0, 0, 0, 0, *n, 0.0, *m.ravel()))
+    half = np.array(normal_map(2, 0, *c, 0.5, 0, 0, 0, 0, *n, 0.0, *m.ravel()))
     mix = n + 0.5 * (v / np.linalg.norm(v) - n)
     np.testing.assert_allclose(half, mix / np.linalg.norm(mix), atol=1e-12)
 
