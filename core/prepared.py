@@ -34,7 +34,7 @@ render's thread count (numba and Embree) and builds:
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -44,10 +44,11 @@ from .materials.textures import SurfaceTextures
 from .media import regions
 from .scene import geometry
 from .shading import interpreter
+from .shading import program as pg
 from .shading.inputs import ShadingInputs
 from .scene.accel import Accelerator, use_threads
 from .scene.bounds import Targets, bounding_sphere, object_spheres
-from .scene.contract import Scene
+from .scene.contract import CAMERA_ORTHOGRAPHIC, Scene
 
 
 @dataclass
@@ -157,13 +158,51 @@ class HitShader:
                             else np.asarray(mesh.object_info, np.float32))
         self.origin = (np.zeros(3) if mesh.origin is None
                        else np.asarray(mesh.origin, np.float64))
+        self.bumped = np.array([p is not None and _reads_bump(p) for p in progs],
+                               bool).reshape(mats.count)
+        cam = scene.camera
+        self.camera_position = np.asarray(cam.to_world, np.float64)[:3, 3]
+        self.pixel_angle = float(cam.film_size[0]) / max(int(cam.width), 1)
+        self.orthographic = cam.kind == CAMERA_ORTHOGRAPHIC
 
-    def inputs(self, prim, u, v, d) -> tuple[ShadingInputs, np.ndarray]:
+    def footprint(self, pos) -> np.ndarray:
+        """(N,) float64 metres: the Bump node's footprint radius at render-frame points pos
+        (N, 3), our stand-in for Cycles' ray differential (its compact dP): the camera's
+        pixel spread times the distance from the camera (perspective), the pixel's width
+        (orthographic). The same at a point whichever path reaches it (camera, photon,
+        gather ray), and proportional to the scene's scale: a scaled scene bumps alike."""
+        if self.orthographic:
+            return np.full(pos.shape[0], self.pixel_angle)
+        return self.pixel_angle * np.linalg.norm(pos - self.camera_position, axis=1)
+
+    def inputs(self, prim, u, v, d, bump=False) -> tuple[ShadingInputs, np.ndarray]:
         """The ShadingInputs of N hits (prim (N,) int32 triangles, Embree barycentrics u, v
-        (N,), d (N, 3) the arriving unit directions) and their materials (N,) int32."""
+        (N,), d (N, 3) the arriving unit directions) and their materials (N,) int32. bump:
+        also the rows at P + dPdx and P + dPdy (``ShadingInputs.bump_points``): dPdx, dPdy
+        the ``footprint`` radius along two orthonormal tangents of the true normal (Cycles'
+        differential_from_compact, make_orthonormals), reached by moving the barycentrics
+        in the triangle's plane."""
         pos, ngf, nsf, mat, _, front = geometry.facing_surface_points(
             self.tri_vertices, self.tri_normals, self.tri_material, prim, u, v,
             np.ascontiguousarray(d, np.float64), self.extent)
+        if bump and prim.shape[0]:
+            r = self.footprint(pos)
+            ex, ey = _orthonormals(ngf)
+            tri = self.tri_vertices[prim].astype(np.float64)
+            e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+            g11, g12, g22 = (np.einsum("ij,ij->i", e1, e1), np.einsum("ij,ij->i", e1, e2),
+                             np.einsum("ij,ij->i", e2, e2))
+            det = g11 * g22 - g12 * g12
+            us, vs = [u], [v]
+            for e in (ex, ey):
+                delta = r[:, None] * e
+                b1, b2 = np.einsum("ij,ij->i", e1, delta), np.einsum("ij,ij->i", e2, delta)
+                us.append((u + (g22 * b1 - g12 * b2) / det).astype(np.float32))
+                vs.append((v + (g11 * b2 - g12 * b1) / det).astype(np.float32))
+            d3 = np.concatenate([d, d, d])
+            ins, _ = self.inputs(np.concatenate([prim] * 3), np.concatenate(us),
+                                 np.concatenate(vs), d3)
+            return replace(ins, bump_points=prim.shape[0]), mat
         world = pos + self.origin
         obj = self.tri_object[prim]
         local, generated = self._object_point(obj, world)
@@ -263,7 +302,8 @@ class HitShader:
             return self.table, mat, ns
         tab = self.table
         n_mat, n_cl = tab.first.shape[0], tab.kind.shape[0]
-        ins, _ = self.inputs(prim[hit], u[hit], v[hit], np.asarray(d)[hit])
+        ins, _ = self.inputs(prim[hit], u[hit], v[hit], np.asarray(d)[hit],
+                             bump=bool(self.bumped[mat[hit]].any()))
         rows = np.array(mat, np.int32, copy=True)
         kinds, weights, params, textures, firsts, counts, abbes = [], [], [], [], [], [], []
         done = 0
@@ -338,8 +378,31 @@ def _unit_or(normal, fallback) -> np.ndarray:
     return np.where(ok[:, None], n / np.where(ok, length, 1.0)[:, None], fallback)
 
 
+def _reads_bump(program) -> bool:
+    """The program reads inputs at the bump offsets (a Bump node's footprint)."""
+    ins = program.instructions
+    inp = ins[:, 0] == pg.OP_INPUT
+    return bool(np.any(inp & ((ins[:, 3] != 0) | (ins[:, 1] == pg.SOURCE_BUMP_DPDX)
+                              | (ins[:, 1] == pg.SOURCE_BUMP_DPDY))))
+
+
+def _orthonormals(n) -> tuple[np.ndarray, np.ndarray]:
+    """Two unit tangents (N, 3) of unit normals n (N, 3), as Cycles' make_orthonormals:
+    a along (1, 1, 1) x n (or (-1, 1, 1) x n when n's components are equal), b = n x a."""
+    same = (n[:, 0] == n[:, 1]) & (n[:, 0] == n[:, 2])
+    a = np.where(same[:, None],
+                 np.stack([n[:, 2] - n[:, 1], n[:, 0] + n[:, 2], -n[:, 1] - n[:, 0]], axis=1),
+                 np.stack([n[:, 2] - n[:, 1], n[:, 0] - n[:, 2], n[:, 1] - n[:, 0]], axis=1))
+    a /= np.linalg.norm(a, axis=1)[:, None]
+    return a, np.cross(n, a)
+
+
 def _subset(ins: ShadingInputs, sel) -> ShadingInputs:
-    """The inputs of points ``sel`` (already validated: no second check)."""
+    """The inputs of points ``sel`` (already validated: no second check), with their bump
+    offset rows when ``ins`` has them."""
+    if ins.bump_points:
+        n = ins.bump_points
+        sel = np.concatenate([sel, n + sel, 2 * n + sel])
     pick = {k: getattr(ins, k)[sel] for k in (
         "position", "normal", "true_normal", "incoming", "backfacing", "generated",
         "object_coords", "object_normal", "object_location", "object_random",
@@ -347,7 +410,8 @@ def _subset(ins: ShadingInputs, sel) -> ShadingInputs:
     return ShadingInputs(**pick, uv=np.ascontiguousarray(ins.uv[:, sel]),
                          attributes=np.ascontiguousarray(ins.attributes[:, sel]),
                          tangents=np.ascontiguousarray(ins.tangents[:, sel]),
-                         normal_to_world=np.ascontiguousarray(ins.normal_to_world[sel]))
+                         normal_to_world=np.ascontiguousarray(ins.normal_to_world[sel]),
+                         bump_points=sel.shape[0] // 3 if ins.bump_points else 0)
 
 
 def diffuse_area(tri_vertices: np.ndarray, tri_material: np.ndarray,

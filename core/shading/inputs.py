@@ -29,6 +29,9 @@ class ShadingInputs:
     space, not normalised) and bitangent sign (0 where there is no tangent).
     normal_to_world: (N, 3, 3) float32, the object's normal transform inv(A)^T (A the
     linear part of its world matrix; identity by default).
+    bump_points: 0, or N when the arrays hold 3 N rows: the N points, then the inputs at
+    P + dPdx, then at P + dPdy (the Bump node's footprint, ``HitShader.inputs``); a
+    program's results are for the first N.
     """
     position: np.ndarray
     normal: np.ndarray
@@ -46,6 +49,7 @@ class ShadingInputs:
     attributes: np.ndarray | None = field(default=None)
     tangents: np.ndarray | None = None
     normal_to_world: np.ndarray | None = None
+    bump_points: int = 0
 
     @classmethod
     def build(cls, position, normal, **optional):
@@ -60,7 +64,8 @@ class ShadingInputs:
         nrm = _vec(normal, n, "normal")
         known = {"true_normal", "incoming", "backfacing", "generated", "object_coords",
                  "object_normal", "object_location", "object_random", "object_color",
-                 "object_index", "uv", "attributes", "tangents", "normal_to_world"}
+                 "object_index", "uv", "attributes", "tangents", "normal_to_world",
+                 "bump_points"}
         unknown = set(optional) - known
         if unknown:
             raise ValueError(f"ShadingInputs: unknown fields {sorted(unknown)}")
@@ -96,9 +101,14 @@ class ShadingInputs:
                      "tangents": tan, "normal_to_world": n2w}.items():
             if not np.all(np.isfinite(a)):
                 raise ValueError(f"ShadingInputs.{k} has a non-finite value")
+        bump = int(get("bump_points", 0))
+        if bump and n != 3 * bump:
+            raise ValueError(f"ShadingInputs.bump_points {bump}: the arrays must have "
+                             f"{3 * bump} rows, got {n}")
         return cls(p, nrm, uv=uv, attributes=attr, tangents=tan, normal_to_world=n2w,
-                   **vec, **scal)
+                   bump_points=bump, **vec, **scal)
 
     @property
     def count(self) -> int:
-        return self.position.shape[0]
+        """The points a program is evaluated at (without the bump offset rows)."""
+        return self.bump_points or self.position.shape[0]

@@ -1,5 +1,6 @@
 """Shading-normal nodes with Cycles' definitions (docs/shading.md, "Normals"): the Normal
-Map node (``normal_map``, Cycles' svm_node_normal_map) as our own numba code.
+Map node (``normal_map``, Cycles' svm_node_normal_map) and the Bump node (``bump``,
+svm_node_set_bump) as our own numba code.
 """
 
 from __future__ import annotations
@@ -81,6 +82,38 @@ def normal_map(space, invert_green, cx, cy, cz, strength, tx, ty, tz, sign, nx, 
         s = max(strength, 0.0)
         ox, oy, oz, ok = _safe_normalize(nx + (ox - nx) * s, ny + (oy - ny) * s,
                                          nz + (oz - nz) * s)
+    if not ok or not (math.isfinite(ox) and math.isfinite(oy) and math.isfinite(oz)):
+        return nx, ny, nz
+    return ox, oy, oz
+
+
+@njit(**_JIT)
+def bump(invert, strength, distance, width, h_c, h_x, h_y, nx, ny, nz,
+         dxx, dxy, dxz, dyx, dyy, dyz):
+    """The Bump node's normal (3 floats, unit) as Cycles' svm_node_set_bump: the heights
+    h_c at the point, h_x at P + width dPdx, h_y at P + width dPdy (width the Filter Width),
+    the footprint vectors dPdx = (dxx, dxy, dxz), dPdy (metres, in the tangent plane),
+    the input normal n; Distance scales the height (negated by Invert), Strength mixes
+    the result with n. N' = normalize(width |det| n - distance sign(det) surfgrad) with
+    Rx = dPdy x n, Ry = n x dPdx, det = dPdx . Rx, surfgrad = (h_x - h_c) Rx + (h_y - h_c)
+    Ry: to first order normalize(n - distance grad h), whatever the footprint's size."""
+    rxx, rxy, rxz = dyy * nz - dyz * ny, dyz * nx - dyx * nz, dyx * ny - dyy * nx
+    ryx, ryy, ryz = ny * dxz - nz * dxy, nz * dxx - nx * dxz, nx * dxy - ny * dxx
+    det = dxx * rxx + dxy * rxy + dxz * rxz
+    gx = (h_x - h_c) * rxx + (h_y - h_c) * ryx
+    gy = (h_x - h_c) * rxy + (h_y - h_c) * ryy
+    gz = (h_x - h_c) * rxz + (h_y - h_c) * ryz
+    scale = -distance if invert else distance
+    strength = max(strength, 0.0)
+    sgn = 1.0 if det > 0.0 else (-1.0 if det < 0.0 else 0.0)
+    a = width * abs(det)
+    ox, oy, oz, ok = _safe_normalize(a * nx - scale * sgn * gx, a * ny - scale * sgn * gy,
+                                     a * nz - scale * sgn * gz)
+    if not ok:
+        return nx, ny, nz
+    ox, oy, oz, ok = _safe_normalize(strength * ox + (1.0 - strength) * nx,
+                                     strength * oy + (1.0 - strength) * ny,
+                                     strength * oz + (1.0 - strength) * nz)
     if not ok or not (math.isfinite(ox) and math.isfinite(oy) and math.isfinite(oz)):
         return nx, ny, nz
     return ox, oy, oz

@@ -37,7 +37,7 @@ FIRST_OPERAND = 5
  OP_MIX_COLOR, OP_MAP_RANGE, OP_VECTOR_MAP_RANGE, OP_CLAMP, OP_SEPARATE, OP_COMBINE, OP_RAMP,
  OP_MAPPING, OP_INVERT, OP_GAMMA, OP_HSV, OP_BRIGHT_CONTRAST, OP_RGB_TO_BW, OP_CHECKER,
  OP_GRADIENT, OP_WHITE_NOISE, OP_NOISE, OP_VORONOI, OP_WAVE, OP_MAGIC, OP_BRICK, OP_BLACKBODY,
- OP_CURVES, OP_FLOAT_CURVE, OP_IMAGE, OP_NORMAL_MAP) = range(32)
+ OP_CURVES, OP_FLOAT_CURVE, OP_IMAGE, OP_NORMAL_MAP, OP_BUMP) = range(33)
 
 SIGNATURES = {
     OP_INPUT: ">v",                  # ints: source (SOURCE_*), index (UV map / attribute)
@@ -87,6 +87,9 @@ SIGNATURES = {
                                      # backfacing, the 3 rows of the object's normal
                                      # transform -> normal; ints: NORMAL_MAP_SPACES code,
                                      # invert green (DirectX convention)
+    OP_BUMP: "ffffffvvv>v",          # strength, distance, filter width, height at the
+                                     # point, at P + w dPdx, at P + w dPdy, normal, dPdx,
+                                     # dPdy -> normal; ints: invert
 }
 """Register operands of each opcode: ``f`` one register, ``v`` three; ``>`` separates the
 inputs from the outputs."""
@@ -101,7 +104,8 @@ OP_NAMES = {OP_INPUT: "INPUT", OP_MATH: "MATH", OP_VECTOR_MATH: "VECTOR_MATH",
             OP_CHECKER: "CHECKER", OP_GRADIENT: "GRADIENT", OP_WHITE_NOISE: "WHITE_NOISE",
             OP_NOISE: "NOISE", OP_VORONOI: "VORONOI", OP_WAVE: "WAVE", OP_MAGIC: "MAGIC",
             OP_BRICK: "BRICK", OP_BLACKBODY: "BLACKBODY", OP_CURVES: "CURVES",
-            OP_FLOAT_CURVE: "FLOAT_CURVE", OP_IMAGE: "IMAGE", OP_NORMAL_MAP: "NORMAL_MAP"}
+            OP_FLOAT_CURVE: "FLOAT_CURVE", OP_IMAGE: "IMAGE", OP_NORMAL_MAP: "NORMAL_MAP",
+            OP_BUMP: "BUMP"}
 
 NORMAL_MAP_SPACES = {"TANGENT": 0, "OBJECT": 1, "WORLD": 2, "BLENDER_OBJECT": 3,
                      "BLENDER_WORLD": 4}
@@ -111,8 +115,14 @@ NORMAL_MAP_SPACES = {"TANGENT": 0, "OBJECT": 1, "WORLD": 2, "BLENDER_OBJECT": 3,
 (SOURCE_POSITION, SOURCE_NORMAL, SOURCE_TRUE_NORMAL, SOURCE_INCOMING, SOURCE_BACKFACING,
  SOURCE_GENERATED, SOURCE_OBJECT, SOURCE_OBJECT_NORMAL, SOURCE_UV, SOURCE_OBJECT_LOCATION,
  SOURCE_OBJECT_RANDOM, SOURCE_ATTRIBUTE_COLOR, SOURCE_ATTRIBUTE_ALPHA, SOURCE_OBJECT_COLOR,
- SOURCE_OBJECT_INDEX, SOURCE_TANGENT, SOURCE_TANGENT_SIGN, SOURCE_NORMAL_TO_WORLD) = range(18)
-SOURCE_COUNT = 18
+ SOURCE_OBJECT_INDEX, SOURCE_TANGENT, SOURCE_TANGENT_SIGN, SOURCE_NORMAL_TO_WORLD,
+ SOURCE_BUMP_DPDX, SOURCE_BUMP_DPDY) = range(20)
+SOURCE_COUNT = 20
+BUMP_WIDTH_UNIT = 1e-6
+"""OP_INPUT's int 3 is the bump offset (0: at the point, 1: at P + w dPdx, 2: at P + w
+dPdy: the Bump node's Height subgraph is compiled three times), int 4 the filter width w
+in these units (Cycles' bump_filter_width). SOURCE_BUMP_DPDX / DPDY: the footprint
+vectors dPdx, dPdy (ShadingInputs.bump_points)."""
 # SOURCE_TANGENT / SOURCE_TANGENT_SIGN (index: the tangent map, ShadingInputs.tangents):
 # the interpolated MikkTSpace tangent (world space, unnormalised) and bitangent sign (0:
 # no tangent there); SOURCE_NORMAL_TO_WORLD (index 0-2): row i of the object's normal
@@ -190,8 +200,10 @@ class ShaderProgram:
             if np.any(row[FIRST_OPERAND + len(widths):] != -1):
                 raise ValueError(f"{who}: instruction {i} ({OP_NAMES[op]}) has operands "
                                  f"beyond its signature {sig!r}")
-            if op == OP_INPUT and not 0 <= row[1] < SOURCE_COUNT:
-                raise ValueError(f"{who}: instruction {i} reads unknown input source {row[1]}")
+            if op == OP_INPUT and not (0 <= row[1] < SOURCE_COUNT and 0 <= row[3] <= 2
+                                       and row[4] >= 0):
+                raise ValueError(f"{who}: instruction {i} reads unknown input source {row[1]} "
+                                 f"(bump offset {row[3]}, filter width {row[4]})")
             if op == OP_IMAGE and not (row[1] >= -1 and 0 <= row[2] <= 2
                                                        and 0 <= row[3] <= 3):
                 raise ValueError(f"{who}: instruction {i} ({OP_NAMES[op]}) has image slot "

@@ -159,3 +159,75 @@ def test_an_object_space_normal_map_on_a_turned_plane_matches_e_cos_and_cycles()
     print(f"\nours {ours.mean():.5f}, Cycles {cycles.mean():.5f}, analytic {want:.5f}")
     np.testing.assert_allclose(ours, want, rtol=1e-3)
     assert abs(cycles.mean() / want - 1) < 0.03
+
+
+# --- Bump ------------------------------------------------------------------------------
+
+def bumped_material(distance=0.1):
+    """Diffuse (Lambert) with Normal = Bump(Height = Noise of the Object coordinates)."""
+    mat = bpy.data.materials.new("Bumped")
+    tree = scenes.ensure_node_tree(mat)
+    tree.nodes.clear()
+    out = tree.nodes.new("ShaderNodeOutputMaterial")
+    bsdf = tree.nodes.new("ShaderNodeBsdfDiffuse")
+    bsdf.inputs["Color"].default_value = (ALBEDO, ALBEDO, ALBEDO, 1.0)
+    bsdf.inputs["Roughness"].default_value = 0.0
+    tc = tree.nodes.new("ShaderNodeTexCoord")
+    noise = tree.nodes.new("ShaderNodeTexNoise")
+    noise.inputs["Scale"].default_value = 1.5
+    noise.inputs["Detail"].default_value = 1.0
+    bump = tree.nodes.new("ShaderNodeBump")
+    bump.inputs["Distance"].default_value = distance
+    tree.links.new(tc.outputs["Object"], noise.inputs["Vector"])
+    tree.links.new(noise.outputs[0], bump.inputs["Height"])
+    tree.links.new(bump.outputs["Normal"], bsdf.inputs["Normal"])
+    tree.links.new(bsdf.outputs[0], out.inputs["Surface"])
+    return mat
+
+
+def bumped_plane(scale=1.0):
+    """The sun-lit plane of ``sun_plane`` with the bumped material, the whole scene (plane,
+    camera) scaled by ``scale`` (the Bump's Distance too: the height field is in the
+    object's units), the sun unchanged."""
+    scene = scenes.reset()
+    scenes.set_resolution(RES, RES)
+    plane = scenes.add_plane(size=2.2, material=bumped_material(0.3 * scale), name="Floor")
+    plane.scale = (scale, scale, scale)
+    sun = scenes.add_light('SUN', power=SUN, rotation=(TILT, 0.0, 0.0))
+    sun.data.angle = 0.0
+    cam = scenes.add_camera(location=(0.0, 0.0, 3.0 * scale), look_at=(0.0, 0.0, 0.0),
+                            ortho_scale=2.0 * scale)
+    cam.data.clip_start, cam.data.clip_end = 0.01 * scale, 100.0 * scale
+    return scene
+
+
+def block_means(image, block=8):
+    h, w, _ = image.shape
+    return image.reshape(h // block, block, w // block, block, 3).mean(axis=(1, 3))
+
+
+def test_a_bump_mapped_plane_matches_cycles_block_by_block():
+    scene = bumped_plane()
+    exported = export(scene)
+    assert not [w for w in exported.warnings if "Bump" in w or "Normal" in w], \
+        exported.warnings
+    ours = render_photon_map(scene)
+    cycles = render_cycles(scene)
+    flat = ALBEDO * SUN * math.cos(TILT) / math.pi
+    # the bumps matter: pixels spread well beyond the flat plane's value
+    assert ours.std() > 0.05 * flat and cycles.std() > 0.05 * flat
+    a, b = block_means(ours), block_means(cycles)
+    rel = np.abs(a - b) / b
+    pix = np.abs(ours - cycles) / cycles
+    print(f"\nbump: 8 x 8 blocks vs Cycles worst {100 * rel.max():.2f} %, mean ours "
+          f"{ours.mean():.5f} Cycles {cycles.mean():.5f} (flat {flat:.5f}); pixel std ours "
+          f"{ours.std():.4f} Cycles {cycles.std():.4f}; median pixel {100 * np.median(pix):.2f} %")
+    assert rel.max() < 0.03
+
+
+def test_a_bump_mapped_plane_renders_the_same_at_1e_3_and_1e3():
+    images = {s: render_photon_map(bumped_plane(s)) for s in (1e-3, 1.0, 1e3)}
+    for s in (1e-3, 1e3):
+        rel = np.abs(images[s] - images[1.0]) / images[1.0]
+        print(f"\nscale {s:g}: worst pixel {100 * rel.max():.3f} % from scale 1")
+        assert rel.max() < 1e-3

@@ -17,6 +17,7 @@ from core.settings import RenderSettings
 from core.shading import program as pg
 from core.shading.inputs import ShadingInputs
 from core.shading.interpreter import evaluate
+from core.shading.converters import MATH_OPS
 from core.shading.normals import normal_map
 
 W = pg.INSTRUCTION_WIDTH
@@ -209,3 +210,76 @@ def test_bad_tangents_are_refused():
     mesh = replace(scene.mesh, tangent_maps=("", "UV2"))
     with pytest.raises(SceneError, match="mesh.tangents"):
         replace(scene, mesh=mesh).validate()
+
+
+# --- Bump ------------------------------------------------------------------------------
+
+def bump_program(slope, distance, strength=1.0, invert=False, width=0.1):
+    """The shading normal = Bump of the height h = slope * (world x), at the point and at
+    the footprint's offsets (OP_INPUT's bump axis and filter width)."""
+    fw = int(round(width / pg.BUMP_WIDTH_UNIT))
+    # constants: 0 slope, 1 strength, 2 distance, 3 width; then registers
+    code, reg = [], 4
+    heights = []
+    for axis in (0, 1, 2):
+        code.append(ins(pg.OP_INPUT, [pg.SOURCE_POSITION, 0, axis, fw if axis else 0], [reg]))
+        code.append(ins(pg.OP_SEPARATE, [0], [reg, reg + 3, reg + 4, reg + 5]))
+        code.append(ins(pg.OP_MATH, [MATH_OPS["MULTIPLY"], 0], [reg + 3, 0, 0, reg + 6]))
+        heights.append(reg + 6)
+        reg += 7
+    n, dx, dy, out = reg, reg + 3, reg + 6, reg + 9
+    code += [ins(pg.OP_INPUT, [pg.SOURCE_NORMAL, 0], [n]),
+             ins(pg.OP_INPUT, [pg.SOURCE_BUMP_DPDX, 0], [dx]),
+             ins(pg.OP_INPUT, [pg.SOURCE_BUMP_DPDY, 0], [dy]),
+             ins(pg.OP_BUMP, [int(invert)], [1, 2, 3, *heights, n, dx, dy, out])]
+    outputs = [[out + c, pg.TARGET_NORMAL, 0, c] for c in range(3)]
+    return pg.ShaderProgram.build(code, [slope, strength, distance, width], outputs, out + 3,
+                                  name="bump")
+
+
+def test_bump_of_a_linear_height_ramp_gives_the_analytic_tilted_normal():
+    theta = np.radians(40.0)
+    light = np.array([np.sin(theta), 0.0, np.cos(theta)])
+    for slope, distance, invert in ((1.0, 0.5, False), (0.8, 0.5, True), (-2.0, 0.3, False)):
+        scene = floor_scene(bump_program(slope, distance, invert=invert), [1, 0, 0], theta)
+        out = photon_mapping.render(scene, SETTINGS).passes["direct"]
+        g = -distance * slope if not invert else distance * slope
+        n = np.array([g, 0.0, 1.0]) / np.hypot(g, 1.0)  # normalize(N - D grad h)
+        np.testing.assert_allclose(out, ALBEDO * E_SUN * (n @ light) / np.pi, rtol=1e-4,
+                                   err_msg=f"slope {slope}, distance {distance}")
+
+
+def test_bump_strength_mixes_with_the_normal_and_the_node_matches_cycles_formula():
+    from core.shading.normals import bump
+    n = np.array([0.0, 0.0, 1.0])
+    dx, dy = np.array([0.01, 0.0, 0.0]), np.array([0.0, 0.01, 0.0])
+    w, grad = 0.1, np.array([0.7, -0.3])
+    h_c = 0.2
+    h_x, h_y = h_c + w * 0.01 * grad[0], h_c + w * 0.01 * grad[1]
+    full = np.array([-0.5 * grad[0], -0.5 * grad[1], 1.0])
+    full /= np.linalg.norm(full)
+    got = np.array(bump(False, 1.0, 0.5, w, h_c, h_x, h_y, *n, *dx, *dy))
+    np.testing.assert_allclose(got, full, atol=1e-12)
+    half = 0.5 * full + 0.5 * n
+    got = np.array(bump(False, 0.5, 0.5, w, h_c, h_x, h_y, *n, *dx, *dy))
+    np.testing.assert_allclose(got, half / np.linalg.norm(half), atol=1e-12)
+    # the footprint's size cancels: 1000 times larger offsets, the same normal
+    got = np.array(bump(False, 1.0, 0.5, w, h_c, h_c + w * 10 * grad[0],
+                        h_c + w * 10 * grad[1], *n, *(1000 * dx), *(1000 * dy)))
+    np.testing.assert_allclose(got, full, atol=1e-12)
+
+
+def test_a_bumped_floor_renders_the_same_at_every_scale():
+    # The scene scaled by s (the height's distance too: a physical height field), the sun
+    # unchanged: the same image. Noise-free here (direct light of a sun), so exactly.
+    theta = np.radians(40.0)
+    images = []
+    for s in (1e-3, 1.0, 1e3):
+        scene = floor_scene(bump_program(1.0 / s, 0.5 * s), [1, 0, 0], theta)
+        mesh = replace(scene.mesh, vertices=(scene.mesh.vertices * s).astype(np.float32))
+        cam = replace(scene.camera, to_world=scene.camera.to_world * [1, 1, 1, s],
+                      film_size=scene.camera.film_size * s)
+        images.append(photon_mapping.render(replace(scene, mesh=mesh, camera=cam),
+                                            SETTINGS).passes["direct"])
+    np.testing.assert_allclose(images[0], images[1], rtol=1e-4)
+    np.testing.assert_allclose(images[2], images[1], rtol=1e-4)
