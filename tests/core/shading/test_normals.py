@@ -7,7 +7,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from core.integrators import photon_mapping
+from core.integrators import photon_mapping, sppm
 from core.photons import tracing
 from core.prepared import prepare
 from core.scene import closures, shapes
@@ -283,3 +283,12 @@ def test_a_bumped_floor_renders_the_same_at_every_scale():
                                             SETTINGS).passes["direct"])
     np.testing.assert_allclose(images[0], images[1], rtol=1e-4)
     np.testing.assert_allclose(images[2], images[1], rtol=1e-4)
+
+
+def test_sppm_visible_points_see_the_program_normal():
+    a, theta = np.radians(30.0), np.radians(40.0)
+    scene = floor_scene(normal_map_program(tilt_colour(a)), [1.0, 0.0, 0.0], theta)
+    st = SETTINGS.with_values(integrator="progressive", progressive_passes=1,
+                              photons_per_pass=500)
+    out = sppm.render(scene, st).passes["combined"]  # one plane: direct light only
+    np.testing.assert_allclose(out, ALBEDO * E_SUN * np.cos(theta - a) / np.pi, rtol=1e-4)
