@@ -34,7 +34,7 @@ render's thread count (numba and Embree) and builds:
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -44,10 +44,11 @@ from .materials.textures import SurfaceTextures
 from .media import regions
 from .scene import geometry
 from .shading import interpreter
+from .shading import program as pg
 from .shading.inputs import ShadingInputs
 from .scene.accel import Accelerator, use_threads
 from .scene.bounds import Targets, bounding_sphere, object_spheres
-from .scene.contract import Scene
+from .scene.contract import CAMERA_ORTHOGRAPHIC, Scene
 
 
 @dataclass
@@ -138,6 +139,7 @@ class HitShader:
         self.tri_material, self.extent = tri_material, float(extent)
         self.tri_uv = mesh.uvs
         self.tri_attributes = mesh.attributes  # (T, 3, A, 4) or None
+        self.tri_tangents = mesh.tangents  # (T, 3, G, 4) or None
         self.tri_object = mesh.object_index
         n_obj = int(mesh.object_index.max()) + 1 if mesh.triangle_count else 0
         if mesh.object_to_world is not None:
@@ -156,13 +158,51 @@ class HitShader:
                             else np.asarray(mesh.object_info, np.float32))
         self.origin = (np.zeros(3) if mesh.origin is None
                        else np.asarray(mesh.origin, np.float64))
+        self.bumped = np.array([p is not None and _reads_bump(p) for p in progs],
+                               bool).reshape(mats.count)
+        cam = scene.camera
+        self.camera_position = np.asarray(cam.to_world, np.float64)[:3, 3]
+        self.pixel_angle = float(cam.film_size[0]) / max(int(cam.width), 1)
+        self.orthographic = cam.kind == CAMERA_ORTHOGRAPHIC
 
-    def inputs(self, prim, u, v, d) -> tuple[ShadingInputs, np.ndarray]:
+    def footprint(self, pos) -> np.ndarray:
+        """(N,) float64 metres: the Bump node's footprint radius at render-frame points pos
+        (N, 3), our stand-in for Cycles' ray differential (its compact dP): the camera's
+        pixel spread times the distance from the camera (perspective), the pixel's width
+        (orthographic). The same at a point whichever path reaches it (camera, photon,
+        gather ray), and proportional to the scene's scale: a scaled scene bumps alike."""
+        if self.orthographic:
+            return np.full(pos.shape[0], self.pixel_angle)
+        return self.pixel_angle * np.linalg.norm(pos - self.camera_position, axis=1)
+
+    def inputs(self, prim, u, v, d, bump=False) -> tuple[ShadingInputs, np.ndarray]:
         """The ShadingInputs of N hits (prim (N,) int32 triangles, Embree barycentrics u, v
-        (N,), d (N, 3) the arriving unit directions) and their materials (N,) int32."""
+        (N,), d (N, 3) the arriving unit directions) and their materials (N,) int32. bump:
+        also the rows at P + dPdx and P + dPdy (``ShadingInputs.bump_points``): dPdx, dPdy
+        the ``footprint`` radius along two orthonormal tangents of the true normal (Cycles'
+        differential_from_compact, make_orthonormals), reached by moving the barycentrics
+        in the triangle's plane."""
         pos, ngf, nsf, mat, _, front = geometry.facing_surface_points(
             self.tri_vertices, self.tri_normals, self.tri_material, prim, u, v,
             np.ascontiguousarray(d, np.float64), self.extent)
+        if bump and prim.shape[0]:
+            r = self.footprint(pos)
+            ex, ey = _orthonormals(ngf)
+            tri = self.tri_vertices[prim].astype(np.float64)
+            e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+            g11, g12, g22 = (np.einsum("ij,ij->i", e1, e1), np.einsum("ij,ij->i", e1, e2),
+                             np.einsum("ij,ij->i", e2, e2))
+            det = g11 * g22 - g12 * g12
+            us, vs = [u], [v]
+            for e in (ex, ey):
+                delta = r[:, None] * e
+                b1, b2 = np.einsum("ij,ij->i", e1, delta), np.einsum("ij,ij->i", e2, delta)
+                us.append((u + (g22 * b1 - g12 * b2) / det).astype(np.float32))
+                vs.append((v + (g11 * b2 - g12 * b1) / det).astype(np.float32))
+            d3 = np.concatenate([d, d, d])
+            ins, _ = self.inputs(np.concatenate([prim] * 3), np.concatenate(us),
+                                 np.concatenate(vs), d3)
+            return replace(ins, bump_points=prim.shape[0]), mat
         world = pos + self.origin
         obj = self.tri_object[prim]
         local, generated = self._object_point(obj, world)
@@ -179,7 +219,10 @@ class HitShader:
                                   object_color=self.object_info[obj, :3],
                                   object_random=self.object_info[obj, 3],
                                   object_index=self.object_info[obj, 4], uv=uv[None],
-                                  attributes=self._attributes(prim, u, v, w))
+                                  attributes=self._attributes(prim, u, v, w),
+                                  tangents=self._tangents(prim, u, v, w),
+                                  normal_to_world=np.transpose(self.to_object[obj][:, :3, :3],
+                                                               (0, 2, 1)))
         return ins, mat
 
     def _attributes(self, prim, u, v, w) -> np.ndarray:
@@ -187,6 +230,16 @@ class HitShader:
         if self.tri_attributes is None:
             return np.zeros((0, prim.shape[0], 4), np.float32)
         c = self.tri_attributes[prim]  # (N, 3, A, 4)
+        a = w[:, None, None] * c[:, 0] + u[:, None, None] * c[:, 1] + v[:, None, None] * c[:, 2]
+        return np.ascontiguousarray(np.transpose(a, (1, 0, 2)), np.float32)
+
+    def _tangents(self, prim, u, v, w) -> np.ndarray:
+        """(G, N, 4) the tangent maps at the hits (tangent and sign interpolated like the
+        UVs, as Cycles interpolates its corner attributes; the tangent is not
+        normalised, Cycles' svm_node_normal_map reads it so)."""
+        if self.tri_tangents is None:
+            return np.zeros((0, prim.shape[0], 4), np.float32)
+        c = self.tri_tangents[prim]  # (N, 3, G, 4)
         a = w[:, None, None] * c[:, 0] + u[:, None, None] * c[:, 1] + v[:, None, None] * c[:, 2]
         return np.ascontiguousarray(np.transpose(a, (1, 0, 2)), np.float32)
 
@@ -230,25 +283,42 @@ class HitShader:
 
     def closures_at(self, prim, u, v, d, mat) -> tuple[closure.ClosureTable, np.ndarray]:
         """(tab, rows) for N hits (class doc): prim, u, v, d as for ``inputs``, mat (N,)
-        int32 their materials. rows is ``mat`` itself when no hit has a program."""
+        int32 their materials. rows is ``mat`` itself when no hit has a program. For the
+        shading normal the programs give too, ``shade``."""
+        tab, rows, _ = self.shade(prim, u, v, d, mat)
+        return tab, rows
+
+    def shade(self, prim, u, v, d, mat, ns=None):
+        """(tab, rows, ns) for N hits: ``closures_at``'s (tab, rows) and the hits' shading
+        normals, ns (N, 3) (the interpolated normals facing the ray, float64) with the
+        programmed hits' normal output (a Normal Map or Bump node into a BSDF's Normal
+        input) in place: normalised, facing where the program made it face (the program
+        reads the normal facing the ray, as Cycles' sd->N). ns is returned as given (the
+        same object) when no hit's program sets a normal; None stays None."""
         if not self.active or prim.shape[0] == 0:
-            return self.table, mat
+            return self.table, mat, ns
         hit = np.flatnonzero(self.programmed[mat])
         if hit.size == 0:
-            return self.table, mat
+            return self.table, mat, ns
         tab = self.table
         n_mat, n_cl = tab.first.shape[0], tab.kind.shape[0]
-        ins, _ = self.inputs(prim[hit], u[hit], v[hit], np.asarray(d)[hit])
+        ins, _ = self.inputs(prim[hit], u[hit], v[hit], np.asarray(d)[hit],
+                             bump=bool(self.bumped[mat[hit]].any()))
         rows = np.array(mat, np.int32, copy=True)
         kinds, weights, params, textures, firsts, counts, abbes = [], [], [], [], [], [], []
         done = 0
         next_closure = n_cl
+        bent = ns
         for m in np.unique(mat[hit]):
             sel = np.flatnonzero(mat[hit] == m)
             f, k = int(tab.first[m]), int(tab.count[m])
             out = interpreter.closure_params(self.programs[m], _subset(ins, sel),
                                              tab.params[f:f + k].astype(np.float32),
                                              self.images)
+            if out["normal"] is not None and ns is not None:
+                if bent is ns:
+                    bent = np.array(ns, np.float64, copy=True)
+                bent[hit[sel]] = _unit_or(out["normal"], bent[hit[sel]])
             h = sel.size
             kinds.append(np.tile(tab.kind[f:f + k], h))
             weights.append(np.tile(tab.weight[f:f + k], (h, 1)))
@@ -269,7 +339,7 @@ class HitShader:
             first=cat([tab.first, *firsts]).astype(np.int32),
             count=cat([tab.count, *counts]).astype(np.int32),
             abbe=np.ascontiguousarray(cat([tab.abbe, *abbes])))
-        return batch, rows
+        return batch, rows, bent
 
 
     def diffuse_albedo(self, tab, rows, mat, texel, d, ns, albedo) -> np.ndarray:
@@ -299,14 +369,49 @@ class HitShader:
                                    albedo)
 
 
+def _unit_or(normal, fallback) -> np.ndarray:
+    """(N, 3) float64: the program's normals (N, 3) made unit length, ``fallback`` (N, 3)
+    where one is zero or not finite (Cycles' safe_normalize_fallback(N, sd->N))."""
+    n = np.asarray(normal, np.float64)
+    length = np.linalg.norm(n, axis=1)
+    ok = np.isfinite(length) & (length > 0)
+    return np.where(ok[:, None], n / np.where(ok, length, 1.0)[:, None], fallback)
+
+
+def _reads_bump(program) -> bool:
+    """The program reads inputs at the bump offsets (a Bump node's footprint)."""
+    ins = program.instructions
+    inp = ins[:, 0] == pg.OP_INPUT
+    return bool(np.any(inp & ((ins[:, 3] != 0) | (ins[:, 1] == pg.SOURCE_BUMP_DPDX)
+                              | (ins[:, 1] == pg.SOURCE_BUMP_DPDY))))
+
+
+def _orthonormals(n) -> tuple[np.ndarray, np.ndarray]:
+    """Two unit tangents (N, 3) of unit normals n (N, 3), as Cycles' make_orthonormals:
+    a along (1, 1, 1) x n (or (-1, 1, 1) x n when n's components are equal), b = n x a."""
+    same = (n[:, 0] == n[:, 1]) & (n[:, 0] == n[:, 2])
+    a = np.where(same[:, None],
+                 np.stack([n[:, 2] - n[:, 1], n[:, 0] + n[:, 2], -n[:, 1] - n[:, 0]], axis=1),
+                 np.stack([n[:, 2] - n[:, 1], n[:, 0] - n[:, 2], n[:, 1] - n[:, 0]], axis=1))
+    a /= np.linalg.norm(a, axis=1)[:, None]
+    return a, np.cross(n, a)
+
+
 def _subset(ins: ShadingInputs, sel) -> ShadingInputs:
-    """The inputs of points ``sel`` (already validated: no second check)."""
+    """The inputs of points ``sel`` (already validated: no second check), with their bump
+    offset rows when ``ins`` has them."""
+    if ins.bump_points:
+        n = ins.bump_points
+        sel = np.concatenate([sel, n + sel, 2 * n + sel])
     pick = {k: getattr(ins, k)[sel] for k in (
         "position", "normal", "true_normal", "incoming", "backfacing", "generated",
         "object_coords", "object_normal", "object_location", "object_random",
         "object_color", "object_index")}
     return ShadingInputs(**pick, uv=np.ascontiguousarray(ins.uv[:, sel]),
-                         attributes=np.ascontiguousarray(ins.attributes[:, sel]))
+                         attributes=np.ascontiguousarray(ins.attributes[:, sel]),
+                         tangents=np.ascontiguousarray(ins.tangents[:, sel]),
+                         normal_to_world=np.ascontiguousarray(ins.normal_to_world[sel]),
+                         bump_points=sel.shape[0] // 3 if ins.bump_points else 0)
 
 
 def diffuse_area(tri_vertices: np.ndarray, tri_material: np.ndarray,

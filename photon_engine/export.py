@@ -87,7 +87,8 @@ def export_scene(depsgraph, camera=None, origin=None) -> ExportResult:
             geometry.add(obj, inst.matrix_world, name, materials, object_info(inst))
 
     mesh, mesh_media = geometry.build(origin, materials.left_out, materials.volumes,
-                                      materials.attributes.names)
+                                      materials.attributes.names,
+                                      materials.tangent_maps.names)
     scene = Scene(
         mesh=mesh,
         materials=Materials.from_list(materials.rows),
@@ -170,6 +171,8 @@ class _MaterialTable:
         self.attributes = AttributeNames()
         self.view = None
         """The render camera for the programs' Texture Coordinate Camera / Window."""
+        self.tangent_maps = AttributeNames()
+        """UV maps whose MikkTSpace tangents the programs read ("" = active render)."""
         self.left_out: set[int] = set()
         """Indices of volume-only materials: their faces are not surfaces (null
         interfaces) and only bound their medium."""
@@ -194,7 +197,7 @@ class _MaterialTable:
             else:
                 row = default_row() if mat is None else read_material(
                     mat, self._warnings, self.images, self.program_images, self.attributes,
-                    self.view)
+                    view=self.view, tangent_maps=self.tangent_maps)
             self._index[key] = len(self.rows)
             self.rows.append(row)
         return self._index[key]
@@ -220,6 +223,7 @@ class _LocalMesh:
     faces: np.ndarray | None = None    # (T,) int32, the triangles' faces (3.6+; else None)
     vertex_ids: np.ndarray | None = None  # (T, 3) int32, the mesh's own vertex indices
     attributes: np.ndarray | None = None  # (T, 3, A, 4) float32, read_attributes
+    tangents: np.ndarray | None = None  # (T, 3, G, 4) float32, read_tangents
 
 
 def read_mesh(me) -> _LocalMesh | None:
@@ -337,6 +341,45 @@ def read_attributes(me, names, local: _LocalMesh, where: str, warnings) -> np.nd
     return out
 
 
+def read_tangents(me, names, local: _LocalMesh, where: str, warnings) -> np.ndarray:
+    """(T, 3, G, 4) float32: the MikkTSpace tangents (object space) and bitangent signs
+    of the UV maps ``names`` ("" = the active render one) at the corners of ``local``'s
+    triangles, as Blender computes them for Cycles (``Mesh.calc_tangents`` on the
+    evaluated mesh, its corner normals). A UV map the mesh lacks, or a mesh Blender cannot
+    compute tangents for (faces of more than 4 corners), gives sign 0 (the Normal Map
+    leaves the normal as it is, as Cycles does without the tangent attribute), reported
+    once with ``where``."""
+    nt = local.triangles.shape[0]
+    out = np.zeros((nt, 3, len(names), 4), np.float32)
+    nl = len(me.loops)
+    for g, name in enumerate(names):
+        layer = (next((lay for lay in me.uv_layers if lay.active_render), None) if not name
+                 else me.uv_layers.get(name))
+        if layer is None:
+            msg = (f"{where}: UV map '{name or '(active render)'}' for a Normal Map not "
+                   f"found; the normal is left as it is, as Cycles")
+            if msg not in warnings:
+                warnings.append(msg)
+            continue
+        try:
+            me.calc_tangents(uvmap=layer.name)
+        except RuntimeError as exc:
+            msg = (f"{where}: no tangents for UV map '{layer.name}' ({exc}); the Normal "
+                   f"Map leaves the normal as it is")
+            if msg not in warnings:
+                warnings.append(msg)
+            continue
+        tangent = np.empty(nl * 3, np.float32)
+        sign = np.empty(nl, np.float32)
+        me.loops.foreach_get("tangent", tangent)
+        me.loops.foreach_get("bitangent_sign", sign)
+        me.free_tangents()
+        corners = local.corners
+        out[:, :, g, :3] = tangent.reshape(-1, 3)[corners]
+        out[:, :, g, 3] = np.where(sign.reshape(-1)[corners] < 0, -1.0, 1.0)
+    return out
+
+
 def _attribute_data(me, name):
     attribute = me.attributes.get(name)
     return None if attribute is None else attribute.data
@@ -374,11 +417,15 @@ class _Geometry:
                               f"in its matrix); fix its location, rotation or scale")
         slots = materials.slots(obj)  # first: its programs name the attributes they read
         names = tuple(materials.attributes.names)
-        key = (obj.data.as_pointer(), names)
+        tangent_maps = tuple(materials.tangent_maps.names)
+        key = (obj.data.as_pointer(), names, tangent_maps)
         if key not in self._meshes:
             local = read_mesh(obj.data)
             if local is not None:
                 local.attributes = read_attributes(obj.data, names, local,
+                                                   f"Object '{name}'", self._warnings)
+                if tangent_maps:
+                    local.tangents = read_tangents(obj.data, tangent_maps, local,
                                                    f"Object '{name}'", self._warnings)
             self._meshes[key] = local
         if self._meshes[key] is None:
@@ -397,27 +444,29 @@ class _Geometry:
         self._batches.setdefault((key, slots), []).append((m, len(self.names) - 1))
 
     def build(self, origin, left_out=frozenset(), volumes=None,
-              attribute_names=()) -> tuple[Mesh, list[dict]]:
+              attribute_names=(), tangent_maps=()) -> tuple[Mesh, list[dict]]:
         """The mesh in the render frame: world positions - ``origin`` (3,), in float64
         until the float32 cast; faces of the materials in ``left_out`` are dropped;
-        ``attribute_names`` the shader programs' attributes (``Mesh.attributes``). And the
+        ``attribute_names`` the shader programs' attributes (``Mesh.attributes``),
+        ``tangent_maps`` the UV maps of their tangents (``Mesh.tangents``). And the
         media inside the objects: one ``Media.from_list`` row per object and material of
         ``volumes`` (material index -> medium row), bounded by that object's faces of the
         material ("Smoke in Sphere")."""
         if not self._batches:
             return Mesh.empty(), []
         n_attributes = len(attribute_names)
+        n_tangents = len(tangent_maps)
         parts = []
         base = 0
         for (key, slots), instances in self._batches.items():
             local = self._meshes[key]
             part = _transform(local, np.stack([m for m, _ in instances]),
                               np.array([i for _, i in instances], np.int32), slots, base,
-                              n_attributes)
+                              n_attributes, n_tangents)
             base += part[0].shape[0]
             parts.append(part)
-        verts, tris, normals, uvs, mats, objs, attrs = (np.concatenate(col)
-                                                        for col in zip(*parts))
+        verts, tris, normals, uvs, mats, objs, attrs, tans = (np.concatenate(col)
+                                                              for col in zip(*parts))
         verts -= np.asarray(origin, np.float64)
         media = []
         for mat_index, row in sorted((volumes or {}).items()):
@@ -437,7 +486,7 @@ class _Geometry:
         if left_out:  # faces of volume-only materials on objects with other slots too
             keep = ~np.isin(mats, list(left_out))
             tris, normals, uvs = tris[keep], normals[keep], uvs[keep]
-            mats, objs, attrs = mats[keep], objs[keep], attrs[keep]
+            mats, objs, attrs, tans = mats[keep], objs[keep], attrs[keep], tans[keep]
         f32, i32 = np.float32, np.int32
         return Mesh(vertices=verts.astype(f32), triangles=tris.astype(i32, copy=False),
                     normals=normals.astype(f32, copy=False), uvs=uvs.astype(f32, copy=False),
@@ -448,6 +497,8 @@ class _Geometry:
                     object_info=np.stack(self.info).astype(np.float32),
                     attributes=attrs.astype(f32, copy=False) if n_attributes else None,
                     attribute_names=tuple(attribute_names),
+                    tangents=tans.astype(f32, copy=False) if n_tangents else None,
+                    tangent_maps=tuple(tangent_maps),
                     origin=np.asarray(origin, np.float64).reshape(3)), media
 
 
@@ -459,7 +510,8 @@ def _open_edges(tris) -> int:
     return int(np.count_nonzero(counts % 2))
 
 
-def _transform(local: _LocalMesh, matrices, object_ids, slots, base, n_attributes=0):
+def _transform(local: _LocalMesh, matrices, object_ids, slots, base, n_attributes=0,
+               n_tangents=0):
     """World-space arrays for K instances of one mesh: (V*K, 3) vertices, (T*K, ...) rest."""
     k = matrices.shape[0]
     nv, nt = local.positions.shape[0], local.triangles.shape[0]
@@ -477,14 +529,25 @@ def _transform(local: _LocalMesh, matrices, object_ids, slots, base, n_attribute
         np.zeros((nt, 3, 0, 4), np.float32)
     attrs = np.zeros((k, nt, 3, n_attributes, 4), np.float32)
     attrs[:, :, :, :own.shape[2]] = own[:, :, :n_attributes]
+    # Tangents are directions: the linear part takes them to the world (Cycles applies
+    # the object transform to its tangent attribute the same way); a mirror also flips
+    # the bitangent sign, so that sign * N x T stays the image of the object's bitangent.
+    tans = np.zeros((k, nt, 3, n_tangents, 4), np.float32)
+    if local.tangents is not None and n_tangents:
+        own_t = local.tangents[:, :, :n_tangents]
+        g = own_t.shape[2]
+        tans[:, :, :, :g, :3] = np.einsum("kij,tcgj->ktcgi", lin, own_t[..., :3])
+        tans[:, :, :, :g, 3] = own_t[None, ..., 3] * np.where(
+            np.linalg.det(lin) < 0, -1.0, 1.0)[:, None, None, None]
     # A mirroring transform flips the winding; swap two corners to keep the face
     # orientation (and so the geometric normal) on the side of the shading normals.
     flip = np.linalg.det(lin) < 0
     if np.any(flip):
-        for arr in (tris, normals, uvs, attrs):
+        for arr in (tris, normals, uvs, attrs, tans):
             arr[flip, :, 1], arr[flip, :, 2] = arr[flip, :, 2].copy(), arr[flip, :, 1].copy()
     lut = np.asarray(slots, np.int32)
     mats = np.tile(lut[np.clip(local.material, 0, len(lut) - 1)], k)
     objs = np.repeat(object_ids, nt)
     return (verts.reshape(-1, 3), tris.reshape(-1, 3), normals.reshape(-1, 3, 3),
-            uvs.reshape(-1, 3, 2), mats, objs, attrs.reshape(k * nt, 3, n_attributes, 4))
+            uvs.reshape(-1, 3, 2), mats, objs, attrs.reshape(k * nt, 3, n_attributes, 4),
+            tans.reshape(k * nt, 3, n_tangents, 4))

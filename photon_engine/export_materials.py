@@ -147,7 +147,8 @@ def volume_only(mat) -> bool:
 
 
 def read_material(mat, warnings: list[str], images: "ImageTable | None" = None,
-                  program_images=None, attributes=None, view=None) -> dict:
+                  program_images=None, attributes=None, view=None,
+                  tangent_maps=None) -> dict:
     """One material -> a row for ``Materials.from_list`` (closures and legacy lobes);
     appends one warning per node it cannot express (by material and node name) and one
     per other approximation.
@@ -156,8 +157,9 @@ def read_material(mat, warnings: list[str], images: "ImageTable | None" = None,
     them as unsupported like any other node. program_images: the export's
     ``export_images.ProgramImageTable`` (Image Texture nodes inside shader programs);
     None: such a node gives the missing-image magenta, reported. attributes: the export's
-    ``export_shader.AttributeNames`` (the mesh attributes programs read). view: the
-    render camera (``export_camera.CameraView``) for Texture Coordinate Camera / Window.
+    ``export_shader.AttributeNames`` (the mesh attributes programs read); tangent_maps
+    likewise, the UV maps whose MikkTSpace tangents they read (Normal Map nodes). view:
+    the render camera (``export_camera.CameraView``) for Texture Coordinate Camera / Window.
     Without a node tree (legacy materials),
     Cycles renders ``diffuse_color`` as diffuse.
     """
@@ -175,7 +177,8 @@ def read_material(mat, warnings: list[str], images: "ImageTable | None" = None,
         warnings.append(f'Material "{name}": cannot read its node tree ({exc}); '
                         f"rendering it as grey diffuse")
         return default_row(name)
-    program = _program(mat, closure, reader, warnings, program_images, attributes, view)
+    program = _program(mat, closure, reader, warnings, program_images, attributes,
+                       view=view, tangent_maps=tangent_maps)
     for node_name, (idname, uses) in reader.unsupported.items():
         warnings.append(f'Material "{name}": node "{node_name}" ({idname}) is not supported; '
                         f"using the socket value of " + ", ".join(uses))
@@ -225,24 +228,39 @@ PROGRAM_SLOTS = {
 
 
 def _program(mat, closure: Closure, reader: TreeReader, warnings: list[str],
-             program_images=None, attributes=None, view=None):
+             program_images=None, attributes=None, view=None, tangent_maps=None):
     """The ShaderProgram of the BSDF inputs fed by node graphs (``reader.linked``), or
     None. Each input becomes a TARGET_CLOSURE output for the closure row its node made (the
     row's index among the rows ``Closure.as_row`` keeps); a graph that folds to a
     constant is written into the row instead. Linked inputs with no slot (a Mix factor,
-    emission, alpha) are reported as before: their socket value is used."""
+    emission, alpha) are reported as before: their socket value is used. A linked Normal
+    input is the material's shading normal (TARGET_NORMAL): one per material, the first
+    BSDF's; another BSDF's different Normal link is reported and takes that one too."""
     kept = [b for b in closure.bsdfs if np.any(np.asarray(b["weight"]) > 0)]
     index = {}
     for i, b in enumerate(kept):
         if "node" in b:
             index.setdefault(b["node"].as_pointer(), []).append(i)
     targets, rows, seen = [], [], set()
+    normal = None
     for node, sock in reader.linked:
         key = (node.as_pointer(), sock.as_pointer())
         slot = _slot(node, sock)
         if key in seen:
             continue
         seen.add(key)
+        if sock.name == "Normal":
+            source = follow_reroutes(sock)
+            if normal is None:
+                normal = source
+                targets.append((sock, pg.TARGET_NORMAL, 0, 0))
+                rows.append(None)
+            elif (source.node.name, source.identifier) != (normal.node.name,
+                                                           normal.identifier):
+                warnings.append(f'Material "{mat.name}": node "{node.name}" has a Normal '
+                                f'of its own; one shading normal per material is supported, '
+                                f'the first BSDF\'s ("{normal.node.name}") is used')
+            continue
         if slot is None or node.as_pointer() not in index:
             linked = follow_reroutes(sock)
             reader.unsupported_node(linked.node, f'input "{sock.name}" of node "{node.name}"')
@@ -254,9 +272,11 @@ def _program(mat, closure: Closure, reader: TreeReader, warnings: list[str],
         return None
     compiled = compile_sockets(mat, targets, images=program_images,
                                attributes=AttributeNames() if attributes is None else attributes,
-                               view=view)
+                               view=view, tangent_maps=tangent_maps)
     warnings.extend(compiled.warnings)
     for (sock, _, _, slot), b, value in zip(targets, rows, compiled.constant):
+        if b is None:  # the shading normal: a constant one is not a closure parameter
+            continue
         if value is not None:  # folded: the constant is the closure's own parameter
             b["params"][slot:slot + len(value)] = value
     return compiled.program

@@ -267,13 +267,17 @@ class NodeReader:
         return fallback
 
     def ignored_links(self, node, *names):
-        """Report each input among ``names`` that is linked but not read: normal and
-        tangent inputs (Normal Map, Bump, Tangent nodes) wait for the shader-graph issue;
-        the mesh's shading normal and Cycles' default tangent (radial about the object's Z
-        axis, core ``HitShader.tangents``) are used."""
+        """Report each input among ``names`` that is linked but not read. A linked
+        "Normal" goes to the shader program instead when programs are compiled
+        (``linked`` is a list: export_materials._program makes it the shading normal);
+        Coat Normal and Tangent are reported: the shading normal and Cycles' default
+        tangent (radial about the object's Z axis, core ``HitShader.tangents``) are used."""
         for name in names:
             sock = node.inputs.get(name)
             if sock is not None and sock.is_linked and follow_reroutes(sock) is not None:
+                if name == "Normal" and self.linked is not None:
+                    self.linked.append((node, sock))  # the program's shading normal
+                    continue
                 what = "the shading normal" if "Normal" in name else "the radial tangent"
                 self.note_node(node, f'input "{name}" is linked; normal and tangent inputs '
                                      f'are not supported yet, using {what}')

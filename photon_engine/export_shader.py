@@ -72,8 +72,11 @@ class _Value:
 
 
 class _Builder:
-    def __init__(self, name, uv_maps, attributes, luminance, warnings, images=None):
+    def __init__(self, name, uv_maps, attributes, luminance, warnings, images=None,
+                 tangent_maps=None):
         self.name = name
+        self.tangent_maps = tangent_maps if isinstance(tangent_maps, AttributeNames) else \
+            AttributeNames(tangent_maps or ())
         self.images = images
         self.uv_maps = list(uv_maps)
         self.attributes = attributes if isinstance(attributes, AttributeNames) else \
@@ -86,6 +89,7 @@ class _Builder:
         self.tables = []
         self.memo = {}
         self.visiting = set()
+        self.bump = (0, 0.0)  # (offset axis, filter width) while compiling a Bump's Height
 
     # --- registers -------------------------------------------------------------------
     def const(self, values, kind):
@@ -222,20 +226,29 @@ class _Builder:
         return self.as_kind(self.socket_value(sock, inner), _socket_kind(out_sock) or "f")
 
     def group_input(self, out_sock, path):
+        mark = ()
+        if path and path[-1] in _BUMP_MARKS:  # a Bump's Height offset at this group level
+            path, mark = path[:-1], path[-1:]
         node, outer = self.group_bindings.get(path, (None, None))
         if node is None:
             return self.default(out_sock)
         sock = next((s for s in node.inputs if s.identifier == out_sock.identifier), None)
         if sock is None:
             return self.default(out_sock)
-        return self.as_kind(self.socket_value(sock, outer), _socket_kind(out_sock) or "f")
+        return self.as_kind(self.socket_value(sock, outer + mark),
+                            _socket_kind(out_sock) or "f")
 
     # --- inputs ----------------------------------------------------------------------
     def source(self, src, index=0, kind="v"):
-        key = ("source", src, index)
+        """Input ``src`` at the point, or at the bump offset being compiled
+        (``self.bump``: (axis 1 or 2, filter width) inside a Bump node's Height)."""
+        axis, width = self.bump
+        key = ("source", src, index, axis, width)
         if key not in self.memo:
             out = self.new("v")
-            self.emit(pg.OP_INPUT, [src, index], [], [out])
+            self.emit(pg.OP_INPUT, [src, index, axis,
+                                    int(round(width / pg.BUMP_WIDTH_UNIT)) if axis else 0],
+                      [], [out])
             self.memo[key] = out
         v = self.memo[key]
         return _Value(v.vreg, kind)
@@ -334,6 +347,9 @@ class _Builder:
 
 _NOT_FOLDED = (pg.OP_INPUT, pg.OP_IMAGE, pg.OP_IMAGE_PROJECTED)
 """Instructions never run at export time (per-point inputs; images live in the scene)."""
+_BUMP_MARKS = ("@bump dx", "@bump dy")
+"""Path elements under which a Bump node's Height subgraph is compiled again, its inputs
+read at P + w dPdx and P + w dPdy (``_bump``)."""
 
 
 def _socket_kind(sock):
@@ -846,7 +862,67 @@ def _image(b, node, path):
     return {"Color": color, "Alpha": alpha}
 
 
+def _normal_map(b, node, path):
+    """Normal Map (core/shading/normals.py): tangent space reads the MikkTSpace tangent
+    map of the node's UV map ("" = the active render one, as Cycles' default)."""
+    space = pg.NORMAL_MAP_SPACES.get(getattr(node, "space", "TANGENT"))
+    if space is None:
+        b.warn(("nmspace", path, node.name), f"node '{node.name}': space "
+               f"'{node.space}' is not supported; Tangent is used")
+        space = 0
+    invert_green = int(getattr(node, "convention", "OPENGL") == "DIRECTX")  # Blender 5.x
+    colour = b.input(node, "Color", path, "c")
+    strength = b.input(node, "Strength", path, "f")
+    if space == 0:
+        g = b.tangent_maps.index(getattr(node, "uv_map", "") or "")
+        tangent, sign = b.source(pg.SOURCE_TANGENT, g), b.source(pg.SOURCE_TANGENT_SIGN, g, "f")
+    else:
+        tangent, sign = b.const((0.0, 0.0, 0.0), "v"), b.const(0.0, "f")
+    rows = [b.source(pg.SOURCE_NORMAL_TO_WORLD, i) for i in range(3)]
+    out = b.new("v")
+    b.emit(pg.OP_NORMAL_MAP, [space, invert_green], [colour, strength, tangent, sign,
+                                       b.source(pg.SOURCE_NORMAL),
+                                       b.source(pg.SOURCE_BACKFACING, 0, "f"), *rows], [out])
+    return {"Normal": out}
+
+
+def _bump(b, node, path):
+    """Bump (core/shading/normals.py ``bump``): the Height subgraph is compiled three
+    times, at the point and with every input read at P + w dPdx and P + w dPdy (w the
+    Filter Width, dPdx / dPdy the hit's footprint: core ``HitShader.footprint``), as
+    Cycles evaluates it at the ray differential's offsets. Blender 4.2 has no Filter
+    Width: 0.1, Cycles' constant then."""
+    sock = _find_input(node, "Filter Width")
+    width = float(sock.default_value) if sock is not None else 0.1
+    if sock is not None and sock.is_linked:
+        b.warn(("bumpw", path, node.name), f"node '{node.name}': a linked Filter Width is "
+               f"not supported; its value {width:g} is used (Cycles reads it as a constant)")
+    width = max(width, pg.BUMP_WIDTH_UNIT)
+    saved = b.bump
+    if saved[0]:
+        b.warn(("bumpnest", path, node.name), f"node '{node.name}': a Bump inside another "
+               f"Bump's Height is evaluated at the outer offset")
+    heights = []
+    for axis, mark in ((0, None), (1, _BUMP_MARKS[0]), (2, _BUMP_MARKS[1])):
+        if axis:
+            b.bump = (axis, width)
+        try:
+            heights.append(b.input(node, "Height", path + ((mark,) if mark else ()), "f"))
+        finally:
+            b.bump = saved
+    nsock = _find_input(node, "Normal")
+    normal = b.as_kind(b.socket_value(nsock, path), "v") if nsock is not None and \
+        nsock.is_linked else b.source(pg.SOURCE_NORMAL)
+    out = b.new("v")
+    b.emit(pg.OP_BUMP, [int(bool(getattr(node, "invert", False)))],
+           [b.input(node, "Strength", path, "f"), b.input(node, "Distance", path, "f"),
+            b.const(width, "f"), *heights, normal, b.source(pg.SOURCE_BUMP_DPDX),
+            b.source(pg.SOURCE_BUMP_DPDY)], [out])
+    return {"Normal": out}
+
+
 SUPPORTED = {
+    "ShaderNodeNormalMap": _normal_map, "ShaderNodeBump": _bump,
     "ShaderNodeTexImage": _image, "ShaderNodeAttribute": _attribute,
     "ShaderNodeVertexColor": _color_attribute,
     "ShaderNodeTexCoord": _tex_coord, "ShaderNodeUVMap": _uv_map,
@@ -879,7 +955,8 @@ Group Input / Output and muted nodes, handled by the walk itself)."""
 
 
 def compile_sockets(material, targets, uv_maps=(), attributes=(),
-                    luminance=cn.LUMINANCE_REC709, images=None, view=None) -> ShaderCompile:
+                    luminance=cn.LUMINANCE_REC709, images=None, view=None,
+                    tangent_maps=None) -> ShaderCompile:
     """Compile the values of input sockets of ``material``'s node tree.
 
     targets: [(socket, target, closure, slot)]: an input socket of a node of the
@@ -892,9 +969,13 @@ def compile_sockets(material, targets, uv_maps=(), attributes=(),
       their images into (None: such a node gives the missing-image magenta, reported).
     view: the render camera (``export_camera.CameraView``) for Texture Coordinate Camera
       and Window; None: those outputs take their defaults, reported.
+    tangent_maps: an ``AttributeNames`` of the UV maps whose MikkTSpace tangents the
+      programs read (``Mesh.tangent_maps``; "" the active render UV map), names added as
+      Normal Map nodes read them.
     """
     warnings: list[str] = []
-    b = _Builder(material.name, uv_maps, attributes, luminance, warnings, images)
+    b = _Builder(material.name, uv_maps, attributes, luminance, warnings, images,
+                 tangent_maps)
     b.group_bindings = {}
     b.view = view
     values = []

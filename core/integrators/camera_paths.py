@@ -474,6 +474,14 @@ def visible_points(prepared: PreparedScene, cam: Camera, seed: int, k: int, max_
             pick_wavelengths(prepared.closures, sp.material, u_lam, lam, thr)
         front = np.einsum("ij,ij->i", d, sp.geometric_normal) < 0.0
         ng, ns = sp.geometric_normal.copy(), sp.shading_normal.copy()
+        # A shader program's normal (Normal Map, Bump; it faces the ray): given to the
+        # kernel on the winding's side, which it flips to face the ray again.
+        entering = np.einsum("ij,ij->i", d, ng) < 0.0
+        facing = np.where(entering[:, None], ns, -ns)
+        _, _, bent = prepared.hit_shader.shade(hits.prim[h], hits.u[h], hits.v[h], d,
+                                               sp.material, facing)
+        if bent is not facing:
+            ns = np.where(entering[:, None], bent, -bent)
         vp, go_on, new_tr = np.empty(m, bool), np.empty(m, bool), np.empty(m, bool)
         new_o, new_d, new_thr = np.empty((m, 3)), np.empty((m, 3)), np.empty((m, 3))
         texel = prepared.texels.albedo(hits.prim[h], hits.u[h], hits.v[h], sp.material)

@@ -474,10 +474,10 @@ def _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sa
                 bd, diff = diff[b], diff[~b]
                 hd = hit[bd]
                 texel = prepared.texels.albedo(hits.prim[hd], hits.u[hd], hits.v[hd], mat[bd])
-                tab, crow = prepared.hit_shader.closures_at(hits.prim[hd], hits.u[hd],
-                                                            hits.v[hd], d[bd], mat[bd])
+                tab, crow, s2b = prepared.hit_shader.shade(hits.prim[hd], hits.u[hd],
+                                                           hits.v[hd], d[bd], mat[bd], s2[bd])
                 tan = prepared.hit_shader.tangents(hits.prim[hd], p2[bd], tab, crow)
-                hb = BsdfHits(tab, crow.astype(np.int32), texel, -d[bd], s2[bd], front[bd],
+                hb = BsdfHits(tab, crow.astype(np.int32), texel, -d[bd], s2b, front[bd],
                               tangent=tan)
                 est = radiance_estimate(terms.global_map, p2[bd], n2[bd], None, terms.global_k,
                                         terms.global_radius, terms.filter, bsdf=hb)

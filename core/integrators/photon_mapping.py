@@ -321,8 +321,9 @@ def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> dict[str, np.ndarray]:
             hits.v[h], d, pr.extent)
         albedo = pr.surfaces.albedo(prim, hits.u[h], hits.v[h], mat)
         texel = pr.texels.albedo(prim, hits.u[h], hits.v[h], mat)
-        # Shader programs: the closures at each programmed hit (crow: its row in tab).
-        tab, crow = pr.hit_shader.closures_at(prim, hits.u[h], hits.v[h], d, mat)
+        # Shader programs: the closures at each programmed hit (crow: its row in tab) and
+        # the shading normal a Normal Map or Bump sets (every term below reads nsf).
+        tab, crow, nsf = pr.hit_shader.shade(prim, hits.u[h], hits.v[h], d, mat, nsf)
         albedo = pr.hit_shader.diffuse_albedo(tab, crow, mat, texel, d, nsf, albedo)
         if np.any(tab.abbe > 0):
             # Dispersion: a path picks its wavelength at its first dispersive surface,

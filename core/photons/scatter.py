@@ -63,7 +63,7 @@ def _max3(a, b, c):
 
 @njit(cache=True, error_model="numpy")
 def _scatter_range(tri_v, tri_n, tri_mat, extent, tab, has_diffuse, has_specular, texel, rows,
-                   tan, opacity, prim, hu, hv, d, flux, pid, n_diff, n_spec, lam, seed, dims,
+                   tan, nrm, opacity, prim, hu, hv, d, flux, pid, n_diff, n_spec, lam, seed, dims,
                    bounce, mode, store_rule, last,
                    store, s_pos, s_flux, s_dir, alive, o_new, d_new, f_new, lo, hi):
     """Photons [lo, hi) of scatter_kernel, as a plain serial loop: numba compiles it
@@ -81,6 +81,9 @@ def _scatter_range(tri_v, tri_n, tri_mat, extent, tab, has_diffuse, has_specular
         sg = 1.0 if entering else -1.0
         gx, gy, gz = sg * gx, sg * gy, sg * gz
         sx, sy, sz = sg * sx, sg * sy, sg * sz
+        if nrm.shape[0] and (nrm[i, 0] != 0.0 or nrm[i, 1] != 0.0 or nrm[i, 2] != 0.0):
+            # a shader program's normal (Normal Map, Bump), already facing the photon
+            sx, sy, sz = nrm[i, 0], nrm[i, 1], nrm[i, 2]
         m = tri_mat[t]
         if texel.shape[0]:
             c0, c1, c2 = texel[i, 0], texel[i, 1], texel[i, 2]
@@ -168,7 +171,7 @@ def _scatter_range(tri_v, tri_n, tri_mat, extent, tab, has_diffuse, has_specular
 
 @njit(cache=True, parallel=True, error_model="numpy")
 def scatter_kernel(tri_v, tri_n, tri_mat, extent, tab, has_diffuse, has_specular, texel, rows,
-                   tan, opacity, prim, hu, hv, d, flux, pid, n_diff, n_spec, lam, seed, dims,
+                   tan, nrm, opacity, prim, hu, hv, d, flux, pid, n_diff, n_spec, lam, seed, dims,
                    bounce, mode, store_rule, last,
                    store, s_pos, s_flux, s_dir, alive, o_new, d_new, f_new):
     """Store and scatter one wavefront of N photons (see the module doc).
@@ -181,6 +184,8 @@ def scatter_kernel(tri_v, tri_n, tri_mat, extent, tab, has_diffuse, has_specular
     photon's material row in tab (``HitShader.closures_at``: programmed hits), or (0,)
     for the triangles' materials; tan (N, 3) float64 the BSDF frames' tangents
     (``HitShader.tangents``), or (0, 3) for ``closure.DEFAULT_TANGENT`` everywhere;
+    nrm (N, 3) float64 the shading normal a shader program sets (``HitShader.shade``,
+    facing where the photon came from; a zero row: the interpolated normal), or (0, 3);
     prim (N,) int32 (-1 =
     missed), hu, hv (N,) float32 barycentrics, d (N, 3) float32 unit directions of travel,
     flux (N, 3) float64 W, pid (N,) int64 photon ids (random counters), n_diff / n_spec
@@ -196,7 +201,7 @@ def scatter_kernel(tri_v, tri_n, tri_mat, extent, tab, has_diffuse, has_specular
     blocks = (n + _BLOCK - 1) // _BLOCK
     for b in prange(blocks):
         _scatter_range(tri_v, tri_n, tri_mat, extent, tab, has_diffuse, has_specular, texel, rows,
-                       tan, opacity, prim, hu, hv, d, flux, pid, n_diff, n_spec, lam, seed, dims,
+                       tan, nrm, opacity, prim, hu, hv, d, flux, pid, n_diff, n_spec, lam, seed, dims,
                        bounce, mode, store_rule, last, store, s_pos, s_flux, s_dir, alive, o_new,
                        d_new, f_new, b * _BLOCK, min(n, (b + 1) * _BLOCK))
 

@@ -155,13 +155,13 @@ def _trace_chunk(prepared: PreparedScene, em: emission.Emitted, pid: np.ndarray,
             prim, collided, v_alive, v_o, v_d, v_f = _fly(
                 medium, hits, o, d, f, pid, n_diff, n_spec, seed, map_id, bounce, mode,
                 bounce == max_bounces)
-        tab, rows = photon_closures(prepared, prim, hits.u, hits.v, d)
+        tab, rows, nrm = photon_closures(prepared, prim, hits.u, hits.v, d)
         tan = photon_tangents(prepared, prim, hits.u, hits.v, tab, rows)
         scatter.scatter_kernel(prepared.tri_vertices, prepared.tri_normals, prepared.tri_material,
                                prepared.extent, tab, prepared.has_diffuse,
                                prepared.specular_material,
                                prepared.texels.photon_albedo(prim, hits.u, hits.v), rows,
-                               tan, surf.photon_opacity(prim, hits.u, hits.v),
+                               tan, nrm, surf.photon_opacity(prim, hits.u, hits.v),
                                prim, hits.u, hits.v, d, f, pid, n_diff, n_spec, lam,
                                np.int64(seed), dims, np.int64(bounce), mode,
                                np.int64(store_rule), bounce == max_bounces, s_flag, s_pos,
@@ -176,22 +176,29 @@ def _trace_chunk(prepared: PreparedScene, em: emission.Emitted, pid: np.ndarray,
 
 
 def photon_closures(prepared, prim, u, v, d):
-    """(tab, rows) for a photon wavefront (``HitShader.closures_at`` at the hits that are
-    not misses; prim (N,) int32 triangle, -1 for a miss or a photon that scattered in a
+    """(tab, rows, normals) for a photon wavefront (``HitShader.shade`` at the hits that
+    are not misses; prim (N,) int32 triangle, -1 for a miss or a photon that scattered in a
     medium first; u, v (N,) float32 barycentrics; d (N, 3) directions): rows (N,) int32, -1
     where prim is, or (0,) with the prepared table when no photon met a programmed material
-    (the kernel then reads the triangles' materials)."""
+    (the kernel then reads the triangles' materials); normals (N, 3) float64 the shading
+    normal a program set (zero rows elsewhere), or (0, 3) when no program set one."""
     shader = prepared.hit_shader
+    none = np.zeros((0, 3))
     if not shader.active:
-        return prepared.closures, np.zeros(0, np.int32)
+        return prepared.closures, np.zeros(0, np.int32), none
     got = np.flatnonzero(prim >= 0)
     mat = prepared.tri_material[prim[got]]
-    tab, r = shader.closures_at(prim[got], u[got], v[got], d[got], mat)
+    zero = np.zeros((got.size, 3))
+    tab, r, bent = shader.shade(prim[got], u[got], v[got], d[got], mat, zero)
     if r is mat:
-        return tab, np.zeros(0, np.int32)
+        return tab, np.zeros(0, np.int32), none
     rows = np.full(prim.shape[0], -1, np.int32)
     rows[got] = r
-    return tab, rows
+    normals = none
+    if bent is not zero:
+        normals = np.zeros((prim.shape[0], 3))
+        normals[got] = bent
+    return tab, rows, normals
 
 
 def photon_tangents(prepared, prim, u, v, tab, rows) -> np.ndarray:

@@ -77,6 +77,13 @@ class Mesh:
         and Color Attribute nodes), RGBA at each triangle corner (interpolated per hit
         like the UVs), in the order of ``attribute_names`` (A str; "" is the render colour
         attribute). None: no attribute.
+    tangents: (T, 3, G, 4) float32, the MikkTSpace tangents shader programs read (Normal
+        Map in tangent space), per triangle corner and tangent map: the tangent (x, y, z)
+        in world space (the object's linear transform applied, not normalised) and the
+        bitangent sign w in {-1, 1} (0: the mesh has no such UV map; the Normal Map then
+        leaves the normal as it is), in the order of ``tangent_maps`` (G UV map names;
+        "" is the active render UV map). Interpolated per hit like the UVs, as Cycles
+        interpolates its tangent attributes. None: no tangent map.
     """
 
     vertices: np.ndarray
@@ -92,6 +99,8 @@ class Mesh:
     object_info: np.ndarray | None = None
     attributes: np.ndarray | None = None
     attribute_names: tuple = ()
+    tangents: np.ndarray | None = None
+    tangent_maps: tuple = ()
 
     @property
     def triangle_count(self) -> int:
@@ -641,6 +650,13 @@ def _validate_mesh(mesh: Mesh, materials: Materials) -> None:
     if mesh.attributes is not None:
         check_array("mesh.attributes", mesh.attributes,
                     (t, 3, len(mesh.attribute_names), 4), dtype=np.float32)
+    if mesh.tangents is not None:
+        check_array("mesh.tangents", mesh.tangents,
+                    (t, 3, len(mesh.tangent_maps), 4), dtype=np.float32)
+        sign = mesh.tangents[..., 3]
+        if not np.all((sign == 0) | (sign == 1) | (sign == -1)):
+            raise SceneError("mesh.tangents: the bitangent sign (last component) must be "
+                             "-1, 1 or 0 (no tangent)")
     if mesh.object_info is not None:
         check_array("mesh.object_info", mesh.object_info, (None, 5), dtype=np.float32,
                     labels=names)

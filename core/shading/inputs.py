@@ -24,7 +24,14 @@ class ShadingInputs:
     (object-space position), object_normal (object-space shading normal),
     object_location, object_color: (N, 3) float32. backfacing, object_random,
     object_index: (N,) float32 (0/1, [0, 1], the pass index). uv: (U, N, 2) float32, one slice per UV map. attributes: (A, N, 4) float32
-    RGBA, one slice per exported attribute.
+    RGBA, one slice per exported attribute. tangents: (G, N, 4) float32, one slice per
+    tangent map (``Mesh.tangent_maps``): the interpolated MikkTSpace tangent (world
+    space, not normalised) and bitangent sign (0 where there is no tangent).
+    normal_to_world: (N, 3, 3) float32, the object's normal transform inv(A)^T (A the
+    linear part of its world matrix; identity by default).
+    bump_points: 0, or N when the arrays hold 3 N rows: the N points, then the inputs at
+    P + dPdx, then at P + dPdy (the Bump node's footprint, ``HitShader.inputs``); a
+    program's results are for the first N.
     """
     position: np.ndarray
     normal: np.ndarray
@@ -40,13 +47,16 @@ class ShadingInputs:
     object_index: np.ndarray | None = None
     uv: np.ndarray | None = None
     attributes: np.ndarray | None = field(default=None)
+    tangents: np.ndarray | None = None
+    normal_to_world: np.ndarray | None = None
+    bump_points: int = 0
 
     @classmethod
     def build(cls, position, normal, **optional):
         """Validated inputs; omitted fields default to: true_normal = normal, incoming =
         normal, backfacing 0, generated = object_coords = position, object_normal =
-        normal, object location, colour, random and index 0, no UV map or attribute (a program reading
-        one then reads zeros)."""
+        normal, object location, colour, random and index 0, no UV map, attribute or tangent
+        map (a program reading one then reads zeros), normal_to_world the identity."""
         p = np.ascontiguousarray(position, np.float32)
         if p.ndim != 2 or p.shape[1] != 3:
             raise ValueError(f"ShadingInputs.position must be (N, 3) float32, got {p.shape}")
@@ -54,7 +64,8 @@ class ShadingInputs:
         nrm = _vec(normal, n, "normal")
         known = {"true_normal", "incoming", "backfacing", "generated", "object_coords",
                  "object_normal", "object_location", "object_random", "object_color",
-                 "object_index", "uv", "attributes"}
+                 "object_index", "uv", "attributes", "tangents", "normal_to_world",
+                 "bump_points"}
         unknown = set(optional) - known
         if unknown:
             raise ValueError(f"ShadingInputs: unknown fields {sorted(unknown)}")
@@ -76,11 +87,28 @@ class ShadingInputs:
         if attr.ndim != 3 or attr.shape[1:] != (n, 4):
             raise ValueError(f"ShadingInputs.attributes must be (A, {n}, 4) float32, "
                              f"got {attr.shape}")
-        for k, a in {**vec, **scal, "uv": uv, "attributes": attr, "position": p}.items():
+        tan = np.ascontiguousarray(get("tangents", np.zeros((0, n, 4))), np.float32)
+        if tan.ndim != 3 or tan.shape[1:] != (n, 4):
+            raise ValueError(f"ShadingInputs.tangents must be (G, {n}, 4) float32, "
+                             f"got {tan.shape}")
+        n2w = get("normal_to_world")
+        n2w = np.ascontiguousarray(np.broadcast_to(np.eye(3), (n, 3, 3)) if n2w is None
+                                   else n2w, np.float32)
+        if n2w.shape != (n, 3, 3):
+            raise ValueError(f"ShadingInputs.normal_to_world must be ({n}, 3, 3) float32, "
+                             f"got {n2w.shape}")
+        for k, a in {**vec, **scal, "uv": uv, "attributes": attr, "position": p,
+                     "tangents": tan, "normal_to_world": n2w}.items():
             if not np.all(np.isfinite(a)):
                 raise ValueError(f"ShadingInputs.{k} has a non-finite value")
-        return cls(p, nrm, uv=uv, attributes=attr, **vec, **scal)
+        bump = int(get("bump_points", 0))
+        if bump and n != 3 * bump:
+            raise ValueError(f"ShadingInputs.bump_points {bump}: the arrays must have "
+                             f"{3 * bump} rows, got {n}")
+        return cls(p, nrm, uv=uv, attributes=attr, tangents=tan, normal_to_world=n2w,
+                   bump_points=bump, **vec, **scal)
 
     @property
     def count(self) -> int:
-        return self.position.shape[0]
+        """The points a program is evaluated at (without the bump offset rows)."""
+        return self.bump_points or self.position.shape[0]

@@ -26,6 +26,7 @@ from .textures import checker, gradient, white_noise, wave, magic, brick
 from .noise import noise_texture
 from .voronoi import voronoi_texture
 from .images import image_sample, image_projected
+from .normals import bump, normal_map
 from ..scene.images import ProgramImages
 
 _F = pg.FIRST_OPERAND
@@ -33,10 +34,9 @@ _CHUNK = 256
 
 
 @njit(inline="always", **dict(cache=True, error_model="numpy"))
-def _load_input(r, ins, i, P, N, Ng, I, back, gen, obj, objn, oloc, orand, ocol, oidx, uv, attr):
-    src = ins[1]
-    idx = ins[2]
-    o = ins[_F]
+def _load_row(r, o, src, idx, i, P, N, Ng, I, back, gen, obj, objn, oloc, orand, ocol, oidx, uv,
+              attr, tan, n2w):
+    """Source src (index idx) of row i of the inputs into registers r[o:o + 3]."""
     if src == 0:
         a = P
     elif src == 1:
@@ -75,8 +75,43 @@ def _load_input(r, ins, i, P, N, Ng, I, back, gen, obj, objn, oloc, orand, ocol,
                 r[o] = r[o + 1] = r[o + 2] = attr[idx, i, 3]
         else:
             r[o] = r[o + 1] = r[o + 2] = 0.0
+    elif src == 15 or src == 16:  # SOURCE_TANGENT, SOURCE_TANGENT_SIGN
+        if idx < tan.shape[0]:
+            if src == 15:
+                r[o], r[o + 1], r[o + 2] = tan[idx, i, 0], tan[idx, i, 1], tan[idx, i, 2]
+            else:
+                r[o] = r[o + 1] = r[o + 2] = tan[idx, i, 3]
+        else:
+            r[o] = r[o + 1] = r[o + 2] = 0.0
+    elif src == 17:  # SOURCE_NORMAL_TO_WORLD, row idx
+        r[o], r[o + 1], r[o + 2] = n2w[i, idx, 0], n2w[i, idx, 1], n2w[i, idx, 2]
     else:
         r[o], r[o + 1], r[o + 2] = a[i, 0], a[i, 1], a[i, 2]
+
+
+@njit(inline="always", **dict(cache=True, error_model="numpy"))
+def _load_input(r, ins, i, stride, P, N, Ng, I, back, gen, obj, objn, oloc, orand, ocol, oidx,
+                uv, attr, tan, n2w):
+    """OP_INPUT ins at point i. A bump offset (ins[3] 1 or 2, with stride = the points'
+    count: the offset rows follow them) reads the source at P + w dPdx (or dPdy), w =
+    ins[4] BUMP_WIDTH_UNIT, interpolated linearly from the point to its row at P + dPdx
+    (every input is affine in the barycentrics over a triangle, the normal nearly so)."""
+    src, idx, o = ins[1], ins[2], ins[_F]
+    if src == 18 or src == 19:  # SOURCE_BUMP_DPDX / DPDY
+        j = i + (1 if src == 18 else 2) * stride
+        for c in range(3):
+            r[o + c] = (np.float64(P[j, c]) - np.float64(P[i, c])) if stride > 0 else 0.0
+        return
+    _load_row(r, o, src, idx, i, P, N, Ng, I, back, gen, obj, objn, oloc, orand, ocol, oidx,
+              uv, attr, tan, n2w)
+    if ins[3] != 0 and stride > 0:
+        x, y, z = r[o], r[o + 1], r[o + 2]
+        _load_row(r, o, src, idx, i + ins[3] * stride, P, N, Ng, I, back, gen, obj, objn,
+                  oloc, orand, ocol, oidx, uv, attr, tan, n2w)
+        w = ins[4] * pg.BUMP_WIDTH_UNIT
+        r[o] = x + w * (r[o] - x)
+        r[o + 1] = y + w * (r[o + 1] - y)
+        r[o + 2] = z + w * (r[o + 2] - z)
 
 
 @njit(inline="always", **dict(cache=True, error_model="numpy"))
@@ -284,16 +319,29 @@ def _run(r, ins, tables, im_bytes, im_shorts, im_floats, im_tiles, im_first, im_
             m = a[1 + c]
             r[a[4] + c] = max((r[m] * x + r[m + 1] * y + r[m + 2] * z) * WAVELENGTH_SCALE,
                               0.0)
+    elif op == pg.OP_NORMAL_MAP:
+        c, t, n, m0, m1, m2 = a[0], a[2], a[4], a[6], a[7], a[8]
+        x, y, z = normal_map(ins[1], ins[2], r[c], r[c + 1], r[c + 2], r[a[1]], r[t], r[t + 1],
+                             r[t + 2], r[a[3]], r[n], r[n + 1], r[n + 2], r[a[5]], r[m0],
+                             r[m0 + 1], r[m0 + 2], r[m1], r[m1 + 1], r[m1 + 2], r[m2],
+                             r[m2 + 1], r[m2 + 2])
+        r[a[9]], r[a[9] + 1], r[a[9] + 2] = x, y, z
+    elif op == pg.OP_BUMP:
+        n, dx, dy = a[6], a[7], a[8]
+        x, y, z = bump(ins[1] != 0, r[a[0]], r[a[1]], r[a[2]], r[a[3]], r[a[4]], r[a[5]],
+                       r[n], r[n + 1], r[n + 2], r[dx], r[dx + 1], r[dx + 2], r[dy],
+                       r[dy + 1], r[dy + 2])
+        r[a[9]], r[a[9] + 1], r[a[9] + 2] = x, y, z
 
 
 @njit(parallel=True, **dict(cache=True, error_model="numpy"))
 def evaluate_kernel(instructions, constants, tables, n_registers, outputs, P, N, Ng, I, back,
-                    gen, obj, objn, oloc, orand, ocol, oidx, uv, attr, im_bytes, im_shorts, im_floats,
-                    im_tiles, im_first, im_count, out):
+                    gen, obj, objn, oloc, orand, ocol, oidx, uv, attr, tan, n2w, stride,
+                    im_bytes, im_shorts, im_floats, im_tiles, im_first, im_count, out):
     """Run the program on every point: out[i, o] = register outputs[o, 0] of point i.
     (N, O) float32 ``out``; every other array as ``ShadingInputs`` / ``ShaderProgram`` /
-    ``ProgramImages`` (im_*)."""
-    n = P.shape[0]
+    ``ProgramImages`` (im_*); stride ``ShadingInputs.bump_points``."""
+    n = out.shape[0]
     k = constants.shape[0]
     n_chunks = (n + _CHUNK - 1) // _CHUNK
     for c in prange(n_chunks):
@@ -305,8 +353,8 @@ def evaluate_kernel(instructions, constants, tables, n_registers, outputs, P, N,
             for s in range(instructions.shape[0]):
                 ins = instructions[s]
                 if ins[0] == pg.OP_INPUT:
-                    _load_input(r, ins, i, P, N, Ng, I, back, gen, obj, objn, oloc, orand,
-                                ocol, oidx, uv, attr)
+                    _load_input(r, ins, i, stride, P, N, Ng, I, back, gen, obj, objn, oloc,
+                                orand, ocol, oidx, uv, attr, tan, n2w)
                 else:
                     _run(r, ins, tables, im_bytes, im_shorts, im_floats, im_tiles,
                          im_first, im_count, px)
@@ -332,7 +380,8 @@ def evaluate(program: pg.ShaderProgram, inputs: ShadingInputs,
                     inputs.true_normal, inputs.incoming, inputs.backfacing, inputs.generated,
                     inputs.object_coords, inputs.object_normal, inputs.object_location,
                     inputs.object_random, inputs.object_color, inputs.object_index,
-                    inputs.uv, inputs.attributes, im.bytes, im.shorts,
+                    inputs.uv, inputs.attributes, inputs.tangents, inputs.normal_to_world,
+                    inputs.bump_points, im.bytes, im.shorts,
                     im.floats, im.tiles, im.slot_first, im.slot_count, out)
     return out
 

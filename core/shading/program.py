@@ -38,7 +38,7 @@ FIRST_OPERAND = 5
  OP_MAPPING, OP_INVERT, OP_GAMMA, OP_HSV, OP_BRIGHT_CONTRAST, OP_RGB_TO_BW, OP_CHECKER,
  OP_GRADIENT, OP_WHITE_NOISE, OP_NOISE, OP_VORONOI, OP_WAVE, OP_MAGIC, OP_BRICK, OP_BLACKBODY,
  OP_CURVES, OP_FLOAT_CURVE, OP_IMAGE, OP_FRESNEL, OP_LAYER_WEIGHT, OP_TRANSFORM,
- OP_WAVELENGTH, OP_IMAGE_PROJECTED) = range(36)
+ OP_WAVELENGTH, OP_IMAGE_PROJECTED, OP_NORMAL_MAP, OP_BUMP) = range(38)
 
 SIGNATURES = {
     OP_INPUT: ">v",                  # ints: source (SOURCE_*), index (UV map / attribute)
@@ -93,6 +93,13 @@ SIGNATURES = {
     OP_IMAGE_PROJECTED: "vvf>vf",    # vector, object-space normal, blend -> colour, alpha;
                                      # ints as OP_IMAGE but column 4: unassociate (bit 0)
                                      # | projection << 1 (core.shading.images.PROJECTIONS)
+    OP_NORMAL_MAP: "vfvfvfvvv>v",    # colour, strength, tangent, sign, shading normal N,
+                                     # backfacing, the 3 rows of the object's normal
+                                     # transform -> normal; ints: NORMAL_MAP_SPACES code,
+                                     # invert green (DirectX convention)
+    OP_BUMP: "ffffffvvv>v",          # strength, distance, filter width, height at the
+                                     # point, at P + w dPdx, at P + w dPdy, normal, dPdx,
+                                     # dPdy -> normal; ints: invert
 }
 """Register operands of each opcode: ``f`` one register, ``v`` three; ``>`` separates the
 inputs from the outputs."""
@@ -109,14 +116,29 @@ OP_NAMES = {OP_INPUT: "INPUT", OP_MATH: "MATH", OP_VECTOR_MATH: "VECTOR_MATH",
             OP_BRICK: "BRICK", OP_BLACKBODY: "BLACKBODY", OP_CURVES: "CURVES",
             OP_FLOAT_CURVE: "FLOAT_CURVE", OP_IMAGE: "IMAGE", OP_FRESNEL: "FRESNEL",
             OP_LAYER_WEIGHT: "LAYER_WEIGHT", OP_TRANSFORM: "TRANSFORM",
-            OP_WAVELENGTH: "WAVELENGTH", OP_IMAGE_PROJECTED: "IMAGE_PROJECTED"}
+            OP_WAVELENGTH: "WAVELENGTH", OP_IMAGE_PROJECTED: "IMAGE_PROJECTED",
+            OP_NORMAL_MAP: "NORMAL_MAP", OP_BUMP: "BUMP"}
+
+NORMAL_MAP_SPACES = {"TANGENT": 0, "OBJECT": 1, "WORLD": 2, "BLENDER_OBJECT": 3,
+                     "BLENDER_WORLD": 4}
+"""Normal Map node space -> OP_NORMAL_MAP's int (Cycles' NodeNormalMapSpace order)."""
 
 # --- OP_INPUT sources (ints column 1); all write 3 registers, scalars in the first -------
 (SOURCE_POSITION, SOURCE_NORMAL, SOURCE_TRUE_NORMAL, SOURCE_INCOMING, SOURCE_BACKFACING,
  SOURCE_GENERATED, SOURCE_OBJECT, SOURCE_OBJECT_NORMAL, SOURCE_UV, SOURCE_OBJECT_LOCATION,
  SOURCE_OBJECT_RANDOM, SOURCE_ATTRIBUTE_COLOR, SOURCE_ATTRIBUTE_ALPHA, SOURCE_OBJECT_COLOR,
- SOURCE_OBJECT_INDEX) = range(15)
-SOURCE_COUNT = 15
+ SOURCE_OBJECT_INDEX, SOURCE_TANGENT, SOURCE_TANGENT_SIGN, SOURCE_NORMAL_TO_WORLD,
+ SOURCE_BUMP_DPDX, SOURCE_BUMP_DPDY) = range(20)
+SOURCE_COUNT = 20
+BUMP_WIDTH_UNIT = 1e-6
+"""OP_INPUT's int 3 is the bump offset (0: at the point, 1: at P + w dPdx, 2: at P + w
+dPdy: the Bump node's Height subgraph is compiled three times), int 4 the filter width w
+in these units (Cycles' bump_filter_width). SOURCE_BUMP_DPDX / DPDY: the footprint
+vectors dPdx, dPdy (ShadingInputs.bump_points)."""
+# SOURCE_TANGENT / SOURCE_TANGENT_SIGN (index: the tangent map, ShadingInputs.tangents):
+# the interpolated MikkTSpace tangent (world space, unnormalised) and bitangent sign (0:
+# no tangent there); SOURCE_NORMAL_TO_WORLD (index 0-2): row i of the object's normal
+# transform inv(A)^T (ShadingInputs.normal_to_world).
 
 # --- output targets ----------------------------------------------------------------------
 TARGET_CLOSURE = 0    # closure parameter slot (core.scene.closures)
@@ -190,12 +212,17 @@ class ShaderProgram:
             if np.any(row[FIRST_OPERAND + len(widths):] != -1):
                 raise ValueError(f"{who}: instruction {i} ({OP_NAMES[op]}) has operands "
                                  f"beyond its signature {sig!r}")
-            if op == OP_INPUT and not 0 <= row[1] < SOURCE_COUNT:
-                raise ValueError(f"{who}: instruction {i} reads unknown input source {row[1]}")
+            if op == OP_INPUT and not (0 <= row[1] < SOURCE_COUNT and 0 <= row[3] <= 2
+                                       and row[4] >= 0):
+                raise ValueError(f"{who}: instruction {i} reads unknown input source {row[1]} "
+                                 f"(bump offset {row[3]}, filter width {row[4]})")
             if op in (OP_IMAGE, OP_IMAGE_PROJECTED) and not (row[1] >= -1 and 0 <= row[2] <= 2
                                                        and 0 <= row[3] <= 3):
                 raise ValueError(f"{who}: instruction {i} ({OP_NAMES[op]}) has image slot "
                                  f"{row[1]}, interpolation {row[2]}, extension {row[3]}")
+            if op == OP_NORMAL_MAP and not 0 <= row[1] < len(NORMAL_MAP_SPACES):
+                raise ValueError(f"{who}: instruction {i} ({OP_NAMES[op]}) has unknown "
+                                 f"space {row[1]}")
             if op in (OP_RAMP, OP_CURVES, OP_FLOAT_CURVE) and not (row[2] >= 2 and 0 <= row[1]
                                       and row[1] + row[2] <= self.tables.shape[0]):
                 raise ValueError(f"{who}: instruction {i} ({OP_NAMES[op]}) rows [{row[1]}, "

@@ -247,15 +247,17 @@ def _only_warning(result, material):
     return msgs[0]
 
 
-def test_linked_normal_input_is_reported_once_per_material():
+def test_linked_coat_normal_input_is_reported_once_per_material():
+    # Normal is compiled into the material's program (test_shader_normals.py); Coat
+    # Normal is still reported.
     new_scene()
     mat, node = shader("Bumpy", 'ShaderNodeBsdfPrincipled')
     bump = mat.node_tree.nodes.new('ShaderNodeBump')
-    mat.node_tree.links.new(bump.outputs["Normal"], node.inputs["Normal"])
+    mat.node_tree.links.new(bump.outputs["Normal"], node.inputs["Coat Normal"])
     scenes.add_plane(size=1.0, location=(5.0, 0.0, 0.0), material=mat, name="Second")
     result, _ = export_planes(mat)
     msg = _only_warning(result, "Bumpy")
-    assert '"Principled BSDF"' in msg and '"Normal"' in msg and "not supported" in msg
+    assert '"Principled BSDF"' in msg and '"Coat Normal"' in msg and "not supported" in msg
 
 
 def test_ior_not_positive_is_read_as_one_with_a_warning():

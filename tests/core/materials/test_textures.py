@@ -282,7 +282,7 @@ def test_photons_pass_a_cutout_straight_without_becoming_caustic():
                                np.any(m["diffuse"] > 0, axis=1),
                                np.any(m["specular"] > 0, axis=1) | np.any(m["transmission"] > 0, axis=1),
                                np.zeros((0, 3)), np.zeros(0, np.int32), np.zeros((0, 3)),
-                               np.full(n, 0.25),
+                               np.zeros((0, 3)), np.full(n, 0.25),
                                np.zeros(n, np.int32),
                                np.full(n, 0.3, np.float32), np.full(n, 0.3, np.float32), d,
                                np.ones((n, 3)), np.arange(n, dtype=np.int64), n_diff, n_spec,

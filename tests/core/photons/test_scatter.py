@@ -40,9 +40,11 @@ def _directions(rng, n, side=-1.0, min_cos=0.05, max_cos=1.0):
 
 
 def scatter_wavefront(rows, d, *, flux=None, mode=MODE_GLOBAL, store_rule=STORE_ALL,
-                      n_diff=0, n_spec=0, seed=11, bounce=0, last=False, rng=None):
+                      n_diff=0, n_spec=0, seed=11, bounce=0, last=False, rng=None,
+                      nrm=None):
     """Run scatter_kernel on N photons hitting PLANE (both triangles, random barycentrics)
-    with material rows[0]; returns the kernel's outputs and inputs as a dict."""
+    with material rows[0] (nrm (N, 3): shading normals a program set); returns the
+    kernel's outputs and inputs as a dict."""
     rng = rng or np.random.default_rng(5)
     n = d.shape[0]
     mats = Materials.from_list(rows)
@@ -65,7 +67,9 @@ def scatter_wavefront(rows, d, *, flux=None, mode=MODE_GLOBAL, store_rule=STORE_
                d_new=np.empty((n, 3), np.float32), f_new=np.empty((n, 3)))
     scatter.scatter_kernel(tri_v, tri_n, tri_mat, 2.0, closure.table(mats),
                            np.any(m["diffuse"] > 0, axis=1), has_specular, np.zeros((0, 3)),
-                           np.zeros(0, np.int32), np.zeros((0, 3)), np.zeros(0), prim,
+                           np.zeros(0, np.int32), np.zeros((0, 3)),
+                           np.zeros((0, 3)) if nrm is None else np.ascontiguousarray(nrm, np.float64),
+                           np.zeros(0), prim,
                            b[:, 0].copy(), b[:, 1].copy(), d32, flux,
                            np.arange(n, dtype=np.int64), nd, ns, np.zeros(n), np.int64(seed), DIMS,
                            np.int64(bounce), mode, np.int64(store_rule), last,
@@ -254,3 +258,37 @@ def test_diffuse_bounce_is_cosine_distributed(side, min_cos, max_cos, seed, rng)
     # Leaves from just above the surface on that side, flux kept (albedo 1).
     assert np.all((out["o_new"][alive] - out["hit"][alive]) @ normal > 0)
     np.testing.assert_array_equal(out["f_new"][alive], out["flux"][alive])
+
+
+def test_a_program_normal_turns_the_diffuse_bounce(rng):
+    # A shader program's normal (Normal Map / Bump, nrm) is the one the bounce samples
+    # about: Lambert about a normal tilted 20 degrees from the face's has its mean
+    # direction (2/3 n for the full cosine lobe) along the tilted normal, not the face's.
+    d = _directions(rng, 100_000, side=-1.0)
+    tilt = np.radians(20.0)
+    bent = np.cos(tilt) * NORMAL + np.sin(tilt) * _U
+    out = scatter_wavefront([{"diffuse": [1.0] * 3}], d, rng=rng,
+                            nrm=np.tile(bent, (d.shape[0], 1)))
+    o = out["d_new"][out["alive"]].astype(np.float64)
+    mean = o.mean(axis=0)
+    # Brute force: the cosine lobe about the bent normal (about the face's where the
+    # photon arrives from below the bent normal: closure._local), without the directions
+    # below the face (a bounce cannot leave through the surface), sampled in numpy.
+    wo = -np.repeat(d, 4, axis=0)
+    n = np.where((wo @ bent > 1e-7)[:, None], bent, NORMAL)
+    x = np.cross(n, _V)
+    x /= np.linalg.norm(x, axis=1)[:, None]
+    y = np.cross(n, x)
+    r1, r2 = rng.random(wo.shape[0]), rng.random(wo.shape[0])
+    ct, st = np.sqrt(1 - r1), np.sqrt(r1)
+    w = (st * np.cos(2 * np.pi * r2))[:, None] * x + (st * np.sin(2 * np.pi * r2))[:, None] * y \
+        + ct[:, None] * n
+    want = w[w @ NORMAL > 0].mean(axis=0)
+    angle = np.degrees(np.arccos(mean @ want / np.linalg.norm(mean) / np.linalg.norm(want)))
+    assert angle < 0.5, angle
+    assert np.degrees(np.arccos(mean @ NORMAL / np.linalg.norm(mean))) > 15.0
+    # A zero row keeps the interpolated normal.
+    out = scatter_wavefront([{"diffuse": [1.0] * 3}], d, rng=rng, nrm=np.zeros_like(d))
+    o = out["d_new"][out["alive"]].astype(np.float64)
+    mean = o.mean(axis=0)
+    assert np.degrees(np.arccos(mean @ NORMAL / np.linalg.norm(mean))) < 0.5

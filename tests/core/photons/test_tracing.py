@@ -403,7 +403,7 @@ def _scatter_once(material, theta, n=200_000):
            np.zeros((n, 3), np.float32), np.zeros((n, 3))]
     scatter.scatter_kernel(tri_v, tri_n, np.zeros(1, np.int32), 20.0, *_lobes(m, material_rows),
                            np.zeros((0, 3)), np.zeros(0, np.int32), np.zeros((0, 3)),
-                           np.zeros(0),
+                           np.zeros((0, 3)), np.zeros(0),
                            np.zeros(n, np.int32),
                            np.full(n, 0.3, np.float32), np.full(n, 0.3, np.float32), d,
                            np.ones((n, 3)), np.arange(n, dtype=np.int64), np.zeros(n, np.int32),
@@ -508,7 +508,7 @@ def test_global_store_rules_by_path(rule, stored_for):
     n_spec = np.array([p[1] for p in paths], np.int32)
     scatter.scatter_kernel(tri_v, tri_n, np.zeros(1, np.int32), 20.0, *_lobes(m, material_rows),
                            np.zeros((0, 3)), np.zeros(0, np.int32), np.zeros((0, 3)),
-                           np.zeros(0),
+                           np.zeros((0, 3)), np.zeros(0),
                            np.zeros(n, np.int32), np.full(n, 0.3, np.float32),
                            np.full(n, 0.3, np.float32), d, np.ones((n, 3)),
                            np.arange(n, dtype=np.int64), n_diff, n_spec, np.zeros(n), np.int64(5),

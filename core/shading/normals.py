@@ -1,0 +1,119 @@
+"""Shading-normal nodes with Cycles' definitions (docs/shading.md, "Normals"): the Normal
+Map node (``normal_map``, Cycles' svm_node_normal_map) and the Bump node (``bump``,
+svm_node_set_bump) as our own numba code.
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+from .. import _numba_cache  # noqa: F401
+
+_JIT = dict(cache=True, error_model="numpy")
+
+
+@njit(inline="always", **_JIT)
+def _safe_normalize(x, y, z):
+    length = math.sqrt(x * x + y * y + z * z)
+    if length > 0.0:
+        return x / length, y / length, z / length, True
+    return x, y, z, False
+
+
+@njit(**_JIT)
+def normal_map(space, invert_green, cx, cy, cz, strength, tx, ty, tz, sign, nx, ny, nz, back,
+               m00, m01, m02, m10, m11, m12, m20, m21, m22):
+    """The Normal Map node's normal (3 floats, unit, world space) as Cycles'
+    svm_node_normal_map.
+
+    space: 0 tangent, 1 object, 2 world, 3 Blender object, 4 Blender world
+    (``program.NORMAL_MAP_SPACES``); invert_green 1 for Blender 5's DirectX convention
+    (the green axis points the other way: Cycles' invert_green); (cx, cy, cz) the colour; strength; (tx, ty, tz) the
+    interpolated MikkTSpace tangent and sign its bitangent sign (world space; sign 0: no
+    tangent, the normal is returned unchanged as Cycles does without the attribute);
+    (nx, ny, nz) the shading normal facing the viewer (Cycles' sd->N) and back 1 when the
+    hit is on the back face; m the object's normal transform inv(A)^T, rows.
+
+    Tangent space: the colour 2 (c - 0.5) scaled by the strength in the tangent plane
+    (z mixed towards 1 for strength < 1), on the frame (T, sign N x T, N) with N the
+    smooth normal on the face's own side (sd->N unflipped), then flipped back for a back
+    face. Object / world space: the colour as a normal (object: through the normal
+    transform); Blender's conventions negate y and z; strength interpolates linearly
+    from sd->N. A zero or non-finite result gives sd->N.
+    """
+    cx, cy, cz = 2.0 * (cx - 0.5), 2.0 * (cy - 0.5), 2.0 * (cz - 0.5)
+    if invert_green:
+        cy = -cy
+    flip = -1.0 if back > 0.5 else 1.0
+    linear = True
+    if space == 0:
+        if sign == 0.0:
+            return nx, ny, nz
+        # Cycles builds the frame with the normal before its back-face flip.
+        bx, by, bz = flip * nx, flip * ny, flip * nz
+        cx *= strength
+        cy *= strength
+        s = min(max(strength, 0.0), 1.0)
+        cz = 1.0 + (cz - 1.0) * s
+        # B = sign * cross(normal, tangent)
+        qx = sign * (by * tz - bz * ty)
+        qy = sign * (bz * tx - bx * tz)
+        qz = sign * (bx * ty - by * tx)
+        ox = cx * tx + cy * qx + cz * bx
+        oy = cx * ty + cy * qy + cz * by
+        oz = cx * tz + cy * qz + cz * bz
+        ox, oy, oz, ok = _safe_normalize(ox, oy, oz)
+        ox, oy, oz = flip * ox, flip * oy, flip * oz
+        linear = False
+    else:
+        if space == 3 or space == 4:
+            cy, cz = -cy, -cz
+        if space == 1 or space == 3:
+            ox = m00 * cx + m01 * cy + m02 * cz
+            oy = m10 * cx + m11 * cy + m12 * cz
+            oz = m20 * cx + m21 * cy + m22 * cz
+        else:
+            ox, oy, oz = cx, cy, cz
+        ox, oy, oz, ok = _safe_normalize(ox, oy, oz)
+        ox, oy, oz = flip * ox, flip * oy, flip * oz
+    if linear and strength != 1.0:
+        s = max(strength, 0.0)
+        ox, oy, oz, ok = _safe_normalize(nx + (ox - nx) * s, ny + (oy - ny) * s,
+                                         nz + (oz - nz) * s)
+    if not ok or not (math.isfinite(ox) and math.isfinite(oy) and math.isfinite(oz)):
+        return nx, ny, nz
+    return ox, oy, oz
+
+
+@njit(**_JIT)
+def bump(invert, strength, distance, width, h_c, h_x, h_y, nx, ny, nz,
+         dxx, dxy, dxz, dyx, dyy, dyz):
+    """The Bump node's normal (3 floats, unit) as Cycles' svm_node_set_bump: the heights
+    h_c at the point, h_x at P + width dPdx, h_y at P + width dPdy (width the Filter Width),
+    the footprint vectors dPdx = (dxx, dxy, dxz), dPdy (metres, in the tangent plane),
+    the input normal n; Distance scales the height (negated by Invert), Strength mixes
+    the result with n. N' = normalize(width |det| n - distance sign(det) surfgrad) with
+    Rx = dPdy x n, Ry = n x dPdx, det = dPdx . Rx, surfgrad = (h_x - h_c) Rx + (h_y - h_c)
+    Ry: to first order normalize(n - distance grad h), whatever the footprint's size."""
+    rxx, rxy, rxz = dyy * nz - dyz * ny, dyz * nx - dyx * nz, dyx * ny - dyy * nx
+    ryx, ryy, ryz = ny * dxz - nz * dxy, nz * dxx - nx * dxz, nx * dxy - ny * dxx
+    det = dxx * rxx + dxy * rxy + dxz * rxz
+    gx = (h_x - h_c) * rxx + (h_y - h_c) * ryx
+    gy = (h_x - h_c) * rxy + (h_y - h_c) * ryy
+    gz = (h_x - h_c) * rxz + (h_y - h_c) * ryz
+    scale = -distance if invert else distance
+    strength = max(strength, 0.0)
+    sgn = 1.0 if det > 0.0 else (-1.0 if det < 0.0 else 0.0)
+    a = width * abs(det)
+    ox, oy, oz, ok = _safe_normalize(a * nx - scale * sgn * gx, a * ny - scale * sgn * gy,
+                                     a * nz - scale * sgn * gz)
+    if not ok:
+        return nx, ny, nz
+    ox, oy, oz, ok = _safe_normalize(strength * ox + (1.0 - strength) * nx,
+                                     strength * oy + (1.0 - strength) * ny,
+                                     strength * oz + (1.0 - strength) * nz)
+    if not ok or not (math.isfinite(ox) and math.isfinite(oy) and math.isfinite(oz)):
+        return nx, ny, nz
+    return ox, oy, oz
