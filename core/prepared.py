@@ -119,7 +119,8 @@ class HitShader:
 
     The per-hit inputs (core.shading.inputs.ShadingInputs): world position (the render
     frame + ``Mesh.origin``), the shading and geometric normals facing the ray, incoming
-    = -d, backfacing, the first UV map (``Mesh.uvs``), object coordinates and normal,
+    = -d, backfacing, the UV maps (``Mesh.uvs``, the active render map, then the named
+    ``Mesh.uv_maps``), object coordinates and normal,
     Generated (``Mesh.object_texspace``) and the object's location
     (``Mesh.object_to_world``). Object random is 0 (not exported yet).
     """
@@ -137,6 +138,7 @@ class HitShader:
         self.tri_vertices, self.tri_normals = tri_vertices, tri_normals
         self.tri_material, self.extent = tri_material, float(extent)
         self.tri_uv = mesh.uvs
+        self.tri_uv_maps = mesh.uv_maps  # (T, 3, U, 2) or None: the named UV maps
         self.tri_attributes = mesh.attributes  # (T, 3, A, 4) or None
         self.tri_object = mesh.object_index
         n_obj = int(mesh.object_index.max()) + 1 if mesh.triangle_count else 0
@@ -170,17 +172,27 @@ class HitShader:
         onrm = np.einsum("nji,nj->ni", self.linear[obj], nsf)
         onrm /= np.maximum(np.linalg.norm(onrm, axis=1), 1e-30)[:, None]
         w = (1.0 - u - v).astype(np.float64)
-        uv = (w[:, None] * self.tri_uv[prim, 0] + u[:, None] * self.tri_uv[prim, 1]
-              + v[:, None] * self.tri_uv[prim, 2])
+        uv = self._uv_maps(prim, u, v, w)
         ins = ShadingInputs.build(world, nsf, true_normal=ngf, incoming=-np.asarray(d),
                                   backfacing=(~front).astype(np.float32),
                                   generated=generated, object_coords=local,
                                   object_normal=onrm, object_location=self.location[obj],
                                   object_color=self.object_info[obj, :3],
                                   object_random=self.object_info[obj, 3],
-                                  object_index=self.object_info[obj, 4], uv=uv[None],
+                                  object_index=self.object_info[obj, 4], uv=uv,
                                   attributes=self._attributes(prim, u, v, w))
         return ins, mat
+
+    def _uv_maps(self, prim, u, v, w) -> np.ndarray:
+        """(1 + U, N, 2) the UV maps at the hits: the active render map (``Mesh.uvs``),
+        then the named ones (``Mesh.uv_maps``), interpolated barycentrically."""
+        uv = (w[:, None] * self.tri_uv[prim, 0] + u[:, None] * self.tri_uv[prim, 1]
+              + v[:, None] * self.tri_uv[prim, 2])[None]
+        if self.tri_uv_maps is None or self.tri_uv_maps.shape[2] == 0:
+            return uv
+        c = self.tri_uv_maps[prim]  # (N, 3, U, 2)
+        a = w[:, None, None] * c[:, 0] + u[:, None, None] * c[:, 1] + v[:, None, None] * c[:, 2]
+        return np.concatenate([uv, np.transpose(a, (1, 0, 2))]).astype(np.float32)
 
     def _attributes(self, prim, u, v, w) -> np.ndarray:
         """(A, N, 4) the mesh attributes at the hits, interpolated like the UVs."""

@@ -31,7 +31,7 @@ from .export_errors import ExportError, NoCameraError  # noqa: F401  (re-exporte
 from .export_lights import light_row
 from .export_materials import ImageTable, default_row, read_material, read_world, volume_only
 from .export_images import ProgramImageTable
-from .export_shader import AttributeNames
+from .export_shader import AttributeNames, UVMapNames
 from .export_volumes import material_medium, world_medium
 from .export_warnings import scene_warnings
 
@@ -85,7 +85,7 @@ def export_scene(depsgraph, camera=None, origin=None) -> ExportResult:
             geometry.add(obj, inst.matrix_world, name, materials, object_info(inst))
 
     mesh, mesh_media = geometry.build(origin, materials.left_out, materials.volumes,
-                                      materials.attributes.names)
+                                      materials.attributes.names, materials.uv_maps.names)
     scene = Scene(
         mesh=mesh,
         materials=Materials.from_list(materials.rows),
@@ -166,6 +166,7 @@ class _MaterialTable:
         self.images = ImageTable(warnings)
         self.program_images = ProgramImageTable(warnings)
         self.attributes = AttributeNames()
+        self.uv_maps = UVMapNames()
         self.left_out: set[int] = set()
         """Indices of volume-only materials: their faces are not surfaces (null
         interfaces) and only bound their medium."""
@@ -189,7 +190,8 @@ class _MaterialTable:
                 row = default_row(mat.name)
             else:
                 row = default_row() if mat is None else read_material(
-                    mat, self._warnings, self.images, self.program_images, self.attributes)
+                    mat, self._warnings, self.images, self.program_images, self.attributes,
+                    self.uv_maps)
             self._index[key] = len(self.rows)
             self.rows.append(row)
         return self._index[key]
@@ -215,6 +217,7 @@ class _LocalMesh:
     faces: np.ndarray | None = None    # (T,) int32, the triangles' faces (3.6+; else None)
     vertex_ids: np.ndarray | None = None  # (T, 3) int32, the mesh's own vertex indices
     attributes: np.ndarray | None = None  # (T, 3, A, 4) float32, read_attributes
+    uv_maps: np.ndarray | None = None  # (T, 3, U, 2) float32, read_uv_maps
 
 
 def read_mesh(me) -> _LocalMesh | None:
@@ -332,6 +335,34 @@ def read_attributes(me, names, local: _LocalMesh, where: str, warnings) -> np.nd
     return out
 
 
+def read_uv_maps(me, names, local: _LocalMesh, where: str, uv_maps: UVMapNames,
+                 warnings, materials=None) -> np.ndarray:
+    """(T, 3, U, 2) float32: the UV maps ``names`` at the corners of ``local``'s triangles
+    (``Mesh.uv_maps``). A name the mesh lacks is (0, 0), as Cycles (its attribute lookup
+    fails and the node reads 0), reported once per material and name for each material
+    among ``materials`` (the object's material names; None: any) that reads it
+    (``uv_maps.readers``), with ``where`` (the object)."""
+    nt = local.triangles.shape[0]
+    out = np.zeros((nt, 3, len(names), 2), np.float32)
+    nl = len(me.loops)
+    for j, name in enumerate(names):
+        layer = me.uv_layers.get(name)
+        if layer is None:
+            for material in uv_maps.readers.get(name, ()):
+                if materials is not None and material not in materials:
+                    continue
+                msg = (f"Material '{material}': UV map '{name}' not found on {where}; "
+                       f"(0, 0) is used, as Cycles")
+                if not any(w.startswith(f"Material '{material}': UV map '{name}' not found")
+                           for w in warnings):
+                    warnings.append(msg)
+            continue
+        data = _read(getattr(layer, "uv", None), "vector", nl * 2, np.float32,
+                     lambda buf: layer.data.foreach_get("uv", buf))
+        out[:, :, j] = data.reshape(-1, 2)[local.corners]
+    return out
+
+
 def _attribute_data(me, name):
     attribute = me.attributes.get(name)
     return None if attribute is None else attribute.data
@@ -369,12 +400,18 @@ class _Geometry:
                               f"in its matrix); fix its location, rotation or scale")
         slots = materials.slots(obj)  # first: its programs name the attributes they read
         names = tuple(materials.attributes.names)
-        key = (obj.data.as_pointer(), names)
+        uv_names = tuple(materials.uv_maps.names)
+        key = (obj.data.as_pointer(), names, uv_names)
         if key not in self._meshes:
             local = read_mesh(obj.data)
             if local is not None:
                 local.attributes = read_attributes(obj.data, names, local,
                                                    f"Object '{name}'", self._warnings)
+                if uv_names:
+                    local.uv_maps = read_uv_maps(obj.data, uv_names, local,
+                                                 f"object '{name}'", materials.uv_maps,
+                                                 self._warnings,
+                                                 {materials.rows[i]["name"] for i in slots})
             self._meshes[key] = local
         if self._meshes[key] is None:
             return
@@ -392,27 +429,29 @@ class _Geometry:
         self._batches.setdefault((key, slots), []).append((m, len(self.names) - 1))
 
     def build(self, origin, left_out=frozenset(), volumes=None,
-              attribute_names=()) -> tuple[Mesh, list[dict]]:
+              attribute_names=(), uv_map_names=()) -> tuple[Mesh, list[dict]]:
         """The mesh in the render frame: world positions - ``origin`` (3,), in float64
         until the float32 cast; faces of the materials in ``left_out`` are dropped;
-        ``attribute_names`` the shader programs' attributes (``Mesh.attributes``). And the
+        ``attribute_names`` the shader programs' attributes (``Mesh.attributes``),
+        ``uv_map_names`` the UV maps they name (``Mesh.uv_maps``). And the
         media inside the objects: one ``Media.from_list`` row per object and material of
         ``volumes`` (material index -> medium row), bounded by that object's faces of the
         material ("Smoke in Sphere")."""
         if not self._batches:
             return Mesh.empty(), []
         n_attributes = len(attribute_names)
+        n_uv = len(uv_map_names)
         parts = []
         base = 0
         for (key, slots), instances in self._batches.items():
             local = self._meshes[key]
             part = _transform(local, np.stack([m for m, _ in instances]),
                               np.array([i for _, i in instances], np.int32), slots, base,
-                              n_attributes)
+                              n_attributes, n_uv)
             base += part[0].shape[0]
             parts.append(part)
-        verts, tris, normals, uvs, mats, objs, attrs = (np.concatenate(col)
-                                                        for col in zip(*parts))
+        verts, tris, normals, uvs, mats, objs, attrs, uv_maps = (np.concatenate(col)
+                                                                 for col in zip(*parts))
         verts -= np.asarray(origin, np.float64)
         media = []
         for mat_index, row in sorted((volumes or {}).items()):
@@ -433,6 +472,7 @@ class _Geometry:
             keep = ~np.isin(mats, list(left_out))
             tris, normals, uvs = tris[keep], normals[keep], uvs[keep]
             mats, objs, attrs = mats[keep], objs[keep], attrs[keep]
+            uv_maps = uv_maps[keep]
         f32, i32 = np.float32, np.int32
         return Mesh(vertices=verts.astype(f32), triangles=tris.astype(i32, copy=False),
                     normals=normals.astype(f32, copy=False), uvs=uvs.astype(f32, copy=False),
@@ -443,6 +483,8 @@ class _Geometry:
                     object_info=np.stack(self.info).astype(np.float32),
                     attributes=attrs.astype(f32, copy=False) if n_attributes else None,
                     attribute_names=tuple(attribute_names),
+                    uv_maps=uv_maps.astype(f32, copy=False) if n_uv else None,
+                    uv_map_names=tuple(uv_map_names),
                     origin=np.asarray(origin, np.float64).reshape(3)), media
 
 
@@ -454,7 +496,8 @@ def _open_edges(tris) -> int:
     return int(np.count_nonzero(counts % 2))
 
 
-def _transform(local: _LocalMesh, matrices, object_ids, slots, base, n_attributes=0):
+def _transform(local: _LocalMesh, matrices, object_ids, slots, base, n_attributes=0,
+               n_uv=0):
     """World-space arrays for K instances of one mesh: (V*K, 3) vertices, (T*K, ...) rest."""
     k = matrices.shape[0]
     nv, nt = local.positions.shape[0], local.triangles.shape[0]
@@ -472,14 +515,20 @@ def _transform(local: _LocalMesh, matrices, object_ids, slots, base, n_attribute
         np.zeros((nt, 3, 0, 4), np.float32)
     attrs = np.zeros((k, nt, 3, n_attributes, 4), np.float32)
     attrs[:, :, :, :own.shape[2]] = own[:, :, :n_attributes]
+    # likewise UV maps named after this mesh was read: (0, 0) on it
+    own_uv = local.uv_maps if local.uv_maps is not None else \
+        np.zeros((nt, 3, 0, 2), np.float32)
+    uv_maps = np.zeros((k, nt, 3, n_uv, 2), np.float32)
+    uv_maps[:, :, :, :own_uv.shape[2]] = own_uv[:, :, :n_uv]
     # A mirroring transform flips the winding; swap two corners to keep the face
     # orientation (and so the geometric normal) on the side of the shading normals.
     flip = np.linalg.det(lin) < 0
     if np.any(flip):
-        for arr in (tris, normals, uvs, attrs):
+        for arr in (tris, normals, uvs, attrs, uv_maps):
             arr[flip, :, 1], arr[flip, :, 2] = arr[flip, :, 2].copy(), arr[flip, :, 1].copy()
     lut = np.asarray(slots, np.int32)
     mats = np.tile(lut[np.clip(local.material, 0, len(lut) - 1)], k)
     objs = np.repeat(object_ids, nt)
     return (verts.reshape(-1, 3), tris.reshape(-1, 3), normals.reshape(-1, 3, 3),
-            uvs.reshape(-1, 3, 2), mats, objs, attrs.reshape(k * nt, 3, n_attributes, 4))
+            uvs.reshape(-1, 3, 2), mats, objs, attrs.reshape(k * nt, 3, n_attributes, 4),
+            uv_maps.reshape(k * nt, 3, n_uv, 2))

@@ -31,7 +31,7 @@ from . import compat
 from .export_images import DEFAULT_GREY, ImageTable  # noqa: F401  (ImageTable re-exported)
 from .export_nodes import Closure, NodeReader, UnreadableTree, diffuse_closure, follow_reroutes
 from .export_shaders import HANDLERS as BSDF_HANDLERS
-from .export_shader import AttributeNames, compile_sockets
+from .export_shader import AttributeNames, UVMapNames, compile_sockets
 from ..core.scene import closures as cl
 from ..core.shading import program as pg
 
@@ -147,7 +147,7 @@ def volume_only(mat) -> bool:
 
 
 def read_material(mat, warnings: list[str], images: "ImageTable | None" = None,
-                  program_images=None, attributes=None) -> dict:
+                  program_images=None, attributes=None, uv_maps=None) -> dict:
     """One material -> a row for ``Materials.from_list`` (closures and legacy lobes);
     appends one warning per node it cannot express (by material and node name) and one
     per other approximation.
@@ -156,7 +156,8 @@ def read_material(mat, warnings: list[str], images: "ImageTable | None" = None,
     them as unsupported like any other node. program_images: the export's
     ``export_images.ProgramImageTable`` (Image Texture nodes inside shader programs);
     None: such a node gives the missing-image magenta, reported. attributes: the export's
-    ``export_shader.AttributeNames`` (the mesh attributes programs read). Without a node tree (legacy materials),
+    ``export_shader.AttributeNames`` (the mesh attributes programs read). uv_maps: the
+    export's ``export_shader.UVMapNames`` (the UV maps programs name). Without a node tree (legacy materials),
     Cycles renders ``diffuse_color`` as diffuse.
     """
     name = mat.name
@@ -173,7 +174,7 @@ def read_material(mat, warnings: list[str], images: "ImageTable | None" = None,
         warnings.append(f'Material "{name}": cannot read its node tree ({exc}); '
                         f"rendering it as grey diffuse")
         return default_row(name)
-    program = _program(mat, closure, reader, warnings, program_images, attributes)
+    program = _program(mat, closure, reader, warnings, program_images, attributes, uv_maps)
     for node_name, (idname, uses) in reader.unsupported.items():
         warnings.append(f'Material "{name}": node "{node_name}" ({idname}) is not supported; '
                         f"using the socket value of " + ", ".join(uses))
@@ -223,7 +224,7 @@ PROGRAM_SLOTS = {
 
 
 def _program(mat, closure: Closure, reader: TreeReader, warnings: list[str],
-             program_images=None, attributes=None):
+             program_images=None, attributes=None, uv_maps=None):
     """The ShaderProgram of the BSDF inputs fed by node graphs (``reader.linked``), or
     None. Each input becomes a TARGET_CLOSURE output for the closure row its node made (the
     row's index among the rows ``Closure.as_row`` keeps); a graph that folds to a
@@ -251,7 +252,8 @@ def _program(mat, closure: Closure, reader: TreeReader, warnings: list[str],
     if not targets:
         return None
     compiled = compile_sockets(mat, targets, images=program_images,
-                               attributes=AttributeNames() if attributes is None else attributes)
+                               attributes=AttributeNames() if attributes is None else attributes,
+                               uv_maps=UVMapNames() if uv_maps is None else uv_maps)
     warnings.extend(compiled.warnings)
     for (sock, _, _, slot), b, value in zip(targets, rows, compiled.constant):
         if value is not None:  # folded: the constant is the closure's own parameter

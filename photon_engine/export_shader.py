@@ -62,6 +62,29 @@ class AttributeNames:
         return self.names.index(name)
 
 
+class UVMapNames:
+    """The UV map names the programs of one export read, in the order of ``Mesh.uv_maps``
+    (``ShadingInputs.uv`` is [active render map, ``names``...]). ``index(name)`` is the
+    map's index in ``ShadingInputs.uv``: 0 for "" (the active render map: Texture
+    Coordinate UV, an unlinked Image Texture Vector), 1 + j for ``names[j]``, adding a
+    name on first use; ``readers[name]`` the materials that read it (for the warning
+    where a mesh lacks the map)."""
+
+    def __init__(self, names=()):
+        self.names: list[str] = [n for n in names if n]
+        self.readers: dict[str, list[str]] = {}
+
+    def index(self, name: str, material: str = "") -> int:
+        if not name:
+            return 0
+        if name not in self.names:
+            self.names.append(name)
+        readers = self.readers.setdefault(name, [])
+        if material and material not in readers:
+            readers.append(material)
+        return 1 + self.names.index(name)
+
+
 class _Value:
     """An operand: a virtual register of width 1 ('f') or 3 ('v' vector, 'c' colour)."""
     __slots__ = ("vreg", "kind")
@@ -75,7 +98,7 @@ class _Builder:
     def __init__(self, name, uv_maps, attributes, luminance, warnings, images=None):
         self.name = name
         self.images = images
-        self.uv_maps = list(uv_maps)
+        self.uv_maps = uv_maps if isinstance(uv_maps, UVMapNames) else UVMapNames(uv_maps)
         self.attributes = attributes if isinstance(attributes, AttributeNames) else \
             AttributeNames(attributes)
         self.luminance = tuple(float(x) for x in luminance)
@@ -371,11 +394,9 @@ def _tex_coord(b, node, path):
 
 
 def _uv_map(b, node, path):
-    name = getattr(node, "uv_map", "")
-    index = b.uv_maps.index(name) if name in b.uv_maps else 0
-    if name and name not in b.uv_maps:
-        b.warn(("uv", path, node.name), f"node '{node.name}': UV map '{name}' not found, "
-               f"the first one is used")
+    """UV Map node: the map it names (``Mesh.uv_maps``), or the active render map when
+    it names none; a mesh without that map reads (0, 0), reported by ``export``."""
+    index = b.uv_maps.index(getattr(node, "uv_map", ""), b.name)
     return {"UV": b.source(pg.SOURCE_UV, index)}
 
 
@@ -784,8 +805,8 @@ def compile_sockets(material, targets, uv_maps=(), attributes=(),
     targets: [(socket, target, closure, slot)]: an input socket of a node of the
       material's tree, its TARGET_* (core.shading.program), the closure index and the
       first slot (a colour or vector socket fills slot, slot + 1, slot + 2).
-    uv_maps: the mesh's UV map names, in the order of ``ShadingInputs.uv`` (the first is
-      the default UV). attributes: an ``AttributeNames`` (names are added as nodes read
+    uv_maps: a ``UVMapNames`` (names are added as nodes read them) or the named maps, in
+      the order of ``ShadingInputs.uv`` after the active render map. attributes: an ``AttributeNames`` (names are added as nodes read
       them) or names, in the order of ``ShadingInputs.attributes``. luminance: the scene-linear RGB -> Y weights.
     images: the export's ``export_images.ProgramImageTable`` Image Texture nodes read
       their images into (None: such a node gives the missing-image magenta, reported).

@@ -77,6 +77,11 @@ class Mesh:
         and Color Attribute nodes), RGBA at each triangle corner (interpolated per hit
         like the UVs), in the order of ``attribute_names`` (A str; "" is the render colour
         attribute). None: no attribute.
+    uv_maps: (T, 3, U, 2) float32, the UV maps shader programs name (UV Map node, Normal
+        Map), per triangle corner, in the order of ``uv_map_names`` (U str); a mesh
+        without a map of that name has (0, 0) there, as Cycles. ``ShadingInputs.uv`` is
+        [``uvs``, ``uv_maps``...]: a program's UV index 0 is the active render map, index
+        1 + j the map ``uv_map_names[j]``. None: no named map.
     """
 
     vertices: np.ndarray
@@ -92,6 +97,8 @@ class Mesh:
     object_info: np.ndarray | None = None
     attributes: np.ndarray | None = None
     attribute_names: tuple = ()
+    uv_maps: np.ndarray | None = None
+    uv_map_names: tuple = ()
 
     @property
     def triangle_count(self) -> int:
@@ -641,6 +648,9 @@ def _validate_mesh(mesh: Mesh, materials: Materials) -> None:
     if mesh.attributes is not None:
         check_array("mesh.attributes", mesh.attributes,
                     (t, 3, len(mesh.attribute_names), 4), dtype=np.float32)
+    if mesh.uv_maps is not None:
+        check_array("mesh.uv_maps", mesh.uv_maps, (t, 3, len(mesh.uv_map_names), 2),
+                    dtype=np.float32)
     if mesh.object_info is not None:
         check_array("mesh.object_info", mesh.object_info, (None, 5), dtype=np.float32,
                     labels=names)
