@@ -122,7 +122,8 @@ class HitShader:
     = -d, backfacing, the UV maps (``Mesh.uvs``, the active render map, then the named
     ``Mesh.uv_maps``), object coordinates and normal,
     Generated (``Mesh.object_texspace``) and the object's location
-    (``Mesh.object_to_world``). Object random is 0 (not exported yet).
+    (``Mesh.object_to_world``), Object Info (``Mesh.object_info``: colour and its alpha,
+    Random, Object Index) and the material's pass index (``Materials.pass_index``).
     """
 
     def __init__(self, scene: Scene, closures: closure.ClosureTable, tri_vertices,
@@ -154,8 +155,16 @@ class HitShader:
         else:
             self.texspace = np.broadcast_to(np.array([[0.0, 0.0, 0.0], [0.5, 0.5, 0.5]]),
                                             (n_obj, 2, 3))
-        self.object_info = (np.zeros((n_obj, 5), np.float32) if mesh.object_info is None
-                            else np.asarray(mesh.object_info, np.float32))
+        info = np.zeros((n_obj, 6), np.float32)
+        info[:, 5] = 1.0  # the object colour's alpha (Object Info Alpha)
+        if mesh.object_info is not None:
+            given = np.asarray(mesh.object_info, np.float32)
+            info = np.zeros((max(n_obj, given.shape[0]), 6), np.float32)
+            info[:, 5] = 1.0
+            info[:given.shape[0], :given.shape[1]] = given
+        self.object_info = info
+        self.pass_index = (np.zeros(mats.count, np.float32) if mats.pass_index is None
+                           else np.asarray(mats.pass_index, np.float32))
         self.origin = (np.zeros(3) if mesh.origin is None
                        else np.asarray(mesh.origin, np.float64))
 
@@ -179,7 +188,9 @@ class HitShader:
                                   object_normal=onrm, object_location=self.location[obj],
                                   object_color=self.object_info[obj, :3],
                                   object_random=self.object_info[obj, 3],
-                                  object_index=self.object_info[obj, 4], uv=uv,
+                                  object_index=self.object_info[obj, 4],
+                                  object_alpha=self.object_info[obj, 5],
+                                  material_index=self.pass_index[mat], uv=uv,
                                   attributes=self._attributes(prim, u, v, w))
         return ins, mat
 
@@ -316,7 +327,7 @@ def _subset(ins: ShadingInputs, sel) -> ShadingInputs:
     pick = {k: getattr(ins, k)[sel] for k in (
         "position", "normal", "true_normal", "incoming", "backfacing", "generated",
         "object_coords", "object_normal", "object_location", "object_random",
-        "object_color", "object_index")}
+        "object_color", "object_index", "object_alpha", "material_index")}
     return ShadingInputs(**pick, uv=np.ascontiguousarray(ins.uv[:, sel]),
                          attributes=np.ascontiguousarray(ins.attributes[:, sel]))
 

@@ -102,15 +102,16 @@ def export_scene(depsgraph, camera=None, origin=None) -> ExportResult:
 
 
 def object_info(inst) -> np.ndarray:
-    """(5,) float32 Object Info of a depsgraph instance: colour RGB (``Object.color``),
-    Random, Object Index (``pass_index``). Random is Cycles' ``random_number``, computed
+    """(6,) float32 Object Info of a depsgraph instance: colour RGB (``Object.color``),
+    Random, Object Index (``pass_index``), the colour's alpha (Object Info Alpha). Random is Cycles' ``random_number``, computed
     as scene/object.cpp does in float32: (float)random_id * (1.0f / (float)0xFFFFFFFF),
     random_id as Cycles' Blender sync makes it (``core.shading.hash.object_random_id``:
     the object name's hash, or the instance's ``random_id``)."""
     obj = inst.object
     rid = np.uint32(object_random_id(obj.name, inst.random_id, inst.is_instance))
     rand = np.float32(rid) * (np.float32(1.0) / np.float32(0xFFFFFFFF))
-    return np.array([*tuple(obj.color)[:3], rand, float(obj.pass_index)], np.float32)
+    color = tuple(obj.color)
+    return np.array([*color[:3], rand, float(obj.pass_index), color[3]], np.float32)
 
 
 def _instance_name(inst) -> str:
@@ -421,7 +422,7 @@ class _Geometry:
             return
         self.names.append(name)
         self.matrices.append(m)
-        self.info.append(np.zeros(5, np.float32) if info is None else info)
+        self.info.append(np.array([0, 0, 0, 0, 0, 1], np.float32) if info is None else info)
         me = obj.data
         self.texspaces.append(np.array([tuple(getattr(me, "texspace_location", (0, 0, 0))),
                                         tuple(getattr(me, "texspace_size", (1, 1, 1)))],

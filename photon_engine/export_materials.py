@@ -192,6 +192,7 @@ def read_material(mat, warnings: list[str], images: "ImageTable | None" = None,
     for lobe in ("diffuse", "specular", "transmission"):
         row[lobe] = np.minimum(row[lobe], 1.0)  # the opacity division must not create energy
     row["program"] = program
+    row["pass_index"] = float(getattr(mat, "pass_index", 0))  # Object Info Material Index
     settings = getattr(mat, "photon_map", None)  # None: the extension's properties absent
     if settings is not None and settings.dispersion != 0.0:
         row["dispersion"] = float(settings.dispersion)

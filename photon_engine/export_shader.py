@@ -408,12 +408,15 @@ def _geometry(b, node, path):
 
 
 def _object_info(b, node, path):
-    """Location, Color, Random, Object Index (``export.object_info`` for the values);
-    Alpha and Material Index are not supported."""
+    """Location, Color, Alpha (the object colour's alpha), Random, Object Index
+    (``export.object_info`` for the values), Material Index (the material's
+    ``pass_index``, ``Materials.pass_index``), as Cycles' svm_node_object_info."""
     return {"Location": b.source(pg.SOURCE_OBJECT_LOCATION),
             "Color": b.source(pg.SOURCE_OBJECT_COLOR, 0, "c"),
+            "Alpha": b.source(pg.SOURCE_OBJECT_ALPHA, 0, "f"),
             "Random": b.source(pg.SOURCE_OBJECT_RANDOM, 0, "f"),
-            "Object Index": b.source(pg.SOURCE_OBJECT_INDEX, 0, "f")}
+            "Object Index": b.source(pg.SOURCE_OBJECT_INDEX, 0, "f"),
+            "Material Index": b.source(pg.SOURCE_MATERIAL_INDEX, 0, "f")}
 
 
 def _attribute_outputs(b, name):

@@ -24,7 +24,8 @@ class ShadingInputs:
     (object-space position), object_normal (object-space shading normal),
     object_location, object_color: (N, 3) float32. backfacing, object_random,
     object_index: (N,) float32 (0/1, [0, 1], the pass index). uv: (U, N, 2) float32, one slice per UV map. attributes: (A, N, 4) float32
-    RGBA, one slice per exported attribute.
+    RGBA, one slice per exported attribute. object_alpha (the object colour's alpha),
+    material_index (the material's pass index): (N,) float32.
     """
     position: np.ndarray
     normal: np.ndarray
@@ -40,13 +41,15 @@ class ShadingInputs:
     object_index: np.ndarray | None = None
     uv: np.ndarray | None = None
     attributes: np.ndarray | None = field(default=None)
+    object_alpha: np.ndarray | None = None
+    material_index: np.ndarray | None = None
 
     @classmethod
     def build(cls, position, normal, **optional):
         """Validated inputs; omitted fields default to: true_normal = normal, incoming =
         normal, backfacing 0, generated = object_coords = position, object_normal =
-        normal, object location, colour, random and index 0, no UV map or attribute (a program reading
-        one then reads zeros)."""
+        normal, object location, colour, random and index 0, object alpha 1, material
+        index 0, no UV map or attribute (a program reading one then reads zeros)."""
         p = np.ascontiguousarray(position, np.float32)
         if p.ndim != 2 or p.shape[1] != 3:
             raise ValueError(f"ShadingInputs.position must be (N, 3) float32, got {p.shape}")
@@ -54,7 +57,7 @@ class ShadingInputs:
         nrm = _vec(normal, n, "normal")
         known = {"true_normal", "incoming", "backfacing", "generated", "object_coords",
                  "object_normal", "object_location", "object_random", "object_color",
-                 "object_index", "uv", "attributes"}
+                 "object_index", "uv", "attributes", "object_alpha", "material_index"}
         unknown = set(optional) - known
         if unknown:
             raise ValueError(f"ShadingInputs: unknown fields {sorted(unknown)}")
@@ -64,8 +67,10 @@ class ShadingInputs:
             ("object_normal", nrm), ("object_location", np.zeros((n, 3))),
             ("object_color", np.zeros((n, 3))))}
         scal = {}
-        for k in ("backfacing", "object_random", "object_index"):
-            a = np.ascontiguousarray(get(k, np.zeros(n)), np.float32).reshape(-1)
+        for k in ("backfacing", "object_random", "object_index", "object_alpha",
+                  "material_index"):
+            a = np.ascontiguousarray(get(k, np.ones(n) if k == "object_alpha" else
+                                         np.zeros(n)), np.float32).reshape(-1)
             if a.shape != (n,):
                 raise ValueError(f"ShadingInputs.{k} must be ({n},) float32, got {a.shape}")
             scal[k] = a

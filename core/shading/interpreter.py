@@ -31,7 +31,8 @@ _CHUNK = 256
 
 
 @njit(inline="always", **dict(cache=True, error_model="numpy"))
-def _load_input(r, ins, i, P, N, Ng, I, back, gen, obj, objn, oloc, orand, ocol, oidx, uv, attr):
+def _load_input(r, ins, i, P, N, Ng, I, back, gen, obj, objn, oloc, orand, ocol, oidx, uv, attr,
+                oalpha, midx):
     src = ins[1]
     idx = ins[2]
     o = ins[_F]
@@ -55,7 +56,11 @@ def _load_input(r, ins, i, P, N, Ng, I, back, gen, obj, objn, oloc, orand, ocol,
         a = ocol
     else:
         a = P  # not used below
-    if src == 4 or src == 10 or src == 14:
+    if src == 15 or src == 16:  # SOURCE_OBJECT_ALPHA, SOURCE_MATERIAL_INDEX
+        r[o] = oalpha[i] if src == 15 else midx[i]
+        r[o + 1] = r[o]
+        r[o + 2] = r[o]
+    elif src == 4 or src == 10 or src == 14:
         r[o] = back[i] if src == 4 else (orand[i] if src == 10 else oidx[i])
         r[o + 1] = r[o]
         r[o + 2] = r[o]
@@ -253,7 +258,7 @@ def _run(r, ins, tables, im_bytes, im_shorts, im_floats, im_tiles, im_first, im_
 @njit(parallel=True, **dict(cache=True, error_model="numpy"))
 def evaluate_kernel(instructions, constants, tables, n_registers, outputs, P, N, Ng, I, back,
                     gen, obj, objn, oloc, orand, ocol, oidx, uv, attr, im_bytes, im_shorts, im_floats,
-                    im_tiles, im_first, im_count, out):
+                    im_tiles, im_first, im_count, out, oalpha, midx):
     """Run the program on every point: out[i, o] = register outputs[o, 0] of point i.
     (N, O) float32 ``out``; every other array as ``ShadingInputs`` / ``ShaderProgram`` /
     ``ProgramImages`` (im_*)."""
@@ -270,7 +275,7 @@ def evaluate_kernel(instructions, constants, tables, n_registers, outputs, P, N,
                 ins = instructions[s]
                 if ins[0] == pg.OP_INPUT:
                     _load_input(r, ins, i, P, N, Ng, I, back, gen, obj, objn, oloc, orand,
-                                ocol, oidx, uv, attr)
+                                ocol, oidx, uv, attr, oalpha, midx)
                 else:
                     _run(r, ins, tables, im_bytes, im_shorts, im_floats, im_tiles,
                          im_first, im_count, px)
@@ -297,7 +302,8 @@ def evaluate(program: pg.ShaderProgram, inputs: ShadingInputs,
                     inputs.object_coords, inputs.object_normal, inputs.object_location,
                     inputs.object_random, inputs.object_color, inputs.object_index,
                     inputs.uv, inputs.attributes, im.bytes, im.shorts,
-                    im.floats, im.tiles, im.slot_first, im.slot_count, out)
+                    im.floats, im.tiles, im.slot_first, im.slot_count, out,
+                    inputs.object_alpha, inputs.material_index)
     return out
 
 

@@ -159,6 +159,9 @@ def plane_inputs(plane, g, offset=(0.0, 0.0), attributes=(), uv_maps=()) -> Shad
                                object_color=np.tile(info[:3], (len(P), 1)),
                                object_random=np.full(len(P), info[3]),
                                object_index=np.full(len(P), info[4]),
+                               object_alpha=np.full(len(P), info[5]),
+                               material_index=np.full(len(P), float(
+                                   plane.data.materials[0].pass_index)),
                                uv=np.concatenate([uv[None].astype(np.float32),
                                                   plane_uv_maps(plane, obj, uv_maps)]),
                                attributes=plane_attributes(plane, obj, attributes))
