@@ -44,6 +44,7 @@ from .materials.textures import SurfaceTextures
 from .media import regions
 from .scene import geometry
 from .shading import interpreter
+from .shading import program as pg
 from .shading.inputs import ShadingInputs
 from .scene.accel import Accelerator, use_threads
 from .scene.bounds import Targets, bounding_sphere, object_spheres
@@ -133,7 +134,20 @@ class HitShader:
         used = np.bincount(mesh.material_index, minlength=mats.count)[:mats.count] > 0
         self.programs = progs
         self.images = scene.program_images
-        self.programmed = np.array([p is not None for p in progs], bool).reshape(mats.count)
+        # materials whose closures a program computes (TARGET_CLOSURE outputs)
+        self.programmed = np.array(
+            [p is not None and bool(np.any(p.outputs[:, 1] == pg.TARGET_CLOSURE))
+             for p in progs], bool).reshape(mats.count)
+        # materials whose emission a program computes (TARGET_EMISSION outputs)
+        self.emission_programmed = np.array(
+            [p is not None and bool(np.any(p.outputs[:, 1] == pg.TARGET_EMISSION))
+             for p in progs], bool).reshape(mats.count)
+        # materials whose opacity a program computes (TARGET_ALPHA)
+        self.alpha_programmed = np.array(
+            [p is not None and bool(np.any(p.outputs[:, 1] == pg.TARGET_ALPHA))
+             for p in progs], bool).reshape(mats.count)
+        self.emission = np.asarray(mats.emission, np.float64).reshape(-1, 3)
+        self.mesh_material = mesh.material_index
         self.active = bool(np.any(self.programmed & used))
         self.table = closures
         self.tri_vertices, self.tri_normals = tri_vertices, tri_normals
@@ -193,6 +207,93 @@ class HitShader:
                                   material_index=self.pass_index[mat], uv=uv,
                                   attributes=self._attributes(prim, u, v, w))
         return ins, mat
+
+    def emission_at(self, prim, u, v, d, mat, emission=None) -> np.ndarray:
+        """(N, 3) float64 emitted radiance W/(m^2 sr) at N hits (prim, u, v, d as for
+        ``inputs``, mat (N,) their materials): ``emission`` (default: the materials'
+        constant emission) with the hits whose material's emission is programmed
+        replaced by the program's value there (clamped to >= 0: a negative radiance
+        means nothing here). ``emission`` itself when no hit is programmed (bit for bit
+        as without programs)."""
+        if emission is None:
+            emission = self.emission[mat]
+        if prim.shape[0] == 0 or not np.any(self.emission_programmed[mat]):
+            return emission
+        hit = np.flatnonzero(self.emission_programmed[mat])
+        out = np.array(emission, np.float64, copy=True)
+        ins, _ = self.inputs(prim[hit], u[hit], v[hit], np.asarray(d)[hit])
+        for m in np.unique(mat[hit]):
+            sel = np.flatnonzero(mat[hit] == m)
+            prog = self.programs[m]
+            values = interpreter.evaluate(prog, _subset(ins, sel), self.images)
+            em = np.zeros((sel.size, 3))
+            for o, (_, target, _, slot) in enumerate(prog.outputs.tolist()):
+                if target == pg.TARGET_EMISSION:
+                    em[:, slot] = values[:, o]
+            out[hit[sel]] = np.maximum(np.nan_to_num(em, nan=0.0, posinf=0.0), 0.0)
+        return out
+
+    def alpha_at(self, prim, u, v) -> np.ndarray:
+        """(N,) float64 in [0, 1]: the program's opacity (TARGET_ALPHA) at N hits on
+        triangles prim (N,) whose material's opacity is programmed, Embree barycentrics
+        (u, v); seen along the triangle's normal (a cut-out has no direction:
+        ``SurfaceTextures.opacity`` is asked without one). It multiplies the material's
+        constant opacity (``SurfaceTextures.use_program_alpha``)."""
+        out = np.ones(prim.shape[0])
+        if prim.shape[0] == 0:
+            return out
+        mat = self.mesh_material[prim]
+        tv = self.tri_vertices[prim].astype(np.float64)
+        n = np.cross(tv[:, 1] - tv[:, 0], tv[:, 2] - tv[:, 0])
+        n /= np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
+        ins, _ = self.inputs(prim, np.asarray(u), np.asarray(v), -n)
+        for m in np.unique(mat):
+            if not self.alpha_programmed[m]:
+                continue
+            sel = np.flatnonzero(mat == m)
+            prog = self.programs[m]
+            values = interpreter.evaluate(prog, _subset(ins, sel), self.images)
+            col = int(np.flatnonzero(prog.outputs[:, 1] == pg.TARGET_ALPHA)[0])
+            out[sel] = np.clip(np.nan_to_num(values[:, col], nan=1.0), 0.0, 1.0)
+        return out
+
+    def emission_points(self, prim, u, v, d) -> np.ndarray:
+        """``emission_at`` for triangles prim (N,) at barycentrics (u, v), their own
+        materials (light sampling and photon emission on textured emitters)."""
+        return self.emission_at(prim, u, v, d, self.mesh_material[prim])
+
+    STRATA = 4
+    """Textured emitters: each triangle's mean radiance is the average of the program at
+    the centroids of its STRATA^2 equal-area sub-triangles (midpoint rule)."""
+
+    def textured_emitters(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """(triangles (K,) int32, mean radiance (K, 3) float64) of every triangle whose
+        material's emission is programmed and used, or None: the pick weights of
+        ``EmissiveTriangles`` (the estimator divides by them, so any positive weights
+        are unbiased; the mean keeps the variance low). Seen along the triangle's own
+        normal (Incoming = normal, front side)."""
+        used = self.emission_programmed[self.mesh_material] if self.mesh_material.size \
+            else np.zeros(0, bool)
+        tri = np.flatnonzero(used).astype(np.int32)
+        if tri.size == 0:
+            return None
+        s = self.STRATA
+        bary = []  # centroids of the s^2 sub-triangles of a regular subdivision
+        for i in range(s):
+            for j in range(s - i):
+                bary.append(((i + 1 / 3) / s, (j + 1 / 3) / s))      # upright
+                if i + j < s - 1:
+                    bary.append(((i + 2 / 3) / s, (j + 2 / 3) / s))  # inverted
+        b = np.array(bary)  # (s^2, 2): weights of corners 1 and 2
+        k = b.shape[0]
+        prim = np.repeat(tri, k)
+        u, v = np.tile(b[:, 0], tri.size), np.tile(b[:, 1], tri.size)
+        e1 = self.tri_vertices[tri, 1].astype(np.float64) - self.tri_vertices[tri, 0]
+        e2 = self.tri_vertices[tri, 2].astype(np.float64) - self.tri_vertices[tri, 0]
+        n = np.cross(e1, e2)
+        n /= np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
+        em = self.emission_points(prim, u, v, np.repeat(-n, k, axis=0))
+        return tri, em.reshape(tri.size, k, 3).mean(axis=1)
 
     def _uv_maps(self, prim, u, v, w) -> np.ndarray:
         """(1 + U, N, 2) the UV maps at the hits: the active render map (``Mesh.uvs``),
@@ -374,14 +475,22 @@ def prepare(scene: Scene, threads: int = 0) -> PreparedScene:
     if mesh.triangle_count:
         specular_objects[np.unique(mesh.object_index[specular_material[mesh.material_index]])] = True
     light_set = LightSet.from_lights(scene.lights)
-    emissive = EmissiveTriangles.from_mesh(mesh, scene.materials)
+    hit_shader = HitShader(scene, closures, tri_vertices, tri_normals, tri_material,
+                           geometry.scene_extent(lo, hi))
+    emissive = EmissiveTriangles.from_mesh(mesh, scene.materials,
+                                           hit_shader.textured_emitters())
+    texels = SurfaceTextures(scene, np.ones_like(mats["diffuse"]))
+    surfaces = SurfaceTextures(scene, mats["diffuse"])
+    if np.any(hit_shader.alpha_programmed):
+        for table in (texels, surfaces):
+            table.use_program_alpha(hit_shader.alpha_programmed, hit_shader.alpha_at)
     emissive_index = np.full(mesh.triangle_count, -1, np.int32)
     emissive_index[emissive.triangle] = np.arange(emissive.count, dtype=np.int32)
     return PreparedScene(
         scene=scene, threads=workers, accel=Accelerator(tri_vertices, threads=workers),
         tri_vertices=tri_vertices, tri_normals=tri_normals,
         tri_material=tri_material, materials=mats, closures=closures,
-        texels=SurfaceTextures(scene, np.ones_like(mats["diffuse"])),
+        texels=texels,
         emissive_index=emissive_index, has_diffuse=has_diffuse,
         nondelta=has_diffuse | lobes["rough"], has_delta=lobes["delta"],
         sampled_only=lobes["rough"] & ~has_diffuse,
@@ -389,12 +498,11 @@ def prepare(scene: Scene, threads: int = 0) -> PreparedScene:
         light_shows=np.any(light_set.radiance > 0, axis=1),
         emissive=emissive,
         world=np.asarray(scene.world.radiance, np.float64).reshape(3),
-        surfaces=SurfaceTextures(scene, mats["diffuse"]),
+        surfaces=surfaces,
         extent=geometry.scene_extent(lo, hi), centre=centre,
         radius=radius * 1.01 if radius > 0 else 0.0,
         objects=object_spheres(tri_vertices, mesh.object_index, n_obj),
         specular_objects=specular_objects,
         diffuse_area=diffuse_area(tri_vertices, tri_material, has_diffuse),
-        hit_shader=HitShader(scene, closures, tri_vertices, tri_normals, tri_material,
-                             geometry.scene_extent(lo, hi)),
+        hit_shader=hit_shader,
         medium=regions.renderable(scene.media, geometry.scene_extent(lo, hi), workers))

@@ -31,7 +31,8 @@ from . import compat
 from .export_images import DEFAULT_GREY, ImageTable  # noqa: F401  (ImageTable re-exported)
 from .export_nodes import Closure, NodeReader, UnreadableTree, diffuse_closure, follow_reroutes
 from .export_shaders import HANDLERS as BSDF_HANDLERS
-from .export_shader import AttributeNames, UVMapNames, compile_sockets
+from .export_shader import AttributeNames, UVMapNames, compile_sockets, opacity_product, \
+    weighted_sum
 from ..core.scene import closures as cl
 from ..core.shading import program as pg
 
@@ -68,14 +69,30 @@ class TreeReader(NodeReader):
 
     def emission(self, node) -> Closure:
         # Background (world) and Emission share the colour x strength radiance.
-        return Closure(emission=self.color(node, "Color") * max(self.scalar(node, "Strength"), 0.0))
+        return Closure(emission=self.color(node, "Color") * max(self.scalar(node, "Strength"), 0.0),
+                       emitters=[{"node": node, "color": "Color", "strength": "Strength",
+                                  "weight": 1.0}])
 
     def mix(self, node) -> Closure:
-        fac = self.ranged(node, "Factor")
         shaders = [s for s in node.inputs if s.type == 'SHADER']
         if len(shaders) != 2:
             raise UnreadableTree(f"mix node '{node.name}' without two shader inputs")
         a, b = self.shader_input(shaders[0]), self.shader_input(shaders[1])
+        sock = compat.input_socket(node, "Factor", "Fac")
+        linked = follow_reroutes(sock) if sock is not None and sock.is_linked else None
+        if self.linked is not None and linked is not None and linked.node.bl_idname not in (
+                "ShaderNodeRGB", "ShaderNodeValue"):
+            # A node graph into the factor of a mix with a Transparent BSDF: a cut-out
+            # whose opacity a program computes; the other shader at full weight (the
+            # core divides what a hit sees by the opacity).
+            for first, clear, other in ((True, a, b), (False, b, a)):
+                if _pure_transparent(clear):
+                    self.linked.append((node, sock))
+                    other.cutouts = other.cutouts + [{
+                        "node": node, "socket": sock.name, "weight": 1.0,
+                        "kind": "mix_a" if first else "mix_b", "mean": clear.transparency}]
+                    return other
+        fac = self.ranged(node, "Factor")
         self._check_textures(node, a, b)
         return a.scaled(1.0 - fac).plus(b.scaled(fac))
 
@@ -95,6 +112,12 @@ class TreeReader(NodeReader):
             self.note(f'Material "{self.material}": node "{node.name}" mixes diffuse shaders '
                       f'with different base colour images; the material\'s whole diffuse '
                       f'lobe uses one image')
+
+
+def _pure_transparent(c: Closure) -> bool:
+    """The closure is only a Transparent BSDF (no BSDF, no emission, no cut-out)."""
+    return (c.transparency > 0 and not c.bsdfs and not c.emitters and not c.cutouts
+            and not np.any(c.emission > 0) and not np.any(c.diffuse > 0))
 
 
 _HANDLERS = dict(BSDF_HANDLERS) | {
@@ -237,12 +260,21 @@ def _program(mat, closure: Closure, reader: TreeReader, warnings: list[str],
         if "node" in b:
             index.setdefault(b["node"].as_pointer(), []).append(i)
     targets, rows, seen = [], [], set()
+    emitting = {(e["node"].as_pointer(), name) for e in closure.emitters
+                for name in (e["color"], e["strength"])}
+    emission_linked = False
+    cutting = {(e["node"].as_pointer(), e["socket"]) for e in closure.cutouts}
     for node, sock in reader.linked:
         key = (node.as_pointer(), sock.as_pointer())
         slot = _slot(node, sock)
         if key in seen:
             continue
         seen.add(key)
+        if (node.as_pointer(), sock.name) in emitting:
+            emission_linked = True
+            continue
+        if (node.as_pointer(), sock.name) in cutting:
+            continue
         if slot is None or node.as_pointer() not in index:
             linked = follow_reroutes(sock)
             reader.unsupported_node(linked.node, f'input "{sock.name}" of node "{node.name}"')
@@ -250,6 +282,31 @@ def _program(mat, closure: Closure, reader: TreeReader, warnings: list[str],
         for i in index[node.as_pointer()]:
             targets.append((sock, pg.TARGET_CLOSURE, i, slot))
             rows.append(kept[i])
+    if emission_linked:
+        # The whole emission (every emitting node, weighted by the Mix / Add factors
+        # above it, over the opacity as ``Closure.as_row`` divides it) becomes the
+        # program's TARGET_EMISSION, replacing the material's constant emission.
+        opacity = float(np.clip(1.0 - closure.transparency, 0.0, 1.0))
+        k = 1.0 / opacity if 0.0 < opacity < 1.0 else 1.0
+        terms = [(compat.input_socket(e["node"], e["color"]),
+                  compat.input_socket(e["node"], e["strength"]), e["weight"] * k)
+                 for e in closure.emitters if e["weight"] > 0]
+        targets.append((weighted_sum(terms), pg.TARGET_EMISSION, 0, 0))
+        rows.append(None)
+    cutouts = [e for e in closure.cutouts if e["weight"] > 0]
+    if any(abs(e["weight"] - 1.0) > 1e-9 for e in cutouts):
+        # The core multiplies the material's opacity by the program's and divides its
+        # closures by it: a programmed cut-out under another Mix / Add has no such form.
+        for e in cutouts:
+            reader.unsupported_node(e["node"], f'input "{e["socket"]}" of node '
+                                    f'"{e["node"].name}" under another Mix or Add Shader '
+                                    f'(a programmed cut-out must be the whole material)')
+        cutouts = []
+    if cutouts:
+        terms = [(compat.input_socket(e["node"], e["socket"]), e["kind"], e.get("mean", 1.0))
+                 for e in cutouts]
+        targets.append((opacity_product(terms), pg.TARGET_ALPHA, 0, 0))
+        rows.append("alpha")
     if not targets:
         return None
     compiled = compile_sockets(mat, targets, images=program_images,
@@ -257,7 +314,17 @@ def _program(mat, closure: Closure, reader: TreeReader, warnings: list[str],
                                uv_maps=UVMapNames() if uv_maps is None else uv_maps)
     warnings.extend(compiled.warnings)
     for (sock, _, _, slot), b, value in zip(targets, rows, compiled.constant):
-        if value is not None:  # folded: the constant is the closure's own parameter
+        if value is not None and isinstance(b, str):  # a folded opacity: the constant form
+            a = float(np.clip(value[0], 0.0, 1.0))
+            for lobe in ("diffuse", "specular", "transmission", "emission"):
+                setattr(closure, lobe, getattr(closure, lobe) * a)
+            closure.glossy_weight *= a
+            for row in closure.bsdfs:
+                row["weight"] = row["weight"] * a
+            closure.transparency = 1.0 - (1.0 - closure.transparency) * a
+        elif value is not None and b is None:  # a folded emission: the constant is exact
+            closure.emission = np.maximum(np.asarray(value, np.float64), 0.0) / k
+        elif value is not None:  # folded: the constant is the closure's own parameter
             b["params"][slot:slot + len(value)] = value
     return compiled.program
 

@@ -801,6 +801,66 @@ SUPPORTED = {
 Group Input / Output and muted nodes, handled by the walk itself)."""
 
 
+def weighted_sum(terms):
+    """A ``compile_sockets`` target computing sum_k weight_k x colour_k x strength_k (a
+    colour) from [(colour socket, strength socket or None, weight float)]: a material's
+    emission over its emitting nodes."""
+    def build(b):
+        total = None
+        for color_sock, strength_sock, weight in terms:
+            c = b.as_kind(b.socket_value(color_sock, ()), "c")
+            s = b.const((float(weight),), "f") if strength_sock is None else \
+                b.as_kind(b.socket_value(strength_sock, ()), "f")
+            if strength_sock is not None and weight != 1.0:
+                w = b.new("f")
+                b.emit(pg.OP_MATH, [cn.MATH_OPS["MULTIPLY"], 0],
+                       [s, b.const((float(weight),), "f"), b.const((0.0,), "f")], [w])
+                s = w
+            term, junk = b.new("c"), b.new("f")
+            zero = b.const((0.0, 0.0, 0.0), "v")
+            b.emit(pg.OP_VECTOR_MATH, [cn.VECTOR_MATH_OPS["SCALE"]], [c, zero, zero, s],
+                   [term, junk])
+            if total is not None:
+                out, junk2 = b.new("c"), b.new("f")
+                b.emit(pg.OP_VECTOR_MATH, [cn.VECTOR_MATH_OPS["ADD"]], [total, term, zero,
+                                                                       b.const((0.0,), "f")],
+                       [out, junk2])
+                term = out
+            total = term
+        return total if total is not None else b.const((0.0, 0.0, 0.0), "c")
+    return build
+
+
+def opacity_product(terms):
+    """A ``compile_sockets`` target computing a material's opacity as the product over
+    its programmed cut-outs [(socket, kind, mean)] (``export_nodes.Closure.cutouts``):
+    "alpha" clamp(value, 0, 1); "mix_a" 1 - (1 - clamp(fac)) mean; "mix_b"
+    1 - clamp(fac) mean (Cycles clamps a Mix Shader's factor)."""
+    def build(b):
+        total = None
+        for sock, kind, mean in terms:
+            v = b.as_kind(b.socket_value(sock, ()), "f")
+            one, zero = b.const((1.0,), "f"), b.const((0.0,), "f")
+            c = b.new("f")
+            b.emit(pg.OP_CLAMP, [0], [v, zero, one], [c])
+            if kind != "alpha":
+                if kind == "mix_a":  # the transparent share 1 - fac
+                    s = b.new("f")
+                    b.emit(pg.OP_MATH, [cn.MATH_OPS["SUBTRACT"], 0], [one, c, zero], [s])
+                    c = s
+                a = b.new("f")  # 1 - share x mean
+                b.emit(pg.OP_MATH, [cn.MATH_OPS["MULTIPLY_ADD"], 0],
+                       [c, b.const((-float(mean),), "f"), one], [a])
+                c = a
+            if total is not None:
+                t = b.new("f")
+                b.emit(pg.OP_MATH, [cn.MATH_OPS["MULTIPLY"], 0], [total, c, zero], [t])
+                c = t
+            total = c
+        return total
+    return build
+
+
 def compile_sockets(material, targets, uv_maps=(), attributes=(),
                     luminance=cn.LUMINANCE_REC709, images=None) -> ShaderCompile:
     """Compile the values of input sockets of ``material``'s node tree.
@@ -819,8 +879,12 @@ def compile_sockets(material, targets, uv_maps=(), attributes=(),
     b.group_bindings = {}
     values = []
     for sock, target, closure, slot in targets:
-        kind = _socket_kind(sock) or "f"
-        value = b.as_kind(b.socket_value(sock, ()), kind)
+        if callable(sock):  # an expression over sockets (``weighted_sum``)
+            value = sock(b)
+            kind = value.kind
+        else:
+            kind = _socket_kind(sock) or "f"
+            value = b.as_kind(b.socket_value(sock, ()), kind)
         width = 1 if kind == "f" else 3
         values.append((value, [(target, closure, slot + c) for c in range(width)]))
     program, constant = b.finish(values)
