@@ -141,3 +141,37 @@ def test_checker_alpha_leaf_casts_its_pattern_matching_cycles():
     # 0.8 (max 5.3 %); the shadow's mean 0.7 % brighter than Cycles'
     assert np.percentile(err[shadow | lit], 90) < 1e-3
     np.testing.assert_allclose(ours[shadow].mean(0), cycles[shadow].mean(0), rtol=0.02)
+
+
+def test_textured_emissive_quad_lights_a_floor_like_cycles():
+    """The checker Emission plane (1 m, 0.5 m over a white floor) as the only light: the
+    floor around it (seen from above) by light sampling of the textured triangles, block
+    means (8 x 8 pixels) and channel means against Cycles."""
+    scene = scenes.reset()
+    scenes.set_resolution(RES, RES)
+    floor_mat, tree, out = _material("White")
+    d = node(tree, "ShaderNodeBsdfDiffuse")
+    d.inputs["Color"].default_value = (0.8, 0.8, 0.8, 1.0)
+    link(tree, d.outputs[0], out.inputs["Surface"])
+    scenes.add_plane(size=8.0, material=floor_mat, name="Floor")
+    scenes.add_plane(size=1.0, location=(0.0, 0.0, 0.5), material=checker_emission(),
+                     name="Lamp")
+    scenes.add_camera(location=(0.0, 0.0, 5.0), look_at=(0.0, 0.0, 0.0), ortho_scale=4.0)
+    cycles = cr.render_cycles(scene, 64)
+    ours = cr.render_photon_map(scene, 64)["Combined"][..., :3]
+    c = (np.arange(RES) + 0.5) / RES * 4.0 - 2.0
+    X, Y = np.meshgrid(c, -c)
+    floor = (np.abs(X) > 0.5) | (np.abs(Y) > 0.5)
+    means = [(ours[..., k][floor].mean(), cycles[..., k][floor].mean()) for k in range(3)]
+    blocks = []
+    for r in range(0, RES, 8):
+        for q in range(0, RES, 8):
+            sel = floor[r:r + 8, q:q + 8]
+            if sel.all():
+                blocks.append((ours[r:r + 8, q:q + 8].mean(), cycles[r:r + 8, q:q + 8].mean()))
+    blocks = np.array(blocks)
+    worst = float(np.max(np.abs(blocks[:, 0] / blocks[:, 1] - 1)))
+    print("channel means (ours, cycles)", means, "worst block", worst, "blocks", len(blocks))
+    for o, cy in means:
+        assert abs(o / cy - 1) < 0.02
+    assert worst < 0.05
