@@ -120,9 +120,11 @@ class HitShader:
 
     The per-hit inputs (core.shading.inputs.ShadingInputs): world position (the render
     frame + ``Mesh.origin``), the shading and geometric normals facing the ray, incoming
-    = -d, backfacing, the first UV map (``Mesh.uvs``), object coordinates and normal,
+    = -d, backfacing, the UV maps (``Mesh.uvs``, the active render map, then the named
+    ``Mesh.uv_maps``), object coordinates and normal,
     Generated (``Mesh.object_texspace``) and the object's location
-    (``Mesh.object_to_world``). Object random is 0 (not exported yet).
+    (``Mesh.object_to_world``), Object Info (``Mesh.object_info``: colour and its alpha,
+    Random, Object Index) and the material's pass index (``Materials.pass_index``).
     """
 
     def __init__(self, scene: Scene, closures: closure.ClosureTable, tri_vertices,
@@ -132,12 +134,26 @@ class HitShader:
         used = np.bincount(mesh.material_index, minlength=mats.count)[:mats.count] > 0
         self.programs = progs
         self.images = scene.program_images
-        self.programmed = np.array([p is not None for p in progs], bool).reshape(mats.count)
+        # materials whose closures a program computes (TARGET_CLOSURE outputs)
+        self.programmed = np.array(
+            [p is not None and bool(np.any(p.outputs[:, 1] == pg.TARGET_CLOSURE))
+             for p in progs], bool).reshape(mats.count)
+        # materials whose emission a program computes (TARGET_EMISSION outputs)
+        self.emission_programmed = np.array(
+            [p is not None and bool(np.any(p.outputs[:, 1] == pg.TARGET_EMISSION))
+             for p in progs], bool).reshape(mats.count)
+        # materials whose opacity a program computes (TARGET_ALPHA)
+        self.alpha_programmed = np.array(
+            [p is not None and bool(np.any(p.outputs[:, 1] == pg.TARGET_ALPHA))
+             for p in progs], bool).reshape(mats.count)
+        self.emission = np.asarray(mats.emission, np.float64).reshape(-1, 3)
+        self.mesh_material = mesh.material_index
         self.active = bool(np.any(self.programmed & used))
         self.table = closures
         self.tri_vertices, self.tri_normals = tri_vertices, tri_normals
         self.tri_material, self.extent = tri_material, float(extent)
         self.tri_uv = mesh.uvs
+        self.tri_uv_maps = mesh.uv_maps  # (T, 3, U, 2) or None: the named UV maps
         self.tri_attributes = mesh.attributes  # (T, 3, A, 4) or None
         self.tri_tangents = mesh.tangents  # (T, 3, G, 4) or None
         self.tri_object = mesh.object_index
@@ -154,8 +170,16 @@ class HitShader:
         else:
             self.texspace = np.broadcast_to(np.array([[0.0, 0.0, 0.0], [0.5, 0.5, 0.5]]),
                                             (n_obj, 2, 3))
-        self.object_info = (np.zeros((n_obj, 5), np.float32) if mesh.object_info is None
-                            else np.asarray(mesh.object_info, np.float32))
+        info = np.zeros((n_obj, 6), np.float32)
+        info[:, 5] = 1.0  # the object colour's alpha (Object Info Alpha)
+        if mesh.object_info is not None:
+            given = np.asarray(mesh.object_info, np.float32)
+            info = np.zeros((max(n_obj, given.shape[0]), 6), np.float32)
+            info[:, 5] = 1.0
+            info[:given.shape[0], :given.shape[1]] = given
+        self.object_info = info
+        self.pass_index = (np.zeros(mats.count, np.float32) if mats.pass_index is None
+                           else np.asarray(mats.pass_index, np.float32))
         self.origin = (np.zeros(3) if mesh.origin is None
                        else np.asarray(mesh.origin, np.float64))
         self.bumped = np.array([p is not None and _reads_bump(p) for p in progs],
@@ -210,20 +234,119 @@ class HitShader:
         onrm = np.einsum("nji,nj->ni", self.linear[obj], nsf)
         onrm /= np.maximum(np.linalg.norm(onrm, axis=1), 1e-30)[:, None]
         w = (1.0 - u - v).astype(np.float64)
-        uv = (w[:, None] * self.tri_uv[prim, 0] + u[:, None] * self.tri_uv[prim, 1]
-              + v[:, None] * self.tri_uv[prim, 2])
+        uv = self._uv_maps(prim, u, v, w)
         ins = ShadingInputs.build(world, nsf, true_normal=ngf, incoming=-np.asarray(d),
                                   backfacing=(~front).astype(np.float32),
                                   generated=generated, object_coords=local,
                                   object_normal=onrm, object_location=self.location[obj],
                                   object_color=self.object_info[obj, :3],
                                   object_random=self.object_info[obj, 3],
-                                  object_index=self.object_info[obj, 4], uv=uv[None],
+                                  object_index=self.object_info[obj, 4],
+                                  object_alpha=self.object_info[obj, 5],
+                                  material_index=self.pass_index[mat], uv=uv,
                                   attributes=self._attributes(prim, u, v, w),
                                   tangents=self._tangents(prim, u, v, w),
                                   normal_to_world=np.transpose(self.to_object[obj][:, :3, :3],
                                                                (0, 2, 1)))
         return ins, mat
+
+    def emission_at(self, prim, u, v, d, mat, emission=None) -> np.ndarray:
+        """(N, 3) float64 emitted radiance W/(m^2 sr) at N hits (prim, u, v, d as for
+        ``inputs``, mat (N,) their materials): ``emission`` (default: the materials'
+        constant emission) with the hits whose material's emission is programmed
+        replaced by the program's value there (clamped to >= 0: a negative radiance
+        means nothing here). ``emission`` itself when no hit is programmed (bit for bit
+        as without programs)."""
+        if emission is None:
+            emission = self.emission[mat]
+        if prim.shape[0] == 0 or not np.any(self.emission_programmed[mat]):
+            return emission
+        hit = np.flatnonzero(self.emission_programmed[mat])
+        out = np.array(emission, np.float64, copy=True)
+        ins, _ = self.inputs(prim[hit], u[hit], v[hit], np.asarray(d)[hit])
+        for m in np.unique(mat[hit]):
+            sel = np.flatnonzero(mat[hit] == m)
+            prog = self.programs[m]
+            values = interpreter.evaluate(prog, _subset(ins, sel), self.images)
+            em = np.zeros((sel.size, 3))
+            for o, (_, target, _, slot) in enumerate(prog.outputs.tolist()):
+                if target == pg.TARGET_EMISSION:
+                    em[:, slot] = values[:, o]
+            out[hit[sel]] = np.maximum(np.nan_to_num(em, nan=0.0, posinf=0.0), 0.0)
+        return out
+
+    def alpha_at(self, prim, u, v) -> np.ndarray:
+        """(N,) float64 in [0, 1]: the program's opacity (TARGET_ALPHA) at N hits on
+        triangles prim (N,) whose material's opacity is programmed, Embree barycentrics
+        (u, v); seen along the triangle's normal (a cut-out has no direction:
+        ``SurfaceTextures.opacity`` is asked without one). It multiplies the material's
+        constant opacity (``SurfaceTextures.use_program_alpha``)."""
+        out = np.ones(prim.shape[0])
+        if prim.shape[0] == 0:
+            return out
+        mat = self.mesh_material[prim]
+        tv = self.tri_vertices[prim].astype(np.float64)
+        n = np.cross(tv[:, 1] - tv[:, 0], tv[:, 2] - tv[:, 0])
+        n /= np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
+        ins, _ = self.inputs(prim, np.asarray(u), np.asarray(v), -n)
+        for m in np.unique(mat):
+            if not self.alpha_programmed[m]:
+                continue
+            sel = np.flatnonzero(mat == m)
+            prog = self.programs[m]
+            values = interpreter.evaluate(prog, _subset(ins, sel), self.images)
+            col = int(np.flatnonzero(prog.outputs[:, 1] == pg.TARGET_ALPHA)[0])
+            out[sel] = np.clip(np.nan_to_num(values[:, col], nan=1.0), 0.0, 1.0)
+        return out
+
+    def emission_points(self, prim, u, v, d) -> np.ndarray:
+        """``emission_at`` for triangles prim (N,) at barycentrics (u, v), their own
+        materials (light sampling and photon emission on textured emitters)."""
+        return self.emission_at(prim, u, v, d, self.mesh_material[prim])
+
+    STRATA = 4
+    """Textured emitters: each triangle's mean radiance is the average of the program at
+    the centroids of its STRATA^2 equal-area sub-triangles (midpoint rule)."""
+
+    def textured_emitters(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """(triangles (K,) int32, mean radiance (K, 3) float64) of every triangle whose
+        material's emission is programmed and used, or None: the pick weights of
+        ``EmissiveTriangles`` (the estimator divides by them, so any positive weights
+        are unbiased; the mean keeps the variance low). Seen along the triangle's own
+        normal (Incoming = normal, front side)."""
+        used = self.emission_programmed[self.mesh_material] if self.mesh_material.size \
+            else np.zeros(0, bool)
+        tri = np.flatnonzero(used).astype(np.int32)
+        if tri.size == 0:
+            return None
+        s = self.STRATA
+        bary = []  # centroids of the s^2 sub-triangles of a regular subdivision
+        for i in range(s):
+            for j in range(s - i):
+                bary.append(((i + 1 / 3) / s, (j + 1 / 3) / s))      # upright
+                if i + j < s - 1:
+                    bary.append(((i + 2 / 3) / s, (j + 2 / 3) / s))  # inverted
+        b = np.array(bary)  # (s^2, 2): weights of corners 1 and 2
+        k = b.shape[0]
+        prim = np.repeat(tri, k)
+        u, v = np.tile(b[:, 0], tri.size), np.tile(b[:, 1], tri.size)
+        e1 = self.tri_vertices[tri, 1].astype(np.float64) - self.tri_vertices[tri, 0]
+        e2 = self.tri_vertices[tri, 2].astype(np.float64) - self.tri_vertices[tri, 0]
+        n = np.cross(e1, e2)
+        n /= np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
+        em = self.emission_points(prim, u, v, np.repeat(-n, k, axis=0))
+        return tri, em.reshape(tri.size, k, 3).mean(axis=1)
+
+    def _uv_maps(self, prim, u, v, w) -> np.ndarray:
+        """(1 + U, N, 2) the UV maps at the hits: the active render map (``Mesh.uvs``),
+        then the named ones (``Mesh.uv_maps``), interpolated barycentrically."""
+        uv = (w[:, None] * self.tri_uv[prim, 0] + u[:, None] * self.tri_uv[prim, 1]
+              + v[:, None] * self.tri_uv[prim, 2])[None]
+        if self.tri_uv_maps is None or self.tri_uv_maps.shape[2] == 0:
+            return uv
+        c = self.tri_uv_maps[prim]  # (N, 3, U, 2)
+        a = w[:, None, None] * c[:, 0] + u[:, None, None] * c[:, 1] + v[:, None, None] * c[:, 2]
+        return np.concatenate([uv, np.transpose(a, (1, 0, 2))]).astype(np.float32)
 
     def _attributes(self, prim, u, v, w) -> np.ndarray:
         """(A, N, 4) the mesh attributes at the hits, interpolated like the UVs."""
@@ -406,7 +529,7 @@ def _subset(ins: ShadingInputs, sel) -> ShadingInputs:
     pick = {k: getattr(ins, k)[sel] for k in (
         "position", "normal", "true_normal", "incoming", "backfacing", "generated",
         "object_coords", "object_normal", "object_location", "object_random",
-        "object_color", "object_index")}
+        "object_color", "object_index", "object_alpha", "material_index")}
     return ShadingInputs(**pick, uv=np.ascontiguousarray(ins.uv[:, sel]),
                          attributes=np.ascontiguousarray(ins.attributes[:, sel]),
                          tangents=np.ascontiguousarray(ins.tangents[:, sel]),
@@ -456,14 +579,22 @@ def prepare(scene: Scene, threads: int = 0) -> PreparedScene:
     if mesh.triangle_count:
         specular_objects[np.unique(mesh.object_index[specular_material[mesh.material_index]])] = True
     light_set = LightSet.from_lights(scene.lights)
-    emissive = EmissiveTriangles.from_mesh(mesh, scene.materials)
+    hit_shader = HitShader(scene, closures, tri_vertices, tri_normals, tri_material,
+                           geometry.scene_extent(lo, hi))
+    emissive = EmissiveTriangles.from_mesh(mesh, scene.materials,
+                                           hit_shader.textured_emitters())
+    texels = SurfaceTextures(scene, np.ones_like(mats["diffuse"]))
+    surfaces = SurfaceTextures(scene, mats["diffuse"])
+    if np.any(hit_shader.alpha_programmed):
+        for table in (texels, surfaces):
+            table.use_program_alpha(hit_shader.alpha_programmed, hit_shader.alpha_at)
     emissive_index = np.full(mesh.triangle_count, -1, np.int32)
     emissive_index[emissive.triangle] = np.arange(emissive.count, dtype=np.int32)
     return PreparedScene(
         scene=scene, threads=workers, accel=Accelerator(tri_vertices, threads=workers),
         tri_vertices=tri_vertices, tri_normals=tri_normals,
         tri_material=tri_material, materials=mats, closures=closures,
-        texels=SurfaceTextures(scene, np.ones_like(mats["diffuse"])),
+        texels=texels,
         emissive_index=emissive_index, has_diffuse=has_diffuse,
         nondelta=has_diffuse | lobes["rough"], has_delta=lobes["delta"],
         sampled_only=lobes["rough"] & ~has_diffuse,
@@ -471,12 +602,11 @@ def prepare(scene: Scene, threads: int = 0) -> PreparedScene:
         light_shows=np.any(light_set.radiance > 0, axis=1),
         emissive=emissive,
         world=np.asarray(scene.world.radiance, np.float64).reshape(3),
-        surfaces=SurfaceTextures(scene, mats["diffuse"]),
+        surfaces=surfaces,
         extent=geometry.scene_extent(lo, hi), centre=centre,
         radius=radius * 1.01 if radius > 0 else 0.0,
         objects=object_spheres(tri_vertices, mesh.object_index, n_obj),
         specular_objects=specular_objects,
         diffuse_area=diffuse_area(tri_vertices, tri_material, has_diffuse),
-        hit_shader=HitShader(scene, closures, tri_vertices, tri_normals, tri_material,
-                             geometry.scene_extent(lo, hi)),
+        hit_shader=hit_shader,
         medium=regions.renderable(scene.media, geometry.scene_extent(lo, hi), workers))

@@ -32,7 +32,7 @@ from .export_errors import ExportError, NoCameraError  # noqa: F401  (re-exporte
 from .export_lights import light_row
 from .export_materials import ImageTable, default_row, read_material, read_world, volume_only
 from .export_images import ProgramImageTable
-from .export_shader import AttributeNames
+from .export_shader import AttributeNames, UVMapNames
 from .export_volumes import material_medium, world_medium
 from .export_warnings import scene_warnings
 
@@ -88,7 +88,7 @@ def export_scene(depsgraph, camera=None, origin=None) -> ExportResult:
 
     mesh, mesh_media = geometry.build(origin, materials.left_out, materials.volumes,
                                       materials.attributes.names,
-                                      materials.tangent_maps.names)
+                                      materials.tangent_maps.names, materials.uv_maps.names)
     scene = Scene(
         mesh=mesh,
         materials=Materials.from_list(materials.rows),
@@ -105,15 +105,16 @@ def export_scene(depsgraph, camera=None, origin=None) -> ExportResult:
 
 
 def object_info(inst) -> np.ndarray:
-    """(5,) float32 Object Info of a depsgraph instance: colour RGB (``Object.color``),
-    Random, Object Index (``pass_index``). Random is Cycles' ``random_number``, computed
+    """(6,) float32 Object Info of a depsgraph instance: colour RGB (``Object.color``),
+    Random, Object Index (``pass_index``), the colour's alpha (Object Info Alpha). Random is Cycles' ``random_number``, computed
     as scene/object.cpp does in float32: (float)random_id * (1.0f / (float)0xFFFFFFFF),
     random_id as Cycles' Blender sync makes it (``core.shading.hash.object_random_id``:
     the object name's hash, or the instance's ``random_id``)."""
     obj = inst.object
     rid = np.uint32(object_random_id(obj.name, inst.random_id, inst.is_instance))
     rand = np.float32(rid) * (np.float32(1.0) / np.float32(0xFFFFFFFF))
-    return np.array([*tuple(obj.color)[:3], rand, float(obj.pass_index)], np.float32)
+    color = tuple(obj.color)
+    return np.array([*color[:3], rand, float(obj.pass_index), color[3]], np.float32)
 
 
 def _instance_name(inst) -> str:
@@ -173,6 +174,8 @@ class _MaterialTable:
         """The render camera for the programs' Texture Coordinate Camera / Window."""
         self.tangent_maps = AttributeNames()
         """UV maps whose MikkTSpace tangents the programs read ("" = active render)."""
+        self.uv_maps = UVMapNames()
+        """UV maps the programs name (UV Map node; ``Mesh.uv_map_names``)."""
         self.left_out: set[int] = set()
         """Indices of volume-only materials: their faces are not surfaces (null
         interfaces) and only bound their medium."""
@@ -197,7 +200,7 @@ class _MaterialTable:
             else:
                 row = default_row() if mat is None else read_material(
                     mat, self._warnings, self.images, self.program_images, self.attributes,
-                    view=self.view, tangent_maps=self.tangent_maps)
+                    view=self.view, tangent_maps=self.tangent_maps, uv_maps=self.uv_maps)
             self._index[key] = len(self.rows)
             self.rows.append(row)
         return self._index[key]
@@ -224,6 +227,7 @@ class _LocalMesh:
     vertex_ids: np.ndarray | None = None  # (T, 3) int32, the mesh's own vertex indices
     attributes: np.ndarray | None = None  # (T, 3, A, 4) float32, read_attributes
     tangents: np.ndarray | None = None  # (T, 3, G, 4) float32, read_tangents
+    uv_maps: np.ndarray | None = None  # (T, 3, U, 2) float32, read_uv_maps
 
 
 def read_mesh(me) -> _LocalMesh | None:
@@ -377,6 +381,31 @@ def read_tangents(me, names, local: _LocalMesh, where: str, warnings) -> np.ndar
         corners = local.corners
         out[:, :, g, :3] = tangent.reshape(-1, 3)[corners]
         out[:, :, g, 3] = np.where(sign.reshape(-1)[corners] < 0, -1.0, 1.0)
+def read_uv_maps(me, names, local: _LocalMesh, where: str, uv_maps: UVMapNames,
+                 warnings, materials=None) -> np.ndarray:
+    """(T, 3, U, 2) float32: the UV maps ``names`` at the corners of ``local``'s triangles
+    (``Mesh.uv_maps``). A name the mesh lacks is (0, 0), as Cycles (its attribute lookup
+    fails and the node reads 0), reported once per material and name for each material
+    among ``materials`` (the object's material names; None: any) that reads it
+    (``uv_maps.readers``), with ``where`` (the object)."""
+    nt = local.triangles.shape[0]
+    out = np.zeros((nt, 3, len(names), 2), np.float32)
+    nl = len(me.loops)
+    for j, name in enumerate(names):
+        layer = me.uv_layers.get(name)
+        if layer is None:
+            for material in uv_maps.readers.get(name, ()):
+                if materials is not None and material not in materials:
+                    continue
+                msg = (f"Material '{material}': UV map '{name}' not found on {where}; "
+                       f"(0, 0) is used, as Cycles")
+                if not any(w.startswith(f"Material '{material}': UV map '{name}' not found")
+                           for w in warnings):
+                    warnings.append(msg)
+            continue
+        data = _read(getattr(layer, "uv", None), "vector", nl * 2, np.float32,
+                     lambda buf: layer.data.foreach_get("uv", buf))
+        out[:, :, j] = data.reshape(-1, 2)[local.corners]
     return out
 
 
@@ -418,7 +447,8 @@ class _Geometry:
         slots = materials.slots(obj)  # first: its programs name the attributes they read
         names = tuple(materials.attributes.names)
         tangent_maps = tuple(materials.tangent_maps.names)
-        key = (obj.data.as_pointer(), names, tangent_maps)
+        uv_names = tuple(materials.uv_maps.names)
+        key = (obj.data.as_pointer(), names, tangent_maps, uv_names)
         if key not in self._meshes:
             local = read_mesh(obj.data)
             if local is not None:
@@ -427,6 +457,11 @@ class _Geometry:
                 if tangent_maps:
                     local.tangents = read_tangents(obj.data, tangent_maps, local,
                                                    f"Object '{name}'", self._warnings)
+                if uv_names:
+                    local.uv_maps = read_uv_maps(obj.data, uv_names, local,
+                                                 f"object '{name}'", materials.uv_maps,
+                                                 self._warnings,
+                                                 {materials.rows[i]["name"] for i in slots})
             self._meshes[key] = local
         if self._meshes[key] is None:
             return
@@ -436,7 +471,7 @@ class _Geometry:
             return
         self.names.append(name)
         self.matrices.append(m)
-        self.info.append(np.zeros(5, np.float32) if info is None else info)
+        self.info.append(np.array([0, 0, 0, 0, 0, 1], np.float32) if info is None else info)
         me = obj.data
         self.texspaces.append(np.array([tuple(getattr(me, "texspace_location", (0, 0, 0))),
                                         tuple(getattr(me, "texspace_size", (1, 1, 1)))],
@@ -444,11 +479,12 @@ class _Geometry:
         self._batches.setdefault((key, slots), []).append((m, len(self.names) - 1))
 
     def build(self, origin, left_out=frozenset(), volumes=None,
-              attribute_names=(), tangent_maps=()) -> tuple[Mesh, list[dict]]:
+              attribute_names=(), tangent_maps=(), uv_map_names=()) -> tuple[Mesh, list[dict]]:
         """The mesh in the render frame: world positions - ``origin`` (3,), in float64
         until the float32 cast; faces of the materials in ``left_out`` are dropped;
         ``attribute_names`` the shader programs' attributes (``Mesh.attributes``),
-        ``tangent_maps`` the UV maps of their tangents (``Mesh.tangents``). And the
+        ``tangent_maps`` the UV maps of their tangents (``Mesh.tangents``),
+        ``uv_map_names`` the UV maps they name (``Mesh.uv_maps``). And the
         media inside the objects: one ``Media.from_list`` row per object and material of
         ``volumes`` (material index -> medium row), bounded by that object's faces of the
         material ("Smoke in Sphere")."""
@@ -456,17 +492,18 @@ class _Geometry:
             return Mesh.empty(), []
         n_attributes = len(attribute_names)
         n_tangents = len(tangent_maps)
+        n_uv = len(uv_map_names)
         parts = []
         base = 0
         for (key, slots), instances in self._batches.items():
             local = self._meshes[key]
             part = _transform(local, np.stack([m for m, _ in instances]),
                               np.array([i for _, i in instances], np.int32), slots, base,
-                              n_attributes, n_tangents)
+                              n_attributes, n_tangents, n_uv)
             base += part[0].shape[0]
             parts.append(part)
-        verts, tris, normals, uvs, mats, objs, attrs, tans = (np.concatenate(col)
-                                                              for col in zip(*parts))
+        verts, tris, normals, uvs, mats, objs, attrs, tans, uv_maps = (
+            np.concatenate(col) for col in zip(*parts))
         verts -= np.asarray(origin, np.float64)
         media = []
         for mat_index, row in sorted((volumes or {}).items()):
@@ -487,6 +524,7 @@ class _Geometry:
             keep = ~np.isin(mats, list(left_out))
             tris, normals, uvs = tris[keep], normals[keep], uvs[keep]
             mats, objs, attrs, tans = mats[keep], objs[keep], attrs[keep], tans[keep]
+            uv_maps = uv_maps[keep]
         f32, i32 = np.float32, np.int32
         return Mesh(vertices=verts.astype(f32), triangles=tris.astype(i32, copy=False),
                     normals=normals.astype(f32, copy=False), uvs=uvs.astype(f32, copy=False),
@@ -499,6 +537,8 @@ class _Geometry:
                     attribute_names=tuple(attribute_names),
                     tangents=tans.astype(f32, copy=False) if n_tangents else None,
                     tangent_maps=tuple(tangent_maps),
+                    uv_maps=uv_maps.astype(f32, copy=False) if n_uv else None,
+                    uv_map_names=tuple(uv_map_names),
                     origin=np.asarray(origin, np.float64).reshape(3)), media
 
 
@@ -511,7 +551,7 @@ def _open_edges(tris) -> int:
 
 
 def _transform(local: _LocalMesh, matrices, object_ids, slots, base, n_attributes=0,
-               n_tangents=0):
+               n_tangents=0, n_uv=0):
     """World-space arrays for K instances of one mesh: (V*K, 3) vertices, (T*K, ...) rest."""
     k = matrices.shape[0]
     nv, nt = local.positions.shape[0], local.triangles.shape[0]
@@ -539,15 +579,20 @@ def _transform(local: _LocalMesh, matrices, object_ids, slots, base, n_attribute
         tans[:, :, :, :g, :3] = np.einsum("kij,tcgj->ktcgi", lin, own_t[..., :3])
         tans[:, :, :, :g, 3] = own_t[None, ..., 3] * np.where(
             np.linalg.det(lin) < 0, -1.0, 1.0)[:, None, None, None]
+    # likewise UV maps named after this mesh was read: (0, 0) on it
+    own_uv = local.uv_maps if local.uv_maps is not None else \
+        np.zeros((nt, 3, 0, 2), np.float32)
+    uv_maps = np.zeros((k, nt, 3, n_uv, 2), np.float32)
+    uv_maps[:, :, :, :own_uv.shape[2]] = own_uv[:, :, :n_uv]
     # A mirroring transform flips the winding; swap two corners to keep the face
     # orientation (and so the geometric normal) on the side of the shading normals.
     flip = np.linalg.det(lin) < 0
     if np.any(flip):
-        for arr in (tris, normals, uvs, attrs, tans):
+        for arr in (tris, normals, uvs, attrs, tans, uv_maps):
             arr[flip, :, 1], arr[flip, :, 2] = arr[flip, :, 2].copy(), arr[flip, :, 1].copy()
     lut = np.asarray(slots, np.int32)
     mats = np.tile(lut[np.clip(local.material, 0, len(lut) - 1)], k)
     objs = np.repeat(object_ids, nt)
     return (verts.reshape(-1, 3), tris.reshape(-1, 3), normals.reshape(-1, 3, 3),
             uvs.reshape(-1, 3, 2), mats, objs, attrs.reshape(k * nt, 3, n_attributes, 4),
-            tans.reshape(k * nt, 3, n_tangents, 4))
+            tans.reshape(k * nt, 3, n_tangents, 4), uv_maps.reshape(k * nt, 3, n_uv, 2))

@@ -31,7 +31,8 @@ from . import compat
 from .export_images import DEFAULT_GREY, ImageTable  # noqa: F401  (ImageTable re-exported)
 from .export_nodes import Closure, NodeReader, UnreadableTree, diffuse_closure, follow_reroutes
 from .export_shaders import HANDLERS as BSDF_HANDLERS
-from .export_shader import AttributeNames, compile_sockets
+from .export_shader import AttributeNames, UVMapNames, compile_sockets, opacity_product, \
+    weighted_sum
 from ..core.scene import closures as cl
 from ..core.shading import program as pg
 
@@ -68,14 +69,30 @@ class TreeReader(NodeReader):
 
     def emission(self, node) -> Closure:
         # Background (world) and Emission share the colour x strength radiance.
-        return Closure(emission=self.color(node, "Color") * max(self.scalar(node, "Strength"), 0.0))
+        return Closure(emission=self.color(node, "Color") * max(self.scalar(node, "Strength"), 0.0),
+                       emitters=[{"node": node, "color": "Color", "strength": "Strength",
+                                  "weight": 1.0}])
 
     def mix(self, node) -> Closure:
-        fac = self.ranged(node, "Factor")
         shaders = [s for s in node.inputs if s.type == 'SHADER']
         if len(shaders) != 2:
             raise UnreadableTree(f"mix node '{node.name}' without two shader inputs")
         a, b = self.shader_input(shaders[0]), self.shader_input(shaders[1])
+        sock = compat.input_socket(node, "Factor", "Fac")
+        linked = follow_reroutes(sock) if sock is not None and sock.is_linked else None
+        if self.linked is not None and linked is not None and linked.node.bl_idname not in (
+                "ShaderNodeRGB", "ShaderNodeValue"):
+            # A node graph into the factor of a mix with a Transparent BSDF: a cut-out
+            # whose opacity a program computes; the other shader at full weight (the
+            # core divides what a hit sees by the opacity).
+            for first, clear, other in ((True, a, b), (False, b, a)):
+                if _pure_transparent(clear):
+                    self.linked.append((node, sock))
+                    other.cutouts = other.cutouts + [{
+                        "node": node, "socket": sock.name, "weight": 1.0,
+                        "kind": "mix_a" if first else "mix_b", "mean": clear.transparency}]
+                    return other
+        fac = self.ranged(node, "Factor")
         self._check_textures(node, a, b)
         return a.scaled(1.0 - fac).plus(b.scaled(fac))
 
@@ -95,6 +112,12 @@ class TreeReader(NodeReader):
             self.note(f'Material "{self.material}": node "{node.name}" mixes diffuse shaders '
                       f'with different base colour images; the material\'s whole diffuse '
                       f'lobe uses one image')
+
+
+def _pure_transparent(c: Closure) -> bool:
+    """The closure is only a Transparent BSDF (no BSDF, no emission, no cut-out)."""
+    return (c.transparency > 0 and not c.bsdfs and not c.emitters and not c.cutouts
+            and not np.any(c.emission > 0) and not np.any(c.diffuse > 0))
 
 
 _HANDLERS = dict(BSDF_HANDLERS) | {
@@ -148,7 +171,7 @@ def volume_only(mat) -> bool:
 
 def read_material(mat, warnings: list[str], images: "ImageTable | None" = None,
                   program_images=None, attributes=None, view=None,
-                  tangent_maps=None) -> dict:
+                  tangent_maps=None, uv_maps=None) -> dict:
     """One material -> a row for ``Materials.from_list`` (closures and legacy lobes);
     appends one warning per node it cannot express (by material and node name) and one
     per other approximation.
@@ -160,6 +183,7 @@ def read_material(mat, warnings: list[str], images: "ImageTable | None" = None,
     ``export_shader.AttributeNames`` (the mesh attributes programs read); tangent_maps
     likewise, the UV maps whose MikkTSpace tangents they read (Normal Map nodes). view:
     the render camera (``export_camera.CameraView``) for Texture Coordinate Camera / Window.
+    uv_maps: the export's ``export_shader.UVMapNames`` (the UV maps programs name).
     Without a node tree (legacy materials),
     Cycles renders ``diffuse_color`` as diffuse.
     """
@@ -178,7 +202,7 @@ def read_material(mat, warnings: list[str], images: "ImageTable | None" = None,
                         f"rendering it as grey diffuse")
         return default_row(name)
     program = _program(mat, closure, reader, warnings, program_images, attributes,
-                       view=view, tangent_maps=tangent_maps)
+                       view=view, tangent_maps=tangent_maps, uv_maps=uv_maps)
     for node_name, (idname, uses) in reader.unsupported.items():
         warnings.append(f'Material "{name}": node "{node_name}" ({idname}) is not supported; '
                         f"using the socket value of " + ", ".join(uses))
@@ -196,6 +220,7 @@ def read_material(mat, warnings: list[str], images: "ImageTable | None" = None,
     for lobe in ("diffuse", "specular", "transmission"):
         row[lobe] = np.minimum(row[lobe], 1.0)  # the opacity division must not create energy
     row["program"] = program
+    row["pass_index"] = float(getattr(mat, "pass_index", 0))  # Object Info Material Index
     settings = getattr(mat, "photon_map", None)  # None: the extension's properties absent
     if settings is not None and settings.dispersion != 0.0:
         row["dispersion"] = float(settings.dispersion)
@@ -228,7 +253,8 @@ PROGRAM_SLOTS = {
 
 
 def _program(mat, closure: Closure, reader: TreeReader, warnings: list[str],
-             program_images=None, attributes=None, view=None, tangent_maps=None):
+             program_images=None, attributes=None, view=None, tangent_maps=None,
+             uv_maps=None):
     """The ShaderProgram of the BSDF inputs fed by node graphs (``reader.linked``), or
     None. Each input becomes a TARGET_CLOSURE output for the closure row its node made (the
     row's index among the rows ``Closure.as_row`` keeps); a graph that folds to a
@@ -243,6 +269,10 @@ def _program(mat, closure: Closure, reader: TreeReader, warnings: list[str],
             index.setdefault(b["node"].as_pointer(), []).append(i)
     targets, rows, seen = [], [], set()
     normal = None
+    emitting = {(e["node"].as_pointer(), name) for e in closure.emitters
+                for name in (e["color"], e["strength"])}
+    emission_linked = False
+    cutting = {(e["node"].as_pointer(), e["socket"]) for e in closure.cutouts}
     for node, sock in reader.linked:
         key = (node.as_pointer(), sock.as_pointer())
         slot = _slot(node, sock)
@@ -254,12 +284,17 @@ def _program(mat, closure: Closure, reader: TreeReader, warnings: list[str],
             if normal is None:
                 normal = source
                 targets.append((sock, pg.TARGET_NORMAL, 0, 0))
-                rows.append(None)
+                rows.append("normal")
             elif (source.node.name, source.identifier) != (normal.node.name,
                                                            normal.identifier):
                 warnings.append(f'Material "{mat.name}": node "{node.name}" has a Normal '
                                 f'of its own; one shading normal per material is supported, '
                                 f'the first BSDF\'s ("{normal.node.name}") is used')
+            continue
+        if (node.as_pointer(), sock.name) in emitting:
+            emission_linked = True
+            continue
+        if (node.as_pointer(), sock.name) in cutting:
             continue
         if slot is None or node.as_pointer() not in index:
             linked = follow_reroutes(sock)
@@ -268,16 +303,52 @@ def _program(mat, closure: Closure, reader: TreeReader, warnings: list[str],
         for i in index[node.as_pointer()]:
             targets.append((sock, pg.TARGET_CLOSURE, i, slot))
             rows.append(kept[i])
+    if emission_linked:
+        # The whole emission (every emitting node, weighted by the Mix / Add factors
+        # above it, over the opacity as ``Closure.as_row`` divides it) becomes the
+        # program's TARGET_EMISSION, replacing the material's constant emission.
+        opacity = float(np.clip(1.0 - closure.transparency, 0.0, 1.0))
+        k = 1.0 / opacity if 0.0 < opacity < 1.0 else 1.0
+        terms = [(compat.input_socket(e["node"], e["color"]),
+                  compat.input_socket(e["node"], e["strength"]), e["weight"] * k)
+                 for e in closure.emitters if e["weight"] > 0]
+        targets.append((weighted_sum(terms), pg.TARGET_EMISSION, 0, 0))
+        rows.append(None)
+    cutouts = [e for e in closure.cutouts if e["weight"] > 0]
+    if any(abs(e["weight"] - 1.0) > 1e-9 for e in cutouts):
+        # The core multiplies the material's opacity by the program's and divides its
+        # closures by it: a programmed cut-out under another Mix / Add has no such form.
+        for e in cutouts:
+            reader.unsupported_node(e["node"], f'input "{e["socket"]}" of node '
+                                    f'"{e["node"].name}" under another Mix or Add Shader '
+                                    f'(a programmed cut-out must be the whole material)')
+        cutouts = []
+    if cutouts:
+        terms = [(compat.input_socket(e["node"], e["socket"]), e["kind"], e.get("mean", 1.0))
+                 for e in cutouts]
+        targets.append((opacity_product(terms), pg.TARGET_ALPHA, 0, 0))
+        rows.append("alpha")
     if not targets:
         return None
     compiled = compile_sockets(mat, targets, images=program_images,
                                attributes=AttributeNames() if attributes is None else attributes,
-                               view=view, tangent_maps=tangent_maps)
+                               view=view, tangent_maps=tangent_maps,
+                               uv_maps=UVMapNames() if uv_maps is None else uv_maps)
     warnings.extend(compiled.warnings)
     for (sock, _, _, slot), b, value in zip(targets, rows, compiled.constant):
-        if b is None:  # the shading normal: a constant one is not a closure parameter
-            continue
-        if value is not None:  # folded: the constant is the closure's own parameter
+        if isinstance(b, str) and b == "normal":
+            continue  # the shading normal: a constant one is not a closure parameter
+        if value is not None and isinstance(b, str):  # a folded opacity: the constant form
+            a = float(np.clip(value[0], 0.0, 1.0))
+            for lobe in ("diffuse", "specular", "transmission", "emission"):
+                setattr(closure, lobe, getattr(closure, lobe) * a)
+            closure.glossy_weight *= a
+            for row in closure.bsdfs:
+                row["weight"] = row["weight"] * a
+            closure.transparency = 1.0 - (1.0 - closure.transparency) * a
+        elif value is not None and b is None:  # a folded emission: the constant is exact
+            closure.emission = np.maximum(np.asarray(value, np.float64), 0.0) / k
+        elif value is not None:  # folded: the constant is the closure's own parameter
             b["params"][slot:slot + len(value)] = value
     return compiled.program
 

@@ -44,6 +44,14 @@ class Closure:
         closure uses them, so a mix can average them.
     emission: radiance W/(m^2 sr). transparency: weight of the straight pass-through
         (1 - opacity); alpha_texture: image whose alpha multiplies the opacity.
+    emitters: the shader nodes that emit, for emission programs: dicts with ``node``,
+        ``color`` / ``strength`` (their input socket names) and ``weight`` (the Mix /
+        Add factor product above them); ``emission`` is their constant sum.
+    cutouts: opacities a program computes (their constant part is 1): dicts with
+        ``node``, ``socket`` (input name) and ``kind``: "alpha" (Principled Alpha:
+        opacity = clamp(value)), "mix_a" / "mix_b" (a Mix Shader whose Factor is linked
+        and whose first / second shader is a Transparent BSDF of mean colour ``mean``:
+        opacity = 1 - (1 - fac) mean, resp. 1 - fac mean), and ``weight``.
     """
 
     diffuse: np.ndarray = field(default_factory=lambda: np.zeros(3))
@@ -57,12 +65,16 @@ class Closure:
     transparency: float = 0.0
     alpha_texture: int = -1
     bsdfs: list = field(default_factory=list)
+    emitters: list = field(default_factory=list)
+    cutouts: list = field(default_factory=list)
 
     def scaled(self, w: float) -> "Closure":
         return Closure(self.diffuse * w, self.specular * w, self.transmission * w,
                        self.emission * w, self.roughness, self.ior, self.glossy_weight * w,
                        self.diffuse_texture, self.transparency * w, self.alpha_texture,
-                       [dict(b, weight=b["weight"] * w) for b in self.bsdfs])
+                       [dict(b, weight=b["weight"] * w) for b in self.bsdfs],
+                       [dict(e, weight=e["weight"] * w) for e in self.emitters],
+                       [dict(e, weight=e["weight"] * w) for e in self.cutouts])
 
     def plus(self, other: "Closure") -> "Closure":
         wa, wb = self.glossy_weight, other.glossy_weight
@@ -76,7 +88,8 @@ class Closure:
         return Closure(self.diffuse + other.diffuse, self.specular + other.specular,
                        self.transmission + other.transmission, self.emission + other.emission,
                        roughness, ior, wa + wb, tex, self.transparency + other.transparency,
-                       atex, self.bsdfs + other.bsdfs)
+                       atex, self.bsdfs + other.bsdfs, self.emitters + other.emitters,
+                       self.cutouts + other.cutouts)
 
     def as_row(self, name: str) -> dict:
         """A ``Materials.from_list`` row with both forms. Transparency t becomes opacity

@@ -62,6 +62,29 @@ class AttributeNames:
         return self.names.index(name)
 
 
+class UVMapNames:
+    """The UV map names the programs of one export read, in the order of ``Mesh.uv_maps``
+    (``ShadingInputs.uv`` is [active render map, ``names``...]). ``index(name)`` is the
+    map's index in ``ShadingInputs.uv``: 0 for "" (the active render map: Texture
+    Coordinate UV, an unlinked Image Texture Vector), 1 + j for ``names[j]``, adding a
+    name on first use; ``readers[name]`` the materials that read it (for the warning
+    where a mesh lacks the map)."""
+
+    def __init__(self, names=()):
+        self.names: list[str] = [n for n in names if n]
+        self.readers: dict[str, list[str]] = {}
+
+    def index(self, name: str, material: str = "") -> int:
+        if not name:
+            return 0
+        if name not in self.names:
+            self.names.append(name)
+        readers = self.readers.setdefault(name, [])
+        if material and material not in readers:
+            readers.append(material)
+        return 1 + self.names.index(name)
+
+
 class _Value:
     """An operand: a virtual register of width 1 ('f') or 3 ('v' vector, 'c' colour)."""
     __slots__ = ("vreg", "kind")
@@ -78,7 +101,7 @@ class _Builder:
         self.tangent_maps = tangent_maps if isinstance(tangent_maps, AttributeNames) else \
             AttributeNames(tangent_maps or ())
         self.images = images
-        self.uv_maps = list(uv_maps)
+        self.uv_maps = uv_maps if isinstance(uv_maps, UVMapNames) else UVMapNames(uv_maps)
         self.attributes = attributes if isinstance(attributes, AttributeNames) else \
             AttributeNames(attributes)
         self.luminance = tuple(float(x) for x in luminance)
@@ -449,11 +472,9 @@ def _layer_weight(b, node, path):
 
 
 def _uv_map(b, node, path):
-    name = getattr(node, "uv_map", "")
-    index = b.uv_maps.index(name) if name in b.uv_maps else 0
-    if name and name not in b.uv_maps:
-        b.warn(("uv", path, node.name), f"node '{node.name}': UV map '{name}' not found, "
-               f"the first one is used")
+    """UV Map node: the map it names (``Mesh.uv_maps``), or the active render map when
+    it names none; a mesh without that map reads (0, 0), reported by ``export``."""
+    index = b.uv_maps.index(getattr(node, "uv_map", ""), b.name)
     return {"UV": b.source(pg.SOURCE_UV, index)}
 
 
@@ -465,12 +486,15 @@ def _geometry(b, node, path):
 
 
 def _object_info(b, node, path):
-    """Location, Color, Random, Object Index (``export.object_info`` for the values);
-    Alpha and Material Index are not supported."""
+    """Location, Color, Alpha (the object colour's alpha), Random, Object Index
+    (``export.object_info`` for the values), Material Index (the material's
+    ``pass_index``, ``Materials.pass_index``), as Cycles' svm_node_object_info."""
     return {"Location": b.source(pg.SOURCE_OBJECT_LOCATION),
             "Color": b.source(pg.SOURCE_OBJECT_COLOR, 0, "c"),
+            "Alpha": b.source(pg.SOURCE_OBJECT_ALPHA, 0, "f"),
             "Random": b.source(pg.SOURCE_OBJECT_RANDOM, 0, "f"),
-            "Object Index": b.source(pg.SOURCE_OBJECT_INDEX, 0, "f")}
+            "Object Index": b.source(pg.SOURCE_OBJECT_INDEX, 0, "f"),
+            "Material Index": b.source(pg.SOURCE_MATERIAL_INDEX, 0, "f")}
 
 
 def _attribute_outputs(b, name):
@@ -954,6 +978,66 @@ SUPPORTED = {
 Group Input / Output and muted nodes, handled by the walk itself)."""
 
 
+def weighted_sum(terms):
+    """A ``compile_sockets`` target computing sum_k weight_k x colour_k x strength_k (a
+    colour) from [(colour socket, strength socket or None, weight float)]: a material's
+    emission over its emitting nodes."""
+    def build(b):
+        total = None
+        for color_sock, strength_sock, weight in terms:
+            c = b.as_kind(b.socket_value(color_sock, ()), "c")
+            s = b.const((float(weight),), "f") if strength_sock is None else \
+                b.as_kind(b.socket_value(strength_sock, ()), "f")
+            if strength_sock is not None and weight != 1.0:
+                w = b.new("f")
+                b.emit(pg.OP_MATH, [cn.MATH_OPS["MULTIPLY"], 0],
+                       [s, b.const((float(weight),), "f"), b.const((0.0,), "f")], [w])
+                s = w
+            term, junk = b.new("c"), b.new("f")
+            zero = b.const((0.0, 0.0, 0.0), "v")
+            b.emit(pg.OP_VECTOR_MATH, [cn.VECTOR_MATH_OPS["SCALE"]], [c, zero, zero, s],
+                   [term, junk])
+            if total is not None:
+                out, junk2 = b.new("c"), b.new("f")
+                b.emit(pg.OP_VECTOR_MATH, [cn.VECTOR_MATH_OPS["ADD"]], [total, term, zero,
+                                                                       b.const((0.0,), "f")],
+                       [out, junk2])
+                term = out
+            total = term
+        return total if total is not None else b.const((0.0, 0.0, 0.0), "c")
+    return build
+
+
+def opacity_product(terms):
+    """A ``compile_sockets`` target computing a material's opacity as the product over
+    its programmed cut-outs [(socket, kind, mean)] (``export_nodes.Closure.cutouts``):
+    "alpha" clamp(value, 0, 1); "mix_a" 1 - (1 - clamp(fac)) mean; "mix_b"
+    1 - clamp(fac) mean (Cycles clamps a Mix Shader's factor)."""
+    def build(b):
+        total = None
+        for sock, kind, mean in terms:
+            v = b.as_kind(b.socket_value(sock, ()), "f")
+            one, zero = b.const((1.0,), "f"), b.const((0.0,), "f")
+            c = b.new("f")
+            b.emit(pg.OP_CLAMP, [0], [v, zero, one], [c])
+            if kind != "alpha":
+                if kind == "mix_a":  # the transparent share 1 - fac
+                    s = b.new("f")
+                    b.emit(pg.OP_MATH, [cn.MATH_OPS["SUBTRACT"], 0], [one, c, zero], [s])
+                    c = s
+                a = b.new("f")  # 1 - share x mean
+                b.emit(pg.OP_MATH, [cn.MATH_OPS["MULTIPLY_ADD"], 0],
+                       [c, b.const((-float(mean),), "f"), one], [a])
+                c = a
+            if total is not None:
+                t = b.new("f")
+                b.emit(pg.OP_MATH, [cn.MATH_OPS["MULTIPLY"], 0], [total, c, zero], [t])
+                c = t
+            total = c
+        return total
+    return build
+
+
 def compile_sockets(material, targets, uv_maps=(), attributes=(),
                     luminance=cn.LUMINANCE_REC709, images=None, view=None,
                     tangent_maps=None) -> ShaderCompile:
@@ -962,8 +1046,8 @@ def compile_sockets(material, targets, uv_maps=(), attributes=(),
     targets: [(socket, target, closure, slot)]: an input socket of a node of the
       material's tree, its TARGET_* (core.shading.program), the closure index and the
       first slot (a colour or vector socket fills slot, slot + 1, slot + 2).
-    uv_maps: the mesh's UV map names, in the order of ``ShadingInputs.uv`` (the first is
-      the default UV). attributes: an ``AttributeNames`` (names are added as nodes read
+    uv_maps: a ``UVMapNames`` (names are added as nodes read them) or the named maps, in
+      the order of ``ShadingInputs.uv`` after the active render map. attributes: an ``AttributeNames`` (names are added as nodes read
       them) or names, in the order of ``ShadingInputs.attributes``. luminance: the scene-linear RGB -> Y weights.
     images: the export's ``export_images.ProgramImageTable`` Image Texture nodes read
       their images into (None: such a node gives the missing-image magenta, reported).
@@ -980,8 +1064,12 @@ def compile_sockets(material, targets, uv_maps=(), attributes=(),
     b.view = view
     values = []
     for sock, target, closure, slot in targets:
-        kind = _socket_kind(sock) or "f"
-        value = b.as_kind(b.socket_value(sock, ()), kind)
+        if callable(sock):  # an expression over sockets (``weighted_sum``)
+            value = sock(b)
+            kind = value.kind
+        else:
+            kind = _socket_kind(sock) or "f"
+            value = b.as_kind(b.socket_value(sock, ()), kind)
         width = 1 if kind == "f" else 3
         values.append((value, [(target, closure, slot + c) for c in range(width)]))
     program, constant = b.finish(values)

@@ -29,7 +29,8 @@ import numpy as np
 
 from ..core.scene import closures as cl
 from . import compat
-from .export_nodes import Closure, closure_row, diffuse_closure, legacy_glossy
+from .export_nodes import Closure, closure_row, diffuse_closure, follow_reroutes, \
+    legacy_glossy
 
 INF = float("inf")
 
@@ -95,13 +96,30 @@ def principled(reader, node) -> Closure:
     c.diffuse_texture = tex
     emission = reader.ranged_color(node, "Emission Color", INF, default=(0, 0, 0))
     c.emission = emission * reader.ranged(node, "Emission Strength", 0.0, INF, default=1.0)
+    c.emitters = [{"node": node, "color": "Emission Color", "strength": "Emission Strength",
+                   "weight": 1.0}]
     atex, linked_alpha = reader.image_input(node, ("Alpha",), "Alpha")
-    alpha = 1.0 if linked_alpha else reader.ranged(node, "Alpha", default=1.0)
+    sock = compat.input_socket(node, "Alpha")
+    programmed = (not linked_alpha and reader.linked is not None and sock is not None
+                  and sock.is_linked and _constant_link(sock) is False)
+    alpha = 1.0 if linked_alpha or programmed else reader.ranged(node, "Alpha", default=1.0)
+    if programmed:  # a node graph into Alpha: the program's opacity (export_materials)
+        reader.linked.append((node, sock))
+        c.cutouts = [{"node": node, "socket": "Alpha", "kind": "alpha", "weight": 1.0}]
     if alpha < 1.0:
         c = c.scaled(alpha)
         c.transparency = 1.0 - alpha
     c.alpha_texture = atex
     return c
+
+
+def _constant_link(sock):
+    """None: unlinked (or an invalid link); True: fed by a constant RGB / Value node (the
+    reader reads it); False: fed by any other node (a program computes it)."""
+    linked = follow_reroutes(sock)
+    if linked is None:
+        return None
+    return linked.node.bl_idname in ("ShaderNodeRGB", "ShaderNodeValue")
 
 
 def diffuse(reader, node) -> Closure:

@@ -456,7 +456,8 @@ def visible_points(prepared: PreparedScene, cam: Camera, seed: int, k: int, max_
                                      prepared.tri_material, hits.prim[h], hits.u[h], hits.v[h],
                                      d, prepared.extent)
         # Emission seen (two-sided, like Cycles' emission closure)
-        direct[pixel[rows]] += thr * mats["emission"][sp.material]
+        direct[pixel[rows]] += thr * prepared.hit_shader.emission_at(
+            hits.prim[h], hits.u[h], hits.v[h], d, sp.material, mats["emission"][sp.material])
         albedo = prepared.surfaces.albedo(hits.prim[h], hits.u[h], hits.v[h], sp.material)
         # Shader programs: the visible point's diffuse albedo (its direct light and lobe
         # choice still read the material's constant closures).

@@ -130,6 +130,16 @@ def _shade_kernel(source, q, tris_cdf, tris_prob, tris_v0, tris_e1, tris_e2, tri
         need[i] = True
 
 
+@njit(cache=True, parallel=True, error_model="numpy")
+def _triangle_uniforms_kernel(pixel, sample, seed, dim, pick_dim, k, k_count, bits, u0, u1, u2):
+    """The uniforms ``_shade_kernel`` picks an emissive triangle point with (the same
+    streams), for the textured emitters' correction (``EmissiveTriangles.rescale``)."""
+    for i in prange(pixel.shape[0]):
+        u1[i], u2[i] = sampling.sobol2(sample[i] * k_count + k, bits,
+                                       sampling.pattern(seed, pixel[i], dim))
+        u0[i] = sampling.hash_uniform(seed, pixel[i], sample[i], pick_dim)
+
+
 @njit(cache=True, error_model="numpy")
 def continue_probability(f0, f1, f2, g0, g1, g2):
     """Probability that a camera path goes on along a BSDF-sampled direction: the glossy
@@ -172,6 +182,24 @@ def _gather_kernel(target, rows, contrib, need_idx, occluded):
         target[r, 2] += contrib[i, 2]
 
 
+def _textured_triangles(ctx, tris, hit, pixel, sample, dim, depth, k, contrib):
+    """Emissive-triangle samples on textured emitters: contrib (N, 3), computed with the
+    triangle's pick radiance, times (the program's emission at the sampled point) /
+    (that radiance): the sample's pdf is unchanged (pick by the mean, uniform on the
+    triangle), so the estimate stays unbiased and MIS with BSDF-sampled hits holds."""
+    n = pixel.shape[0]
+    u0, u1, u2 = np.empty(n), np.empty(n), np.empty(n)
+    _triangle_uniforms_kernel(np.ascontiguousarray(pixel, np.int64),
+                              np.ascontiguousarray(sample, np.int64), ctx.seed, dim,
+                              sampling.stream(sampling.LIGHT_PICK, depth, k), k,
+                              ctx.light_samples, ctx.sample_bits, u0, u1, u2)
+    j, b1, b2 = tris.points(u0, u1, u2)
+    point = tris.v0[j] + b1[:, None] * tris.e1[j] + b2[:, None] * tris.e2[j]
+    w = point - hit.position
+    w /= np.maximum(np.linalg.norm(w, axis=1), 1e-300)[:, None]
+    tris.rescale(contrib, j, b1, b2, w, ctx.emission_points)
+
+
 @dataclass
 class DirectLighting:
     """What ``shade`` reads, built once per render (``prepare``)."""
@@ -192,6 +220,7 @@ class DirectLighting:
                                                  "time_shadow": 0.0})
     no_light: np.ndarray = field(default_factory=lambda: np.zeros(light_kernels.P_COUNT))
     medium: regions.Medium | None = None  # the media shadow rays cross (core/media/regions.py)
+    emission_points: object = None  # HitShader.emission_points: textured emitters' radiance
 
 
 class ShadingPoints(NamedTuple):
@@ -246,7 +275,7 @@ def prepare(settings: RenderSettings, prepared: PreparedScene, samples: int,
         tri_normals=prepared.tri_normals, seed=int(settings.seed),
         light_samples=int(settings.light_samples),
         sample_bits=sampling.index_bits(int(samples) * int(settings.light_samples)),
-        medium=medium)
+        medium=medium, emission_points=prepared.hit_shader.emission_points)
     if stats is not None:
         dl.stats = stats
     return dl
@@ -304,6 +333,8 @@ def shade(ctx: DirectLighting, hit: ShadingPoints, pixel, sample, depth, target)
                           ctx.seed, dim, sampling.stream(sampling.LIGHT_PICK, depth, k),
                           k, k_count, bits, use_d, use_g,
                           ctx.extent, contrib, sh_o, sh_d, sh_t, need)
+            if source == SOURCE_TRIANGLES and tris.textured is not None:
+                _textured_triangles(ctx, tris, hit, pixel, sample, dim, depth, k, contrib)
             if ctx.medium is not None:  # the shadow segment's transmittance
                 ctx.medium.attenuate(contrib, need, sh_o, sh_d, sh_t)
             t1 = time.perf_counter()

@@ -334,7 +334,8 @@ def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> dict[str, np.ndarray]:
             thr = np.array(thr)  # the hits' own copy (thr[h] may be a view)
             camera_paths.pick_wavelengths(tab, crow, u_lam, lam, thr)
         tangent = pr.hit_shader.tangents(prim, pos, tab, crow)
-        emission = mats["emission"][mat]
+        emission = pr.hit_shader.emission_at(prim, hits.u[h], hits.v[h], d, mat,
+                                             mats["emission"][mat])
         if pr.emissive.count and np.any(prev_pdf > 0):
             emission = emission * camera_paths.emission_weight(
                 pr, prim, hits.t[h], d, prev_pdf, k_light)[:, None]

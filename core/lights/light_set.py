@@ -184,6 +184,10 @@ class EmissiveTriangles:
     triangle: (K,) int32 indices into the mesh; v0, e1, e2: (K, 3) float64 corners/edges;
     normal: (K, 3) unit; area: (K,) m^2; radiance: (K, 3) W/(m^2 sr), both sides;
     cdf: (K,) float64 increasing to 1; probability: (K,) selection probability.
+    textured: None, or (K,) bool: the triangle's emission comes from a shader program
+    (docs/shading.md, "Textured emission"): its ``radiance`` is then the program's mean
+    over the triangle (stratified points, floored above 0), what picks the triangle; the
+    radiance at a sampled point is the program's there (``rescale``).
     """
 
     triangle: np.ndarray
@@ -195,10 +199,34 @@ class EmissiveTriangles:
     radiance: np.ndarray
     cdf: np.ndarray
     probability: np.ndarray
+    textured: np.ndarray | None = None
 
     @property
     def count(self) -> int:
         return int(self.triangle.shape[0])
+
+    def points(self, u0, u1, u2):
+        """(j, b1, b2): the triangle (row) and barycentrics ``lk.sample_triangles`` and the
+        photon emission pick with uniforms u0 (pick), u1, u2 (N,), vectorised."""
+        j = np.minimum(np.searchsorted(self.cdf, u0, side="right"), self.count - 1)
+        su = np.sqrt(u1)
+        return j, su * (1.0 - u2), su * u2
+
+    def rescale(self, flux, j, b1, b2, d, emission_at) -> None:
+        """Multiply flux (N, 3) in place, sampled with the triangles' ``radiance`` on rows
+        j (N,) at barycentrics (b1, b2), by (emission there) / radiance[j] where the
+        triangle is textured. d (N, 3): the direction arriving at the point from where it
+        is seen (program inputs Incoming, Backfacing); emission_at(prim, u, v, d) -> (n,
+        3) the emitted radiance at triangle prim, Embree barycentrics (u, v) =
+        (b1, b2)."""
+        if self.textured is None:
+            return
+        sel = np.flatnonzero(self.textured[j] & np.any(flux != 0, axis=1))
+        if sel.size == 0:
+            return
+        js = j[sel]
+        em = emission_at(self.triangle[js], b1[sel], b2[sel], np.asarray(d)[sel])
+        flux[sel] *= em / self.radiance[js]
 
     @property
     def power(self) -> np.ndarray:
@@ -206,12 +234,20 @@ class EmissiveTriangles:
         return 2.0 * np.pi * np.sum(self.radiance * self.area[:, None], axis=0)
 
     @staticmethod
-    def from_mesh(mesh: Mesh, materials: Materials) -> "EmissiveTriangles":
+    def from_mesh(mesh: Mesh, materials: Materials, textured=None) -> "EmissiveTriangles":
+        """The emissive triangles of the mesh: those whose material's constant emission
+        is > 0, and ``textured`` = (triangles (K',) int32, mean radiance (K', 3)) those
+        whose emission a program computes (their material's constant is not used)."""
         if mesh.triangle_count == 0 or materials.count == 0:
             idx = np.zeros(0, np.int32)
         else:
             em = materials.emission.astype(np.float64)[mesh.material_index]
-            idx = np.flatnonzero(np.any(em > 0, axis=1)).astype(np.int32)
+            lit = np.any(em > 0, axis=1)
+            if textured is not None:
+                programmed = np.zeros(mesh.triangle_count, bool)
+                programmed[textured[0]] = True
+                lit = (lit & ~programmed) | programmed
+            idx = np.flatnonzero(lit).astype(np.int32)
         tv = mesh.triangle_vertices()[idx].astype(np.float64).reshape(-1, 3, 3)
         v0 = tv[:, 0]
         e1 = tv[:, 1] - v0
@@ -222,6 +258,17 @@ class EmissiveTriangles:
         idx, v0, e1, e2, cr, ln = idx[keep], v0[keep], e1[keep], e2[keep], cr[keep], ln[keep]
         area = 0.5 * ln
         radiance = materials.emission.astype(np.float64)[mesh.material_index[idx]].reshape(-1, 3)
+        flags = None
+        if textured is not None:
+            row = np.full(mesh.triangle_count, -1, np.int64)
+            row[textured[0]] = np.arange(len(textured[0]))
+            r = row[idx]
+            flags = r >= 0
+            mean = np.asarray(textured[1], np.float64)[r[flags]]
+            # A floor keeps every programmed triangle pickable (a texture that the
+            # stratified points miss still emits somewhere: the estimator stays unbiased).
+            level = float(np.sum(mean * area[flags, None]) / max(area[flags].sum(), 1e-300))
+            radiance[flags] = np.maximum(mean, max(1e-3 * level / 3.0, 1e-12))
         w = area * radiance.sum(axis=1)
         total = w.sum()
         prob = w / total if total > 0 else w
@@ -229,7 +276,7 @@ class EmissiveTriangles:
         if cdf.size:
             cdf[-1] = 1.0
         return EmissiveTriangles(idx, v0, e1, e2, cr / ln[:, None] if ln.size else cr, area,
-                                 radiance, cdf, prob)
+                                 radiance, cdf, prob, flags)
 
 
 @njit(cache=True, parallel=True, error_model="numpy")

@@ -160,12 +160,27 @@ class SurfaceTextures:
         self.textured = bool(np.any((self.tex_of_mat >= 0) & used))
         self.cutout = bool(np.any(((self.opacity_of_mat < 1.0) | (self.alpha_tex >= 0)) & used))
         self.tri_mat = np.ascontiguousarray(scene.mesh.material_index, np.int32)
+        self._scene_uvs = scene.mesh.uvs
         self.tri_uv = (np.ascontiguousarray(scene.mesh.uvs, np.float32)
                        if self.textured or self.cutout else np.zeros((0, 3, 2), np.float32))
         self.pixels = np.ascontiguousarray(tx.pixels, np.float32)
         self.offset = np.ascontiguousarray(tx.offset, np.int64)
         self.width = np.ascontiguousarray(tx.width, np.int64)
         self.height = np.ascontiguousarray(tx.height, np.int64)
+        self.alpha_programmed = np.zeros(mats.count, bool)
+        self.program_alpha = None
+        self._used = used
+
+    def use_program_alpha(self, programmed: np.ndarray, alpha_at) -> None:
+        """Materials whose opacity a shader program computes: programmed (M,) bool, and
+        alpha_at(prim, u, v) -> (N,) float64 in [0, 1] the program's opacity at hits on
+        them (``HitShader.alpha_at``), which multiplies the material's own."""
+        self.alpha_programmed = np.asarray(programmed, bool)
+        self.program_alpha = alpha_at
+        if np.any(self.alpha_programmed & self._used):
+            self.cutout = True
+            if self.tri_uv.shape[0] == 0:
+                self.tri_uv = np.ascontiguousarray(self._scene_uvs, np.float32)
 
     def albedo(self, prim, u, v, mat) -> np.ndarray:
         """(N, 3) float64 diffuse albedo at N hits (prim (N,) triangle, -1 = none -> 0;
@@ -196,6 +211,11 @@ class SurfaceTextures:
                             self.pixels, self.offset, self.width, self.height,
                             np.ascontiguousarray(prim), np.ascontiguousarray(u),
                             np.ascontiguousarray(v), out)
+            if self.program_alpha is not None:
+                sel = np.flatnonzero(prim >= 0)
+                sel = sel[self.alpha_programmed[self.tri_mat[prim[sel]]]]
+                if sel.size:
+                    out[sel] *= self.program_alpha(prim[sel], u[sel], v[sel])
         return out
 
     def photon_opacity(self, prim, u, v) -> np.ndarray:

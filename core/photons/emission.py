@@ -450,7 +450,8 @@ def _cdf(p):
 def emit(source: Source, light_set: LightSet, emissive: EmissiveTriangles, world_radiance,
          scene_centre, scene_radius: float, n_total: int, first: int, count: int, *,
          seed: int, map_id: int, source_slot: int, targets: Targets | None = None,
-         target_prob: np.ndarray | None = None, extent: float = 0.0) -> Emitted:
+         target_prob: np.ndarray | None = None, extent: float = 0.0,
+         emission_points=None) -> Emitted:
     """Photons [first, first + count) of the n_total photons of one source.
 
     Each photon's flux is already divided by n_total, so the flux of all n_total photons
@@ -458,7 +459,10 @@ def emit(source: Source, light_set: LightSet, emissive: EmissiveTriangles, world
     targets / target_prob (K,): the projection map's spheres and pick probabilities
     (None or empty = unaimed). source_slot (< 4096) and map_id separate random streams.
     extent: the scene's size (metres) for the offset of photons leaving emissive
-    triangles (``geometry.offset_eps``).
+    triangles (``geometry.offset_eps``). emission_points: ``HitShader.emission_points``,
+    the radiance of textured emitters at a point (``EmissiveTriangles.rescale``: a
+    photon's flux is the program's emission where it leaves, the pick stays by the
+    triangle's mean).
     """
     o = np.zeros((count, 3))
     d = np.zeros((count, 3))
@@ -477,6 +481,9 @@ def emit(source: Source, light_set: LightSet, emissive: EmissiveTriangles, world
         e = emissive
         _emit_triangles(e.cdf, e.probability, e.v0, e.e1, e.e2, e.normal, e.area, e.radiance,
                         u0, u1, u2, u3, u4, u5, inv_n, tc, tr, tp, tcdf, float(extent), o, d, f)
+        if e.textured is not None and emission_points is not None:
+            j, b1, b2 = e.points(u5, u3, u4)
+            e.rescale(f, j, b1, b2, -d, emission_points)
     elif source.index == SOURCE_WORLD:
         _emit_world(np.asarray(world_radiance, np.float64).reshape(3),
                     np.asarray(scene_centre, np.float64), float(scene_radius),

@@ -240,7 +240,8 @@ def _trace_map(prepared, sources, counts, targets_per_source, mode, store_rule, 
             em = emission.emit(src, prepared.light_set, prepared.emissive, prepared.world,
                                prepared.centre, prepared.radius, n_src, first, count, seed=seed,
                                map_id=map_id, source_slot=slot, targets=targets,
-                               target_prob=probs, extent=prepared.extent)
+                               target_prob=probs, extent=prepared.extent,
+                               emission_points=prepared.hit_shader.emission_points)
             counters["time_emission"] += time.perf_counter() - t0
             if flux_out is not None:
                 flux_out[slot] += em.flux.sum(axis=0)

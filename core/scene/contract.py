@@ -70,9 +70,10 @@ class Mesh:
         (object position - location) / (2 size) + 0.5.
     origin: (3,) float64 metres, the render frame's origin in world coordinates
         (vertices = world positions - origin): programs read world positions.
-    object_info: (O, 5) float32, Object Info per object instance: the object's colour
-        (RGB, Blender's ``Object.color``), Random in [0, 1] (Cycles' random_number of the
-        instance's ``random_id``) and Object Index (``pass_index``). None: zeros.
+    object_info: (O, 5) or (O, 6) float32, Object Info per object instance: the object's
+        colour (RGB, Blender's ``Object.color``), Random in [0, 1] (Cycles' random_number
+        of the instance's ``random_id``), Object Index (``pass_index``) and, in the sixth
+        column, the colour's alpha (Object Info Alpha; 1 without it). None: zeros.
     attributes: (T, 3, A, 4) float32, the mesh attributes shader programs read (Attribute
         and Color Attribute nodes), RGBA at each triangle corner (interpolated per hit
         like the UVs), in the order of ``attribute_names`` (A str; "" is the render colour
@@ -84,6 +85,11 @@ class Mesh:
         leaves the normal as it is), in the order of ``tangent_maps`` (G UV map names;
         "" is the active render UV map). Interpolated per hit like the UVs, as Cycles
         interpolates its tangent attributes. None: no tangent map.
+    uv_maps: (T, 3, U, 2) float32, the UV maps shader programs name (UV Map node, Normal
+        Map), per triangle corner, in the order of ``uv_map_names`` (U str); a mesh
+        without a map of that name has (0, 0) there, as Cycles. ``ShadingInputs.uv`` is
+        [``uvs``, ``uv_maps``...]: a program's UV index 0 is the active render map, index
+        1 + j the map ``uv_map_names[j]``. None: no named map.
     """
 
     vertices: np.ndarray
@@ -101,6 +107,8 @@ class Mesh:
     attribute_names: tuple = ()
     tangents: np.ndarray | None = None
     tangent_maps: tuple = ()
+    uv_maps: np.ndarray | None = None
+    uv_map_names: tuple = ()
 
     @property
     def triangle_count(self) -> int:
@@ -166,6 +174,8 @@ class Materials:
     material's compiled node graph (docs/shading.md), whose outputs replace closure
     parameters per hit (TARGET_CLOSURE: closure index within the material, slot). A
     material without links has None and costs nothing.
+    pass_index: (M,) float32, each material's pass index (Blender's ``pass_index``: Object
+        Info's Material Index); None: 0.
     """
 
     diffuse: np.ndarray
@@ -186,6 +196,7 @@ class Materials:
     closure_count: np.ndarray | None = None
     programs: tuple | None = None
     dispersion: np.ndarray | None = None
+    pass_index: np.ndarray | None = None
 
     @property
     def count(self) -> int:
@@ -293,6 +304,8 @@ class Materials:
             alpha_texture=(np.array([r.get("alpha_texture", -1) for r in rows], np.int32)
                            .reshape(m) if any("alpha_texture" in r for r in rows) else None),
             dispersion=(col("dispersion", 0, 0.0) if any("dispersion" in r for r in rows)
+                        else None),
+            pass_index=(col("pass_index", 0, 0.0) if any("pass_index" in r for r in rows)
                         else None),
         )
         if any(r.get("program") is not None for r in rows):
@@ -657,9 +670,15 @@ def _validate_mesh(mesh: Mesh, materials: Materials) -> None:
         if not np.all((sign == 0) | (sign == 1) | (sign == -1)):
             raise SceneError("mesh.tangents: the bitangent sign (last component) must be "
                              "-1, 1 or 0 (no tangent)")
+    if mesh.uv_maps is not None:
+        check_array("mesh.uv_maps", mesh.uv_maps, (t, 3, len(mesh.uv_map_names), 2),
+                    dtype=np.float32)
     if mesh.object_info is not None:
-        check_array("mesh.object_info", mesh.object_info, (None, 5), dtype=np.float32,
+        check_array("mesh.object_info", mesh.object_info, (None, None), dtype=np.float32,
                     labels=names)
+        if mesh.object_info.shape[1] not in (5, 6):
+            raise SceneError(f"mesh.object_info must have 5 or 6 columns, got "
+                             f"{mesh.object_info.shape[1]}")
     for key in ("object_to_world", "object_texspace", "object_info"):
         a = getattr(mesh, key)
         if a is not None and a.shape[0] < n_obj:
@@ -717,6 +736,9 @@ def _validate_materials(m: Materials, texture_count: int = 0) -> None:
     if n and np.any(m.ior <= 0):
         i = int(np.argmax(m.ior <= 0))
         raise SceneError(f"materials.ior{label(names, i)} must be > 0, got {m.ior[i]}")
+    if m.pass_index is not None:
+        check_array("materials.pass_index", m.pass_index, (n,), dtype=np.float32,
+                    labels=names)
     if m.dispersion is not None:
         check_array("materials.dispersion", m.dispersion, (n,), dtype=np.float32,
                      labels=names)

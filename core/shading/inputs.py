@@ -31,7 +31,8 @@ class ShadingInputs:
     linear part of its world matrix; identity by default).
     bump_points: 0, or N when the arrays hold 3 N rows: the N points, then the inputs at
     P + dPdx, then at P + dPdy (the Bump node's footprint, ``HitShader.inputs``); a
-    program's results are for the first N.
+    program's results are for the first N. object_alpha (the object colour's alpha),
+    material_index (the material's pass index): (N,) float32.
     """
     position: np.ndarray
     normal: np.ndarray
@@ -50,13 +51,16 @@ class ShadingInputs:
     tangents: np.ndarray | None = None
     normal_to_world: np.ndarray | None = None
     bump_points: int = 0
+    object_alpha: np.ndarray | None = None
+    material_index: np.ndarray | None = None
 
     @classmethod
     def build(cls, position, normal, **optional):
         """Validated inputs; omitted fields default to: true_normal = normal, incoming =
         normal, backfacing 0, generated = object_coords = position, object_normal =
-        normal, object location, colour, random and index 0, no UV map, attribute or tangent
-        map (a program reading one then reads zeros), normal_to_world the identity."""
+        normal, object location, colour, random and index 0, object alpha 1, material
+        index 0, no UV map, attribute or tangent map (a program reading one then reads
+        zeros), normal_to_world the identity."""
         p = np.ascontiguousarray(position, np.float32)
         if p.ndim != 2 or p.shape[1] != 3:
             raise ValueError(f"ShadingInputs.position must be (N, 3) float32, got {p.shape}")
@@ -65,7 +69,7 @@ class ShadingInputs:
         known = {"true_normal", "incoming", "backfacing", "generated", "object_coords",
                  "object_normal", "object_location", "object_random", "object_color",
                  "object_index", "uv", "attributes", "tangents", "normal_to_world",
-                 "bump_points"}
+                 "bump_points", "object_alpha", "material_index"}
         unknown = set(optional) - known
         if unknown:
             raise ValueError(f"ShadingInputs: unknown fields {sorted(unknown)}")
@@ -75,8 +79,10 @@ class ShadingInputs:
             ("object_normal", nrm), ("object_location", np.zeros((n, 3))),
             ("object_color", np.zeros((n, 3))))}
         scal = {}
-        for k in ("backfacing", "object_random", "object_index"):
-            a = np.ascontiguousarray(get(k, np.zeros(n)), np.float32).reshape(-1)
+        for k in ("backfacing", "object_random", "object_index", "object_alpha",
+                  "material_index"):
+            a = np.ascontiguousarray(get(k, np.ones(n) if k == "object_alpha" else
+                                         np.zeros(n)), np.float32).reshape(-1)
             if a.shape != (n,):
                 raise ValueError(f"ShadingInputs.{k} must be ({n},) float32, got {a.shape}")
             scal[k] = a

@@ -35,7 +35,7 @@ _CHUNK = 256
 
 @njit(inline="always", **dict(cache=True, error_model="numpy"))
 def _load_row(r, o, src, idx, i, P, N, Ng, I, back, gen, obj, objn, oloc, orand, ocol, oidx, uv,
-              attr, tan, n2w):
+              attr, tan, n2w, oalpha, midx):
     """Source src (index idx) of row i of the inputs into registers r[o:o + 3]."""
     if src == 0:
         a = P
@@ -57,7 +57,11 @@ def _load_row(r, o, src, idx, i, P, N, Ng, I, back, gen, obj, objn, oloc, orand,
         a = ocol
     else:
         a = P  # not used below
-    if src == 4 or src == 10 or src == 14:
+    if src == 20 or src == 21:  # SOURCE_OBJECT_ALPHA, SOURCE_MATERIAL_INDEX
+        r[o] = oalpha[i] if src == 20 else midx[i]
+        r[o + 1] = r[o]
+        r[o + 2] = r[o]
+    elif src == 4 or src == 10 or src == 14:
         r[o] = back[i] if src == 4 else (orand[i] if src == 10 else oidx[i])
         r[o + 1] = r[o]
         r[o + 2] = r[o]
@@ -91,7 +95,7 @@ def _load_row(r, o, src, idx, i, P, N, Ng, I, back, gen, obj, objn, oloc, orand,
 
 @njit(inline="always", **dict(cache=True, error_model="numpy"))
 def _load_input(r, ins, i, stride, P, N, Ng, I, back, gen, obj, objn, oloc, orand, ocol, oidx,
-                uv, attr, tan, n2w):
+                uv, attr, tan, n2w, oalpha, midx):
     """OP_INPUT ins at point i. A bump offset (ins[3] 1 or 2, with stride = the points'
     count: the offset rows follow them) reads the source at P + w dPdx (or dPdy), w =
     ins[4] BUMP_WIDTH_UNIT, interpolated linearly from the point to its row at P + dPdx
@@ -103,11 +107,11 @@ def _load_input(r, ins, i, stride, P, N, Ng, I, back, gen, obj, objn, oloc, oran
             r[o + c] = (np.float64(P[j, c]) - np.float64(P[i, c])) if stride > 0 else 0.0
         return
     _load_row(r, o, src, idx, i, P, N, Ng, I, back, gen, obj, objn, oloc, orand, ocol, oidx,
-              uv, attr, tan, n2w)
+              uv, attr, tan, n2w, oalpha, midx)
     if ins[3] != 0 and stride > 0:
         x, y, z = r[o], r[o + 1], r[o + 2]
         _load_row(r, o, src, idx, i + ins[3] * stride, P, N, Ng, I, back, gen, obj, objn,
-                  oloc, orand, ocol, oidx, uv, attr, tan, n2w)
+                  oloc, orand, ocol, oidx, uv, attr, tan, n2w, oalpha, midx)
         w = ins[4] * pg.BUMP_WIDTH_UNIT
         r[o] = x + w * (r[o] - x)
         r[o + 1] = y + w * (r[o + 1] - y)
@@ -337,7 +341,8 @@ def _run(r, ins, tables, im_bytes, im_shorts, im_floats, im_tiles, im_first, im_
 @njit(parallel=True, **dict(cache=True, error_model="numpy"))
 def evaluate_kernel(instructions, constants, tables, n_registers, outputs, P, N, Ng, I, back,
                     gen, obj, objn, oloc, orand, ocol, oidx, uv, attr, tan, n2w, stride,
-                    im_bytes, im_shorts, im_floats, im_tiles, im_first, im_count, out):
+                    im_bytes, im_shorts, im_floats, im_tiles, im_first, im_count, out, oalpha,
+                    midx):
     """Run the program on every point: out[i, o] = register outputs[o, 0] of point i.
     (N, O) float32 ``out``; every other array as ``ShadingInputs`` / ``ShaderProgram`` /
     ``ProgramImages`` (im_*); stride ``ShadingInputs.bump_points``."""
@@ -354,7 +359,7 @@ def evaluate_kernel(instructions, constants, tables, n_registers, outputs, P, N,
                 ins = instructions[s]
                 if ins[0] == pg.OP_INPUT:
                     _load_input(r, ins, i, stride, P, N, Ng, I, back, gen, obj, objn, oloc,
-                                orand, ocol, oidx, uv, attr, tan, n2w)
+                                orand, ocol, oidx, uv, attr, tan, n2w, oalpha, midx)
                 else:
                     _run(r, ins, tables, im_bytes, im_shorts, im_floats, im_tiles,
                          im_first, im_count, px)
@@ -382,7 +387,8 @@ def evaluate(program: pg.ShaderProgram, inputs: ShadingInputs,
                     inputs.object_random, inputs.object_color, inputs.object_index,
                     inputs.uv, inputs.attributes, inputs.tangents, inputs.normal_to_world,
                     inputs.bump_points, im.bytes, im.shorts,
-                    im.floats, im.tiles, im.slot_first, im.slot_count, out)
+                    im.floats, im.tiles, im.slot_first, im.slot_count, out,
+                    inputs.object_alpha, inputs.material_index)
     return out
 
 

@@ -23,8 +23,9 @@ from photon_map.core.shading.inputs import ShadingInputs  # noqa: E402
 from photon_map.core.shading.interpreter import evaluate  # noqa: E402
 from photon_map.photon_engine.export_shader import compile_sockets  # noqa: E402
 from photon_map.photon_engine.export_images import ProgramImageTable  # noqa: E402
-from photon_map.photon_engine.export import object_info, read_attributes, read_mesh  # noqa: E402
-from photon_map.photon_engine.export_shader import AttributeNames  # noqa: E402
+from photon_map.photon_engine.export import object_info, read_attributes, read_mesh, \
+    read_uv_maps  # noqa: E402
+from photon_map.photon_engine.export_shader import AttributeNames, UVMapNames  # noqa: E402
 from photon_map.photon_engine.export_camera import camera_view  # noqa: E402
 
 CELL = 2.0      # metres per plane (Blender's default plane)
@@ -94,8 +95,23 @@ def plane_attributes(plane, obj, names) -> np.ndarray:
     points ``obj`` (N, 3) of its z = 0 face, interpolated over the triangle holding each
     point (barycentric, as the renderer interpolates per hit)."""
     local = read_mesh(plane.data)
-    corners = read_attributes(plane.data, list(names), local, plane.name, [])
-    out = np.zeros((len(names), len(obj), 4), np.float32)
+    return _interpolate(local, read_attributes(plane.data, list(names), local, plane.name,
+                                               []), obj)
+
+
+def plane_uv_maps(plane, obj, names, warnings=None) -> np.ndarray:
+    """(U, N, 2): the exporter's UV maps ``names`` (``export.read_uv_maps``) of ``plane``
+    at the object-space points ``obj`` (N, 3), interpolated as ``plane_attributes``."""
+    local = read_mesh(plane.data)
+    maps = read_uv_maps(plane.data, list(names), local, plane.name, UVMapNames(names),
+                        [] if warnings is None else warnings)
+    return _interpolate(local, maps, obj)
+
+
+def _interpolate(local, corners, obj) -> np.ndarray:
+    """(A, N, C): corner values (T, 3, A, C) at the points obj (N, 3) of the z = 0 face."""
+    names = range(corners.shape[2])
+    out = np.zeros((corners.shape[2], len(obj), corners.shape[3]), np.float32)
     p = local.positions[local.triangles][..., :2]  # (T, 3, 2)
     for t in range(p.shape[0]):
         e1, e2 = p[t, 1] - p[t, 0], p[t, 2] - p[t, 0]
@@ -110,11 +126,12 @@ def plane_attributes(plane, obj, names) -> np.ndarray:
     return out
 
 
-def plane_inputs(plane, g, offset=(0.0, 0.0), attributes=()) -> ShadingInputs:
+def plane_inputs(plane, g, offset=(0.0, 0.0), attributes=(), uv_maps=()) -> ShadingInputs:
     """The surface points of ``plane``'s pixels (PIXELS x PIXELS, row 0 at the top),
     shifted by ``offset`` pixels: world position, normal +Z, incoming +Z, generated and
-    object coordinates, the UV map interpolated (an affine fit of the plane's corners),
-    the exporter's Object Info of the plane's depsgraph instance, the mesh attributes
+    object coordinates, the active render UV map interpolated (an affine fit of the
+    plane's corners) then the named ``uv_maps`` as the exporter reads them, the
+    exporter's Object Info of the plane's depsgraph instance, the mesh attributes
     ``attributes`` (names) as the exporter reads them."""
     px = CELL / PIXELS
     lx, ly, _ = plane.location
@@ -129,7 +146,7 @@ def plane_inputs(plane, g, offset=(0.0, 0.0), attributes=()) -> ShadingInputs:
     tl, ts = np.array(mesh.texspace_location), np.array(mesh.texspace_size)
     gen = np.where(ts != 0, (obj - tl) / np.where(ts != 0, 2 * ts, 1) + 0.5, 0.5)
     co = np.array([mesh.vertices[lp.vertex_index].co[:] for lp in mesh.loops])
-    uv_layer = mesh.uv_layers[0].data
+    uv_layer = next(u for u in mesh.uv_layers if u.active_render).data
     uvs = np.array([d.uv[:] for d in uv_layer])
     A = np.linalg.lstsq(np.c_[co, np.ones(len(co))], uvs, rcond=None)[0]
     uv = np.c_[obj, np.ones(len(obj))] @ A
@@ -146,7 +163,12 @@ def plane_inputs(plane, g, offset=(0.0, 0.0), attributes=()) -> ShadingInputs:
                                object_location=np.tile(plane.location, (len(P), 1)),
                                object_color=np.tile(info[:3], (len(P), 1)),
                                object_random=np.full(len(P), info[3]),
-                               object_index=np.full(len(P), info[4]), uv=uv[None],
+                               object_index=np.full(len(P), info[4]),
+                               object_alpha=np.full(len(P), info[5]),
+                               material_index=np.full(len(P), float(
+                                   plane.data.materials[0].pass_index)),
+                               uv=np.concatenate([uv[None].astype(np.float32),
+                                                  plane_uv_maps(plane, obj, uv_maps)]),
                                attributes=plane_attributes(plane, obj, attributes))
 
 
@@ -163,20 +185,24 @@ def turn_mesh(plane, rotation):
 
 def compile_planes(planes):
     """[(plane, ShaderCompile of its Emission colour, the ProgramImages its Image
-    Textures sample, the attribute names it reads)], and every warning (the image
-    table's too)."""
+    Textures sample, the attribute names it reads, the UV maps it names)], and every
+    warning (the image table's and the exporter's UV map reader's too)."""
     out, warnings = [], []
     view = camera_view(bpy.context.evaluated_depsgraph_get())
     for plane in planes:
         mat = plane.data.materials[0]
         em = next(n for n in mat.node_tree.nodes if n.bl_idname == "ShaderNodeEmission")
         table = ProgramImageTable(warnings)
-        names = AttributeNames()
+        names, uv_maps = AttributeNames(), UVMapNames()
         result = compile_sockets(mat, [(em.inputs["Color"], pg.TARGET_EMISSION, 0, 0)],
-                                 uv_maps=[u.name for u in plane.data.uv_layers],
-                                 images=table, attributes=names, view=view)
+                                 uv_maps=uv_maps, images=table, attributes=names,
+                                 view=view)
         warnings += result.warnings
-        out.append((plane, result, table.images(), names.names))
+        if uv_maps.names:
+            local = read_mesh(plane.data)
+            read_uv_maps(plane.data, uv_maps.names, local, f"object '{plane.name}'",
+                         uv_maps, warnings)
+        out.append((plane, result, table.images(), names.names, uv_maps.names))
     return out, warnings
 
 
@@ -188,11 +214,12 @@ def photon_map_image(planes, g, offset=(0.0, 0.0), compiled=None):
     else:
         warnings = []
     img = np.zeros((g * PIXELS, g * PIXELS, 3), np.float32)
-    for k, (plane, result, images, names) in enumerate(compiled):
+    for k, (plane, result, images, names, uv_maps) in enumerate(compiled):
         if result.program is None:
             values = np.tile(np.array(result.constant[0], np.float32), (PIXELS * PIXELS, 1))
         else:
-            values = evaluate(result.program, plane_inputs(plane, g, offset, names), images)
+            values = evaluate(result.program, plane_inputs(plane, g, offset, names, uv_maps),
+                              images)
         row, col = divmod(k, g)
         img[row * PIXELS:(row + 1) * PIXELS, col * PIXELS:(col + 1) * PIXELS] = \
             values.reshape(PIXELS, PIXELS, 3)

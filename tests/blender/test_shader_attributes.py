@@ -124,3 +124,102 @@ def test_vertex_colours_driving_base_colour_render_albedo_times_irradiance_over_
     rel = np.abs(img - want) / want
     print(f"\nworst pixel {100 * rel.max():.3f} %, mean {100 * rel.mean():.4f} %")
     assert rel.max() < 0.02
+
+
+# --- UV maps by name ---------------------------------------------------------------------
+
+def add_second_uv_map(planes):
+    """A second, non-active UV map "Second" with random corner values on every plane (the
+    active render map stays Blender's default "UVMap")."""
+    rng = np.random.default_rng(11)
+    for plane in planes:
+        layer = plane.data.uv_layers.new(name="Second")
+        layer.data.foreach_set("uv", rng.uniform(-0.5, 1.5, 2 * len(layer.data))
+                               .astype(np.float32))
+        plane.data.uv_layers["UVMap"].active_render = True
+
+
+def uv_map(name, through=None):
+    """A UV Map node naming ``name`` into the Emission colour, directly or as the Vector
+    of a ``through`` texture node (its Color output)."""
+    def build(tree, color):
+        n = node(tree, "ShaderNodeUVMap", uv_map=name)
+        if through is None:
+            link(tree, n.outputs["UV"], color)
+            return
+        tex = node(tree, through)
+        link(tree, n.outputs["UV"], tex.inputs["Vector"])
+        if through == "ShaderNodeTexChecker":
+            tex.inputs["Scale"].default_value = 3.0
+        link(tree, tex.outputs[0], color)
+    return build
+
+
+def test_uv_maps_by_name_match_cycles():
+    """A UV Map node reads the map it names, not the active one: per pixel against
+    Cycles (the map directly, through a Checker, through a Gradient); the active map by
+    name and a missing name (0, 0 as Cycles, reported by material and name)."""
+    specs = [("UV Second", uv_map("Second")),
+             ("UV Second checker", uv_map("Second", "ShaderNodeTexChecker")),
+             ("UV Second gradient", uv_map("Second", "ShaderNodeTexGradient")),
+             ("UV active by name", uv_map("UVMap")),
+             ("UV missing", uv_map("Nowhere"))]
+    result = ss.compare(specs, setup=add_second_uv_map)
+    assert result["warnings"] == [
+        "Material 'UV missing': UV map 'Nowhere' not found on object 'Plane4'; "
+        "(0, 0) is used, as Cycles"]
+    figures = check(result, [n for n, _ in specs])
+    print({k: tuple(round(x, 6) for x in v) for k, v in figures.items()})
+    # the second map differs from the active one, so reading the wrong map would fail
+    g = result["grid"]
+    r, c = divmod(3, g)
+    second = result["ours"][:ss.PIXELS, :ss.PIXELS]
+    active = result["ours"][r * ss.PIXELS:(r + 1) * ss.PIXELS, c * ss.PIXELS:(c + 1) * ss.PIXELS]
+    assert np.abs(second - active).max() > 0.3
+    r, c = divmod(len(specs) - 1, g)
+    missing = result["ours"][r * ss.PIXELS:(r + 1) * ss.PIXELS, c * ss.PIXELS:(c + 1) * ss.PIXELS]
+    np.testing.assert_array_equal(missing, 0.0)
+
+
+def test_named_uv_maps_cross_the_contract_to_the_hits():
+    """The exporter exports the UV map a Base Color program names (``Mesh.uv_maps``) at
+    the right corners of every triangle (the map is a function of position, so a corner
+    order mistake shows), and the HitShader reads it at a hit as index 1 of
+    ``ShadingInputs.uv`` (the active map is index 0)."""
+    from tests.blender import export_probe
+    from photon_map.core.prepared import prepare
+
+    scene = scenes.reset()
+    mat = bpy.data.materials.new("Mapped")
+    tree = scenes.ensure_node_tree(mat)
+    tree.nodes.clear()
+    bsdf = node(tree, "ShaderNodeBsdfPrincipled")
+    out = node(tree, "ShaderNodeOutputMaterial")
+    link(tree, bsdf.outputs[0], out.inputs["Surface"])
+    link(tree, node(tree, "ShaderNodeUVMap", uv_map="Second").outputs["UV"],
+         bsdf.inputs["Base Color"])
+    plane = scenes.add_plane(size=2.0, location=(0.3, -0.2, 0.0), material=mat)
+    scenes.add_camera(location=(0.0, 0.0, 5.0), look_at=(0.0, 0.0, 0.0))
+
+    def second(p):  # the map as a function of the world position
+        return np.stack([0.25 + 0.1 * p[..., 0], 0.5 - 0.2 * p[..., 1]], -1)
+
+    layer = plane.data.uv_layers.new(name="Second")
+    co = np.array([plane.data.vertices[lp.vertex_index].co[:] for lp in plane.data.loops])
+    layer.data.foreach_set("uv", second(co + np.array(plane.location)).astype(np.float32)
+                           .ravel())
+    plane.data.uv_layers["UVMap"].active_render = True
+    result = export_probe.export(scene, origin=np.zeros(3))
+    mesh = result.scene.mesh
+    assert not [w for w in result.warnings if "UV" in w], result.warnings
+    assert mesh.uv_map_names == ("Second",)
+    corners = mesh.vertices[mesh.triangles].astype(np.float64)
+    np.testing.assert_allclose(mesh.uv_maps[:, :, 0], second(corners), atol=1e-6)
+    with prepare(result.scene, threads=1) as prepared:
+        prim = np.zeros(3, np.int32)
+        u = np.array([0.2, 0.5, 0.1])
+        v = np.array([0.3, 0.1, 0.6])
+        d = np.tile([0.0, 0.0, -1.0], (3, 1))
+        ins, _ = prepared.hit_shader.inputs(prim, u, v, d)
+        assert ins.uv.shape == (2, 3, 2)
+        np.testing.assert_allclose(ins.uv[1], second(ins.position), atol=1e-5)

@@ -46,3 +46,27 @@ def test_object_info_random_color_and_index_match_cycles():
     assert len(set(np.round(randoms, 6))) == 6 and 0.0 <= min(randoms) < max(randoms) <= 1.0
     index = result["ours"][2 * ss.PIXELS + 5, ss.PIXELS + 5]  # plane 7: row 2, column 1
     np.testing.assert_array_equal(index, [10.0, 10.0, 10.0])
+
+
+def test_object_info_alpha_and_material_index_match_cycles():
+    """Object Info Alpha (the object colour's alpha) and Material Index (the material's
+    pass index, not the object's) through emission, exactly as Cycles."""
+    specs = [("Alpha", info_plane("Alpha")), ("Material Index", info_plane("Material Index")),
+             ("Alpha 2", info_plane("Alpha")), ("Material Index 2",
+                                                info_plane("Material Index"))]
+
+    def setup(planes):
+        for k, plane in enumerate(planes):
+            plane.color = (0.2, 0.4, 0.6, 0.15 + 0.2 * k)
+            plane.pass_index = 40 + k  # the object's: not what Material Index reads
+            plane.data.materials[0].pass_index = 7 + 3 * k
+
+    result = ss.compare(specs, setup=setup)
+    assert not result["warnings"]
+    figures = check(result, [n for n, _ in specs])
+    print({k: tuple(round(x, 6) for x in v) for k, v in figures.items()})
+    g = result["grid"]
+    at = [result["ours"][r * ss.PIXELS + 5, c * ss.PIXELS + 5]
+          for r, c in [divmod(k, g) for k in range(4)]]
+    np.testing.assert_allclose([a[0] for a in at], [0.15, 10.0, 0.55, 16.0], rtol=1e-6)
+    np.testing.assert_allclose(result["cycles"][5, 5], at[0], rtol=1e-6)
