@@ -134,9 +134,11 @@ class HitShader:
         used = np.bincount(mesh.material_index, minlength=mats.count)[:mats.count] > 0
         self.programs = progs
         self.images = scene.program_images
-        # materials whose closures a program computes (TARGET_CLOSURE outputs)
+        # materials whose closures or shading normal a program computes (TARGET_CLOSURE,
+        # TARGET_NORMAL outputs): their hits get closure rows of their own
         self.programmed = np.array(
-            [p is not None and bool(np.any(p.outputs[:, 1] == pg.TARGET_CLOSURE))
+            [p is not None and bool(np.any(np.isin(p.outputs[:, 1],
+                                                   (pg.TARGET_CLOSURE, pg.TARGET_NORMAL))))
              for p in progs], bool).reshape(mats.count)
         # materials whose emission a program computes (TARGET_EMISSION outputs)
         self.emission_programmed = np.array(
