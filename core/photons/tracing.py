@@ -103,10 +103,11 @@ def _fly(medium: _Medium, hits, o, d, f, pid, n_diff, n_spec, seed, map_id, boun
     out = (np.empty(n, bool), np.empty(n, bool), np.empty(n, bool), np.empty((n, 3), np.float32),
            np.empty((n, 3), np.float32), np.empty((n, 3), np.float32), np.empty(n, bool),
            np.empty((n, 3), np.float32), np.empty((n, 3), np.float32), np.empty((n, 3)))
+    pre = medium_flight.flight_through(m, st, o, d, pid, seed, map_id, bounce)
     medium_flight.fly_kernel(o, d, f, pid, n_diff, n_spec, st.start, st.t0, st.t1,
                              np.ascontiguousarray(st.sigma_a), np.ascontiguousarray(st.sigma_s),
                              st.g, np.int64(seed), dims, np.int64(bounce), mode,
-                             medium.caustic_apart, medium.store_direct, last, *out)
+                             medium.caustic_apart, medium.store_direct, last, *pre, *out)
     collided, v_store, v_camera, v_pos, v_flux, v_dir, alive, o_new, d_new, f_new = out
     medium.vstore.add(v_store, v_camera, v_pos, v_flux, v_dir)
     prim = np.where(collided, -1, hits.prim).astype(hits.prim.dtype)
