@@ -133,7 +133,7 @@ def test_volume_direct_matches_the_single_scattering_integral():
 def test_media_the_renderer_does_not_take_yet_are_refused_by_name():
     mat = {"diffuse": [0.5] * 3}
     textured = Media.from_list([{"sigma_s": [1, 1, 1], "density_texture": 0, "name": "Smoke"}])
-    with pytest.raises(SceneError, match="medium 'Smoke'.*heterogeneous density"):
+    with pytest.raises(SceneError, match="medium 'Smoke'.*World volume of varying density"):
         regions.renderable(textured, 1.0)
     st = RenderSettings(integrator="progressive", progressive_passes=1, photons_per_pass=100,
                         threads=2)
