@@ -575,6 +575,10 @@ def trace_photons(prepared: PreparedScene, settings: RenderSettings,
                          f"({len(volume_gather_map) if volume_gather_map else 0:,} with the "
                          f"direct ones, for final gathering), "
                          f"{len(volume_caustic_map) if volume_caustic_map else 0:,} caustic")
+        if medium.fields is not None:  # heterogeneous media: the majorants, any clipping
+            decisions.append("density majorants " + ", ".join(
+                f"'{medium.names[m]}' {v:.4g}" for m, v in medium.fields.majorant.items()))
+            decisions.extend(medium.fields.warnings())
     if not cancelled:
         if g_store is not None:
             global_map = _balance(g_store, counters)
