@@ -128,7 +128,6 @@ class Medium:
         if self.het.any() and fields is None:
             raise ValueError("regions.Medium: heterogeneous media need their DensityFields")
         self.heterogeneous = bool(self.het.any())
-        self.walks = 0  # ratio-tracking calls so far: each keys its own random stream
 
     def close(self) -> None:
         if self.accel is not None:
@@ -205,13 +204,13 @@ class Medium:
                 if not np.all(np.isfinite(t1[het])):
                     raise SceneError(f"a ray escapes through the heterogeneous media "
                                      f"{self.name}; only closed meshes may vary in density")
-                # Each call its own stream: seed, walk index = stretch, dim = the call count
-                self.walks += 1
-                dim = sampling.stream(sampling.MEDIUM_TRANSMITTANCE, self.walks % 4096,
-                                      (self.walks // 4096) % 4096)
+                # Each walk's stream is keyed by its segment's origin and direction bits
+                # and its row: the same for the same call whatever runs before or beside it
+                # (photon chunks may run in threads)
                 T = ratio_tracking_batch(self.fields, o[ray[het]], d[ray[het]], t0[het],
-                                         t1[het], fld[het], ha[het] + hs[het], maj[het], 0, dim,
-                                         index=het)
+                                         t1[het], fld[het], ha[het] + hs[het], maj[het], 0,
+                                         sampling.stream(sampling.MEDIUM_TRANSMITTANCE),
+                                         index=_walk_keys(o[ray[het]], d[ray[het]], het))
                 factor = np.ones((s, 3))
                 factor[het] = T
                 _het_before_kernel(start, factor, before, through)
@@ -377,3 +376,17 @@ def _het_before_kernel(start, factor, before, through):
         through[i, 0] *= c0
         through[i, 1] *= c1
         through[i, 2] *= c2
+
+
+def _walk_keys(o, d, row) -> np.ndarray:
+    """(N,) int64 random-stream keys of N walks: a hash of the float64 bits of their
+    origins, directions (N, 3) and rows (N,) int64."""
+    bits = np.concatenate([np.ascontiguousarray(o, np.float64).view(np.uint64),
+                           np.ascontiguousarray(d, np.float64).view(np.uint64),
+                           np.asarray(row, np.int64).astype(np.uint64)[:, None]], axis=1)
+    key = np.zeros(bits.shape[0], np.uint64)
+    with np.errstate(over="ignore"):
+        for k in range(bits.shape[1]):
+            key = (key ^ bits[:, k]) * np.uint64(0x9E3779B97F4A7C15)
+            key ^= key >> np.uint64(29)
+    return key.view(np.int64)
