@@ -42,13 +42,45 @@ from .lights.light_set import EmissiveTriangles, LightSet
 from .materials import bsdf, closure
 from .materials.textures import SurfaceTextures
 from .media import regions
+from .media.density import DensityFields
 from .scene import geometry
 from .shading import interpreter
 from .shading import program as pg
 from .shading.inputs import ShadingInputs
 from .scene.accel import Accelerator, use_threads
 from .scene.bounds import Targets, bounding_sphere, object_spheres
+from .scene.checks import SceneError
 from .scene.contract import CAMERA_ORTHOGRAPHIC, Scene
+
+
+def density_fields(scene: Scene, shader: "HitShader") -> DensityFields | None:
+    """The heterogeneous media's densities (core/media/density.py): each medium's density
+    program bound to the interpreter with the Position (world), Object and Generated
+    coordinates of the medium's object (``shader``'s transforms, as at a surface hit of
+    it), its majorant measured over its boundary's box; None when every medium is
+    homogeneous."""
+    media = scene.media
+    rows = np.flatnonzero(media.density_texture >= 0)
+    if rows.size == 0:
+        return None
+    evaluators, boxes = {}, {}
+    for r in rows.tolist():
+        prog = media.programs[int(media.density_texture[r])]
+        if prog.outputs[0, 1] != pg.TARGET_DENSITY:
+            raise SceneError(f"medium '{media.names[r]}': its density program's output has "
+                             f"target {prog.outputs[0, 1]}, not TARGET_DENSITY")
+
+        def evaluate(p, prog=prog, obj=int(media.bounds[r])):
+            n = p.shape[0]
+            world = p + shader.origin
+            local, generated = shader.object_point(np.full(n, obj), world)
+            inputs = ShadingInputs.build(world, np.zeros((n, 3), np.float32),
+                                         object_coords=local, generated=generated)
+            return interpreter.evaluate(prog, inputs, scene.program_images)[:, 0]
+        evaluators[r] = evaluate
+        tri = media.boundary[media.boundary_medium == r].reshape(-1, 3).astype(np.float64)
+        boxes[r] = (tri.min(axis=0), tri.max(axis=0))
+    return DensityFields(evaluators, boxes, media.names)
 
 
 @dataclass
@@ -231,7 +263,7 @@ class HitShader:
             return replace(ins, bump_points=prim.shape[0]), mat
         world = pos + self.origin
         obj = self.tri_object[prim]
-        local, generated = self._object_point(obj, world)
+        local, generated = self.object_point(obj, world)
         # Normals to object space: n_obj ~ A^T n_world for a world normal inv(A)^T n_obj.
         onrm = np.einsum("nji,nj->ni", self.linear[obj], nsf)
         onrm /= np.maximum(np.linalg.norm(onrm, axis=1), 1e-30)[:, None]
@@ -368,7 +400,7 @@ class HitShader:
         a = w[:, None, None] * c[:, 0] + u[:, None, None] * c[:, 1] + v[:, None, None] * c[:, 2]
         return np.ascontiguousarray(np.transpose(a, (1, 0, 2)), np.float32)
 
-    def _object_point(self, obj, world):
+    def object_point(self, obj, world):
         """Object-space positions (N, 3) and Generated coordinates (N, 3) float64 of world
         points (N, 3) on objects obj (N,)."""
         to_obj = self.to_object[obj]
@@ -401,7 +433,7 @@ class HitShader:
         if sel.size == 0:
             return out
         obj = self.tri_object[prim[sel]]
-        _, g = self._object_point(obj, np.asarray(pos, np.float64)[sel] + self.origin)
+        _, g = self.object_point(obj, np.asarray(pos, np.float64)[sel] + self.origin)
         t_obj = np.stack([-(g[:, 1] - 0.5), g[:, 0] - 0.5, np.zeros(sel.size)], axis=1)
         out[sel] = np.einsum("nji,nj->ni", self.to_object[obj][:, :3, :3], t_obj)
         return out
@@ -611,4 +643,5 @@ def prepare(scene: Scene, threads: int = 0) -> PreparedScene:
         specular_objects=specular_objects,
         diffuse_area=diffuse_area(tri_vertices, tri_material, has_diffuse),
         hit_shader=hit_shader,
-        medium=regions.renderable(scene.media, geometry.scene_extent(lo, hi), workers))
+        medium=regions.renderable(scene.media, geometry.scene_extent(lo, hi), workers,
+                                  density_fields(scene, hit_shader)))

@@ -47,6 +47,8 @@ VOLUME_LIGHT = 22      # the point on a light a volume shadow ray aims at
 MEDIUM_FLIGHT = 23     # photons' free flights and phase-function scattering in media
 WAVELENGTH = 24        # the wavelength a photon picks at its first dispersive surface
 CAMERA_WAVELENGTH = 25  # the wavelength a camera path picks at its first dispersive surface
+MEDIUM_TRANSMITTANCE = 26  # ratio tracking through heterogeneous media (per call)
+MEDIUM_TRACKING = 27    # delta tracking of photons and camera sub-stretches in them
 
 PROGRESSIVE = 7
 """Last stream index of the progressive integrator's camera paths: keeps its visible-point

@@ -71,8 +71,14 @@ def export_scene(depsgraph, camera=None, origin=None) -> ExportResult:
     geometry = _Geometry(warnings)
     light_rows = []
     flagged = set()
+    volume_objects = set()
     for inst in depsgraph.object_instances:
         obj = inst.object
+        if obj.type == 'VOLUME' and inst.show_self and obj.name not in volume_objects:
+            # bpy 5.2 exposes a grid's name and type but not its voxels (no openvdb module)
+            volume_objects.add(obj.name)
+            warnings.append(f"Volume object '{obj.name}': OpenVDB grids are not supported "
+                            f"(Blender's Python API does not expose their voxels); not rendered")
         if obj.type not in ('MESH', 'LIGHT') or not inst.show_self:
             continue
         if not _ray_visible(inst, flagged, warnings):
@@ -156,7 +162,17 @@ def _export_media(depsgraph, warnings, mesh_media) -> Media:
     """The scene's media (photon_engine/export_volumes.py): the World's Volume and
     ``mesh_media``, the rows of the media inside mesh objects (``_Geometry.build``)."""
     row = world_medium(depsgraph.scene.world, warnings)
-    return Media.from_list(([row] if row is not None else []) + list(mesh_media))
+    rows = ([row] if row is not None else []) + list(mesh_media)
+    # Each heterogeneous material's density program once, shared by its objects' rows
+    programs, index = [], {}
+    for r in rows:
+        prog = r.pop("density_program", None)
+        if prog is not None:
+            if id(prog) not in index:
+                index[id(prog)] = len(programs)
+                programs.append(prog)
+            r["density_texture"] = index[id(prog)]
+    return Media.from_list(rows, programs=tuple(programs))
 
 
 class _MaterialTable:

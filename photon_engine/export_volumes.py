@@ -12,8 +12,13 @@ svm_closure.h (and EEVEE's node_volume_* shaders, which follow it):
 - Add Shader sums the media, Mix Shader weighs them by (1 - Fac, Fac); the anisotropy of a
   sum is the sigma_s-weighted mean of its lobes' g (Cycles keeps the lobes apart: exact
   for equal g).
-A linked input (a texture giving heterogeneous density or colour) is reported by node and
-input and its own value is used. The World's Volume fills all space (``world_medium``); a
+Heterogeneous density: a mesh material whose Volume output is one Principled Volume,
+Volume Scatter or Volume Absorption with its Density linked gets a density program
+(``export_shader.compile_sockets`` with target TARGET_DENSITY: Noise, Gradient, ColorRamp,
+Math ... through Texture Coordinate Object / Generated or the Geometry Position), its
+coefficients at density 1 (core/scene/media.py); Cycles clamps the density at 0 as the
+renderer does. Any other linked input (Color, Absorption Color, a Density under an Add or
+Mix Shader, the World's Density) is reported by node and input and its own value used. The World's Volume fills all space (``world_medium``); a
 mesh material's Volume fills the inside of every object using it (``material_medium``;
 export.py makes one medium per object and material, bounded by that object's faces of the
 material, and leaves a volume-only material's faces out of the surfaces: they are null
@@ -25,8 +30,10 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.scene.media import WORLD
+from ..core.shading import program as pg
 from . import compat
 from .export_nodes import follow_reroutes
+from .export_shader import compile_sockets
 
 
 class _Medium:
@@ -65,7 +72,20 @@ def _value(node, name, owner, warnings, size=None):
     return float(v)
 
 
-def _read(sock, owner, warnings, depth=0) -> _Medium:
+def _density(node, owner, warnings, linked):
+    """The node's Density: 1 when it is linked and ``linked`` (a list) collects the socket
+    (the medium is heterogeneous), else its own value (a link reported)."""
+    sock = node.inputs.get("Density")
+    if linked is not None and sock is not None and sock.is_linked \
+            and follow_reroutes(sock) is not None:
+        linked.append(sock)
+        return 1.0
+    return max(_value(node, "Density", owner, warnings), 0.0)
+
+
+def _read(sock, owner, warnings, depth=0, linked=None) -> _Medium:
+    """The medium of a Volume socket; ``linked``: a list that takes the Density socket of
+    the output's own volume node when it is linked (depth 0 only; None: never)."""
     m = _Medium()
     out = follow_reroutes(sock) if sock is not None else None
     if out is None or depth > 32:
@@ -81,11 +101,11 @@ def _read(sock, owner, warnings, depth=0) -> _Medium:
         m.add(_read(node.inputs[2], owner, warnings, depth + 1), fac)
     elif kind == "ShaderNodeVolumeAbsorption":
         c = _value(node, "Color", owner, warnings, 3)
-        rho = max(_value(node, "Density", owner, warnings), 0.0)
+        rho = _density(node, owner, warnings, linked if depth == 0 else None)
         m.sigma_a = np.maximum(1.0 - c, 0.0) * rho
     elif kind == "ShaderNodeVolumeScatter":
         c = np.maximum(_value(node, "Color", owner, warnings, 3), 0.0)
-        rho = max(_value(node, "Density", owner, warnings), 0.0)
+        rho = _density(node, owner, warnings, linked if depth == 0 else None)
         m.sigma_s = c * rho
         m.g_weight = float(np.mean(m.sigma_s)) * _value(node, "Anisotropy", owner, warnings)
         phase = getattr(node, "phase", "HENYEY_GREENSTEIN")
@@ -94,7 +114,7 @@ def _read(sock, owner, warnings, depth=0) -> _Medium:
                             f"supported yet; using Henyey-Greenstein")
     elif kind == "ShaderNodeVolumePrincipled":
         c = np.maximum(_value(node, "Color", owner, warnings, 3), 0.0)
-        rho = max(_value(node, "Density", owner, warnings), 0.0)
+        rho = _density(node, owner, warnings, linked if depth == 0 else None)
         a = np.sqrt(np.maximum(_value(node, "Absorption Color", owner, warnings, 3), 0.0))
         m.sigma_s = c * rho
         m.sigma_a = np.maximum(1.0 - c, 0.0) * np.maximum(1.0 - a, 0.0) * rho
@@ -148,9 +168,19 @@ def material_medium(mat, warnings: list[str]) -> dict | None:
     sock = _volume_socket(compat.node_tree(mat), "ShaderNodeOutputMaterial")
     if sock is None:
         return None
-    m = _read(sock, f'Material "{mat.name}"', warnings)
-    return {"sigma_a": m.sigma_a, "sigma_s": m.sigma_s, "anisotropy": m.anisotropy,
-            "emission": m.emission, "name": mat.name}
+    linked = []
+    m = _read(sock, f'Material "{mat.name}"', warnings, linked=linked)
+    row = {"sigma_a": m.sigma_a, "sigma_s": m.sigma_s, "anisotropy": m.anisotropy,
+           "emission": m.emission, "name": mat.name}
+    if linked:
+        comp = compile_sockets(mat, [(linked[0], pg.TARGET_DENSITY, 0, 0)])
+        warnings.extend(comp.warnings)
+        if comp.program is None:  # the graph folds to a constant density
+            rho = max(float(comp.constant[0][0]), 0.0)
+            row["sigma_a"], row["sigma_s"] = m.sigma_a * rho, m.sigma_s * rho
+        else:
+            row["density_program"] = comp.program
+    return row
 
 
 def scene_has_medium(scene) -> bool:

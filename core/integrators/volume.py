@@ -34,7 +34,7 @@ from numba import njit, prange
 from .. import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
 from .. import sampling
 from ..lights import kernels as light_kernels
-from ..media import equiangular, regions
+from ..media import equiangular, regions, tracking
 from ..media.phase import hg_eval
 from ..photons.beam import VolumePhotonMap
 from ..prepared import PreparedScene
@@ -134,9 +134,11 @@ def _inscatter_kernel(q, origins, dirs, seg_t, thr, sigma_s, sigma_t, g, pixel, 
 
 
 def _single_scattering(vt: VolumeTerms, origins, dirs, seg_t, thr, sigma_s, sigma_t, g, pixel,
-                       sample, depth, stats) -> np.ndarray:
+                       sample, depth, stats, sigma_s_at=None) -> np.ndarray:
     """Volume Direct of N homogeneous stretches (coefficients sigma_s, sigma_t (N, 3), g
-    (N,)), (N, 3) float64 W/(m^2 sr), shadow rays and their transmittance included."""
+    (N,)), (N, 3) float64 W/(m^2 sr), shadow rays and their transmittance included.
+    sigma_s_at(idx (K,), points (K, 3) float64) -> (K, 3): a varying sigma_s at the
+    scattering points of stretches idx, multiplied into the contributions (None: none)."""
     pr = vt.prepared
     ls = pr.light_set
     m = vt.medium
@@ -161,6 +163,9 @@ def _single_scattering(vt: VolumeTerms, origins, dirs, seg_t, thr, sigma_s, sigm
                               sampling.stream(sampling.VOLUME_LIGHT, depth, i), k,
                               vt.light_samples, vt.sample_bits, float(pr.extent), far_ok,
                               contrib, sh_o, sh_d, sh_t, need)
+            if sigma_s_at is not None:
+                idx = np.flatnonzero(need)
+                contrib[idx] *= sigma_s_at(idx, sh_o[idx].astype(np.float64))
             m.attenuate(contrib, need, sh_o, sh_d, sh_t)
             t1 = time.perf_counter()
             idx = np.flatnonzero(need)
@@ -193,6 +198,11 @@ def add_segments(vt: VolumeTerms, origins, dirs, seg_t, thr, rows, pixel, sample
     the beam estimate is the physical radiance there, n^2 times what the convention
     carries: it is divided by n^2 (a smoke-filled glass sphere).
 
+    A stretch of varying density is cut at the tentative collisions of a ratio-tracking
+    walk (``_split_heterogeneous``); each piece is integrated as a homogeneous stretch of
+    the homogeneous part, weighted by the walk's running transmittance, and its Volume
+    Direct takes sigma_s at the point it scatters.
+
     pixel, sample (R,) int64 key the random numbers (with depth, the bounce)."""
     m = vt.medium
     seg_t = np.ascontiguousarray(seg_t, np.float64)
@@ -204,31 +214,91 @@ def add_segments(vt: VolumeTerms, origins, dirs, seg_t, thr, rows, pixel, sample
     s_d = np.ascontiguousarray(np.asarray(dirs, np.float64)[ray])
     s_len = np.ascontiguousarray(st.length)
     s_thr = np.ascontiguousarray(thr[ray] * st.before)
-    s_rows = rows[ray]
-    sigma_t = np.ascontiguousarray(st.sigma_t)
+    s_ray = ray
+    sig_s, sig_t, g, em = st.sigma_s, np.ascontiguousarray(st.sigma_t), st.g, st.emission
+    fld = het_s = None
+    if st.field is not None and np.any(st.field >= 0):
+        (s_o, s_d, s_len, s_thr, s_ray, sig_s, sig_t, g, em, fld,
+         het_s) = _split_heterogeneous(vt, st, s_o, s_d, s_len, s_thr, pixel[rows], sample[rows],
+                                       depth)
+    s_rows = rows[s_ray]
     s_photon = s_thr
     if n_inside is not None and np.any(n_inside != 1.0):
-        s_photon = s_thr / (np.asarray(n_inside, np.float64)[ray] ** 2)[:, None]
-    scat = np.flatnonzero(np.any(st.sigma_s > 0, axis=1))
+        s_photon = s_thr / (np.asarray(n_inside, np.float64)[s_ray] ** 2)[:, None]
+    scat = np.flatnonzero(np.any(sig_s > 0, axis=1) if fld is None else
+                          np.any(sig_s > 0, axis=1) | np.any(het_s > 0, axis=1))
     if scat.size:
-        sl = scat if scat.size < ray.size else slice(None)
+        sl = scat if scat.size < s_ray.size else slice(None)
         if vt.single_scattering and vt.prepared.light_set.count:
-            out = _single_scattering(vt, s_o[sl], s_d[sl], s_len[sl], s_thr[sl],
-                                     np.ascontiguousarray(st.sigma_s[sl]), sigma_t[sl],
-                                     np.ascontiguousarray(st.g[sl]), pixel[s_rows[sl]],
-                                     sample[s_rows[sl]], depth, stats)
+            direct_args = (s_o[sl], s_d[sl], s_len[sl], s_thr[sl])
+            if fld is None:
+                out = _single_scattering(vt, *direct_args, np.ascontiguousarray(sig_s[sl]),
+                                         sig_t[sl], np.ascontiguousarray(g[sl]),
+                                         pixel[s_rows[sl]], sample[s_rows[sl]], depth, stats)
+            else:
+                # sigma_s varies: the kernel takes 1 and the point's sigma_s multiplies after
+                hs, hom, f = het_s[sl], sig_s[sl], fld[sl]
+
+                def sigma_s_at(idx, points):
+                    rho = m.fields(points, f[idx])
+                    return hom[idx] + rho[:, None] * hs[idx]
+                out = _single_scattering(vt, *direct_args, np.ones((len(hs), 3)), sig_t[sl],
+                                         np.ascontiguousarray(g[sl]), pixel[s_rows[sl]],
+                                         sample[s_rows[sl]], depth, stats, sigma_s_at)
             np.add.at(direct_target, s_rows[sl], out)
         t0 = time.perf_counter()
         for vmap in (vt.volume_map, vt.caustic_map):
             if vmap is not None and len(vmap):
-                est = beam_estimate(vmap, s_o[scat], s_d[scat], s_len[scat], sigma_t[scat],
-                                    st.g[scat])
+                est = beam_estimate(vmap, s_o[scat], s_d[scat], s_len[scat], sig_t[scat],
+                                    g[scat])
                 np.add.at(indirect_target, s_rows[scat], s_photon[scat] * est)
         stats["time_volume_beam"] = stats.get("time_volume_beam", 0.0) + time.perf_counter() - t0
     if m.emits:
-        np.add.at(emission_target, s_rows,
-                  s_thr * regions.emitted(st.emission, sigma_t, s_len))
+        np.add.at(emission_target, s_rows, s_thr * regions.emitted(em, sig_t, s_len))
     return thr * st.through
+
+
+def _split_heterogeneous(vt: VolumeTerms, st, s_o, s_d, s_len, s_thr, pixel, sample, depth):
+    """Cut the heterogeneous stretches of ``st`` at the tentative collisions of one
+    ratio-tracking walk each (tracking.ratio_tracking_points; its running product is an
+    unbiased estimate of the heterogeneous part's transmittance anywhere between two of
+    them): the pieces replace the stretch, each with its start, length, weight times the
+    running product, and the stretch's homogeneous part as coefficients. Returns the new
+    (s_o, s_d, s_len, s_thr, ray, sigma_s, sigma_t, g, emission, field (P,) int64 (-1:
+    homogeneous), het_s (P, 3)): for a piece of a heterogeneous stretch sigma_s is the
+    homogeneous part, to which rho(x) het_s adds where Volume Direct scatters. pixel,
+    sample (N,) per segment key the walks."""
+    m = vt.medium
+    het = np.flatnonzero(st.field >= 0)
+    seg = st.ray[het]
+    index = pixel[seg] * np.int64(1 << 24) + sample[seg] * np.int64(64) + (het - st.start[seg])
+    walk, t, T, _ = tracking.ratio_tracking_points(
+        m.fields, s_o[het], s_d[het], 0.0, s_len[het], st.field[het], st.het_a[het]
+        + st.het_s[het], st.majorant[het], vt.seed,
+        sampling.stream(sampling.MEDIUM_TRACKING, 4095, min(depth, 4095)), index=index)
+    # Pieces per heterogeneous stretch: 1 + its tentative collisions
+    count = np.ones(st.t0.shape[0], np.int64)
+    count[het] += np.bincount(walk, minlength=het.size)
+    first = np.zeros(count.size + 1, np.int64)
+    np.cumsum(count, out=first[1:])
+    p = int(first[-1])
+    src = np.repeat(np.arange(count.size), count)     # the stretch each piece cuts
+    k = np.arange(p) - first[src]                      # the piece's rank in its stretch
+    a = np.zeros(p)                                    # piece start, from the stretch's t0
+    b = s_len[src].copy()                              # piece end
+    w = np.ones((p, 3))
+    # The j-th collision of walk h ends piece j and starts piece j + 1 of stretch het[h]
+    rank = np.arange(walk.size) - np.searchsorted(walk, walk)
+    at = first[het[walk]] + rank
+    b[at] = t
+    a[at + 1] = t
+    w[at + 1] = T
+    out_o = s_o[src] + a[:, None] * s_d[src]
+    fld = st.field[src]
+    return (np.ascontiguousarray(out_o), np.ascontiguousarray(s_d[src]), b - a,
+            np.ascontiguousarray(s_thr[src] * w), st.ray[src], st.sigma_s[src],
+            np.ascontiguousarray(st.sigma_t[src]), st.g[src], st.emission[src], fld,
+            np.where((fld >= 0)[:, None], st.het_s[src], 0.0))
 
 
 def beam_estimate(vmap: VolumePhotonMap, origins, dirs, length, sigma_t, g) -> np.ndarray:

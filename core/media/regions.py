@@ -32,10 +32,13 @@ import numpy as np
 from numba import njit
 
 from .. import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
+from .. import sampling
 from ..scene import geometry
 from ..scene.accel import Accelerator
 from ..scene.checks import SceneError
 from ..scene.media import WORLD, Media
+from .density import DensityFields
+from .tracking import ratio_tracking_batch
 
 MAX_MESH_MEDIA = 62
 """Mesh media a scene may hold: a stretch's set of media is a bit mask in an int64."""
@@ -54,6 +57,11 @@ class Stretches(NamedTuple):
     sigma_a, sigma_s, emission: (S, 3) float64 the summed coefficients (1/m, W/(m^3 sr));
     g: (S,) float64 the anisotropy; before: (S, 3) float64 the transmittance from the
     segment's origin to t0; through: (N, 3) float64 the transmittance of the whole segment.
+    Heterogeneous media (docs/volumes.md): sigma_a, sigma_s above are the stretch's
+    homogeneous part; field (S,) int64 the heterogeneous medium row active there (-1 none,
+    at most one), het_a, het_s (S, 3) its coefficients at density 1, majorant (S,) its
+    density's bound; before and through then include ratio-tracking estimates (unbiased,
+    not exact) of its transmittance.
     """
 
     ray: np.ndarray
@@ -66,6 +74,10 @@ class Stretches(NamedTuple):
     g: np.ndarray
     before: np.ndarray
     through: np.ndarray
+    field: np.ndarray | None = None
+    het_a: np.ndarray | None = None
+    het_s: np.ndarray | None = None
+    majorant: np.ndarray | None = None
 
     @property
     def sigma_t(self) -> np.ndarray:
@@ -82,7 +94,8 @@ class Medium:
     some medium scatters; ``emits``: some medium emits; ``names``; ``close()`` releases
     the boundary's Embree scene."""
 
-    def __init__(self, media: Media, extent: float, threads: int = 0):
+    def __init__(self, media: Media, extent: float, threads: int = 0,
+                 fields: DensityFields | None = None):
         self.names = tuple(media.names[i] if i < len(media.names) else f"medium {i}"
                            for i in range(media.count))
         self.world = media.world
@@ -109,6 +122,12 @@ class Medium:
         self.world_sigma_t = (self.sigma_a[w] + self.sigma_s[w]) if w >= 0 else np.zeros(3)
         self.scatters = bool(np.any(self.sigma_s > 0))
         self.emits = bool(np.any(self.emission > 0))
+        # Heterogeneous rows: their coefficients scale with rho(x) (``fields``)
+        self.fields = fields
+        self.het = media.density_texture >= 0
+        if self.het.any() and fields is None:
+            raise ValueError("regions.Medium: heterogeneous media need their DensityFields")
+        self.heterogeneous = bool(self.het.any())
 
     def close(self) -> None:
         if self.accel is not None:
@@ -175,30 +194,56 @@ class Medium:
         ray, t0, t1, mask = (np.empty(s, np.int64), np.empty(s), np.empty(s),
                              np.empty(s, np.int64))
         _stretch_kernel(ct, cb, cf, t_end, start, ray, t0, t1, mask)
-        sa, ss, em, g = self._coefficients(mask)
+        sa, ss, em, g, fld, ha, hs, maj = self._coefficients(mask)
         before = np.empty((s, 3))
         through = np.ones((n, 3))
         _before_kernel(start, t0, t1, sa + ss, before, through)
-        return Stretches(ray, start, t0, t1, sa, ss, em, g, before, through)
+        if self.heterogeneous:
+            het = np.flatnonzero(fld >= 0)
+            if het.size:
+                if not np.all(np.isfinite(t1[het])):
+                    raise SceneError(f"a ray escapes through the heterogeneous media "
+                                     f"{self.name}; only closed meshes may vary in density")
+                # Each walk's stream is keyed by its segment's origin and direction bits
+                # and its row: the same for the same call whatever runs before or beside it
+                # (photon chunks may run in threads)
+                T = ratio_tracking_batch(self.fields, o[ray[het]], d[ray[het]], t0[het],
+                                         t1[het], fld[het], ha[het] + hs[het], maj[het], 0,
+                                         sampling.stream(sampling.MEDIUM_TRANSMITTANCE),
+                                         index=_walk_keys(o[ray[het]], d[ray[het]], het))
+                factor = np.ones((s, 3))
+                factor[het] = T
+                _het_before_kernel(start, factor, before, through)
+        return Stretches(ray, start, t0, t1, sa, ss, em, g, before, through, fld, ha, hs, maj)
 
     def _coefficients(self, mask):
         """Summed coefficients of the World's medium and the mesh media of each mask."""
         keys, inv = np.unique(mask, return_inverse=True)
         k = keys.shape[0]
         sa, ss, em, gs = np.zeros((k, 3)), np.zeros((k, 3)), np.zeros((k, 3)), np.zeros(k)
+        fld, ha, hs, maj = np.full(k, -1, np.int64), np.zeros((k, 3)), np.zeros((k, 3)), np.zeros(k)
         for j, key in enumerate(keys):
             rows = [self.world] if self.world >= 0 else []
             rows += [int(self.mesh_rows[b]) for b in range(self.mesh_rows.size)
                      if (int(key) >> b) & 1]
             for r in rows:
-                sa[j] += self.sigma_a[r]
-                ss[j] += self.sigma_s[r]
+                if self.het[r]:
+                    if fld[j] >= 0:
+                        raise SceneError(f"the heterogeneous media '{self.names[fld[j]]}' and "
+                                         f"'{self.names[r]}' overlap; at most one medium of "
+                                         f"varying density per point is supported")
+                    fld[j], ha[j], hs[j] = r, self.sigma_a[r], self.sigma_s[r]
+                    maj[j] = self.fields.majorant[r]
+                else:
+                    sa[j] += self.sigma_a[r]
+                    ss[j] += self.sigma_s[r]
                 em[j] += self.emission[r]
+            # The phase mix weights a heterogeneous medium by its sigma_s at density 1
             w = np.array([self.sigma_s[r].mean() for r in rows])
             if rows and w.sum() > 0:
                 gs[j] = float(np.dot(w, self.g[rows]) / w.sum())
         inv = inv.reshape(-1)
-        return sa[inv], ss[inv], em[inv], gs[inv]
+        return sa[inv], ss[inv], em[inv], gs[inv], fld[inv], ha[inv], hs[inv], maj[inv]
 
     def transmittance(self, origins, directions, t_end) -> np.ndarray:
         """exp(-integral of sigma_t) (N, 3) float64 along N segments (``stretches``'
@@ -215,20 +260,22 @@ class Medium:
                                                np.asarray(length)[idx].astype(np.float64))
 
 
-def renderable(media: Media, extent: float, threads: int = 0) -> Medium | None:
+def renderable(media: Media, extent: float, threads: int = 0,
+               fields: DensityFields | None = None) -> Medium | None:
     """The Medium of ``media`` as the renderer takes it, or None when there is no medium or
     none has an effect (every coefficient and emission 0: the scene then renders exactly as
-    without media). Raises SceneError naming the medium for a density texture
-    (heterogeneous density is not integrated yet)."""
+    without media). ``fields``: the densities of the heterogeneous media (core/prepared.py
+    binds their programs). Raises SceneError naming the medium for a heterogeneous World
+    volume (its rays reach infinity; not supported yet)."""
     for i in range(media.count):
-        if int(media.density_texture[i]) != -1:
+        if int(media.density_texture[i]) != -1 and int(media.bounds[i]) == WORLD:
             name = media.names[i] if i < len(media.names) else f"medium {i}"
-            raise SceneError(f"medium '{name}': heterogeneous density (a density texture) is "
-                             f"not supported by the renderer yet")
+            raise SceneError(f"medium '{name}': a World volume of varying density is not "
+                             f"supported yet (only media inside closed meshes)")
     if not (np.any(media.sigma_a > 0) or np.any(media.sigma_s > 0)
             or np.any(media.emission > 0)):
         return None
-    return Medium(media, extent, threads)
+    return Medium(media, extent, threads, fields)
 
 
 def emitted(emission, sigma_t, length) -> np.ndarray:
@@ -309,3 +356,37 @@ def _before_kernel(start, t0, t1, sigma_t, before, through):
         through[i, 0] = np.exp(-tau0)
         through[i, 1] = np.exp(-tau1)
         through[i, 2] = np.exp(-tau2)
+
+
+@njit(cache=True, error_model="numpy")
+def _het_before_kernel(start, factor, before, through):
+    """Multiply each stretch's ``before`` by the heterogeneous transmittance factors (S, 3)
+    of the stretches before it on its segment, and ``through`` by all of them."""
+    for i in range(start.shape[0] - 1):
+        c0 = 1.0
+        c1 = 1.0
+        c2 = 1.0
+        for k in range(start[i], start[i + 1]):
+            before[k, 0] *= c0
+            before[k, 1] *= c1
+            before[k, 2] *= c2
+            c0 *= factor[k, 0]
+            c1 *= factor[k, 1]
+            c2 *= factor[k, 2]
+        through[i, 0] *= c0
+        through[i, 1] *= c1
+        through[i, 2] *= c2
+
+
+def _walk_keys(o, d, row) -> np.ndarray:
+    """(N,) int64 random-stream keys of N walks: a hash of the float64 bits of their
+    origins, directions (N, 3) and rows (N,) int64."""
+    bits = np.concatenate([np.ascontiguousarray(o, np.float64).view(np.uint64),
+                           np.ascontiguousarray(d, np.float64).view(np.uint64),
+                           np.asarray(row, np.int64).astype(np.uint64)[:, None]], axis=1)
+    key = np.zeros(bits.shape[0], np.uint64)
+    with np.errstate(over="ignore"):
+        for k in range(bits.shape[1]):
+            key = (key ^ bits[:, k]) * np.uint64(0x9E3779B97F4A7C15)
+            key ^= key >> np.uint64(29)
+    return key.view(np.int64)

@@ -32,6 +32,7 @@ from numba import njit, prange
 
 from .. import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
 from ..sampling import hash_uniform
+from ..sampling import uniform as sampling_uniform
 
 MAX_STEPS = 1 << 20
 """Tentative collisions per walk before giving up (an unreachable bound for a sane
@@ -170,3 +171,163 @@ def delta_tracking_rays(density, origins, directions, t_max, sigma_a, sigma_s,
                 np.asarray(sigma_s, np.float64), float(majorant), seed, t, scattered, w, ok)
     _check_walks(ok, "delta tracking", majorant)
     return t, scattered, w
+
+
+# --- batched tracking through a density given as a batch function -------------------------
+# A shader program's density (core/prepared.py binds core/shading/interpreter.py to a
+# medium) is evaluated best over many points at once, so these walk all rays together:
+# one Python iteration per tentative-collision *step*, numpy over the rays still walking,
+# one density call per step over every active point. Walk i draws its numbers from
+# sampling.uniform(seed, index[i], step, dim): reproducible, independent of the batch.
+
+class MajorantExceeded(ValueError):
+    """A density above the majorant it was tracked with (the estimate would be biased)."""
+
+
+def _walk_arrays(origins, directions, t0, t1, index):
+    o = np.ascontiguousarray(origins, np.float64).reshape(-1, 3)
+    d = np.ascontiguousarray(directions, np.float64).reshape(-1, 3)
+    n = o.shape[0]
+    a = np.broadcast_to(np.asarray(t0, np.float64), (n,)).copy()
+    b = np.broadcast_to(np.asarray(t1, np.float64), (n,)).copy()
+    idx = np.arange(n, dtype=np.int64) if index is None else \
+        np.ascontiguousarray(np.broadcast_to(np.asarray(index, np.int64), (n,)))
+    return o, d, a, b, idx
+
+
+def _checked_density(density, points, field, majorant, what):
+    rho = np.asarray(density(points, field), np.float64)
+    bad = ~((rho >= 0.0) & (rho <= majorant))
+    if bad.any():
+        j = int(np.flatnonzero(bad)[0])
+        raise MajorantExceeded(
+            f"media: {what} met a density {rho[j]!r} outside [0, majorant = {majorant[j]!r}] "
+            f"at {points[j].tolist()} (field {int(field[j])}): the majorant underestimates "
+            f"the density there")
+    return rho
+
+
+def ratio_tracking_batch(density, origins, directions, t0, t1, field, sigma_t, majorant,
+                         seed: int, dim: int, index=None, step0: int = 0) -> np.ndarray:
+    """Ratio-tracking transmittance estimates (N, 3) float64 of N segments o + t d, t in
+    [t0, t1] metres (t1 finite), through the extinction rho(x) sigma_t (sigma_t (N, 3) 1/m
+    per segment). density(points (K, 3) float64, field (K,) int64) -> (K,) float64 is rho,
+    field (N,) int64 which density each segment reads, majorant (N,) >= rho on the segment.
+    Unbiased: E = exp(-integral of rho sigma_t) per channel. Raises MajorantExceeded for a
+    density outside [0, majorant] (module doc)."""
+    o, d, t, b, idx = _walk_arrays(origins, directions, t0, t1, index)
+    st = np.ascontiguousarray(np.broadcast_to(np.asarray(sigma_t, np.float64), o.shape))
+    maj = np.broadcast_to(np.asarray(majorant, np.float64), t.shape)
+    fld = np.broadcast_to(np.asarray(field, np.int64), t.shape)
+    bar = maj * st.max(axis=1)
+    T = np.ones((o.shape[0], 3))
+    active = np.flatnonzero((bar > 0.0) & (b > t))
+    step = 0
+    while active.size:
+        if step >= MAX_STEPS:
+            raise ValueError(f"media: ratio tracking ran past {MAX_STEPS} tentative collisions")
+        u = sampling_uniform(seed, idx[active], np.full(active.size, step0 + step), dim)
+        t[active] -= np.log1p(-u) / bar[active]
+        active = active[t[active] < b[active]]
+        if not active.size:
+            break
+        p = o[active] + t[active, None] * d[active]
+        rho = _checked_density(density, p, fld[active], maj[active], "ratio tracking")
+        T[active] *= 1.0 - rho[:, None] * st[active] / bar[active, None]
+        step += 1
+    return T
+
+
+def delta_tracking_batch(density, origins, directions, t0, t1, field, base_a, base_s, rho_a,
+                         rho_s, majorant, seed: int, dim: int, index=None, step0: int = 0):
+    """Spectral delta tracking (``delta_tracking``'s weights) of N flights o + t d from t0
+    to t1 metres (inf allowed where base_a + base_s > 0 in some channel) through the
+    absorption base_a + rho(x) rho_a and scattering base_s + rho(x) rho_s ((N, 3) 1/m
+    each: a homogeneous part plus the density's), rho as ``ratio_tracking_batch``.
+    Returns t (N,) metres (t1 where the flight passes), scattered (N,) bool, weights (N, 3)
+    float64: E[w, passing] = T(t1), E[w f(t), scattering] = integral of sigma_s T f."""
+    o, d, t, b, idx = _walk_arrays(origins, directions, t0, t1, index)
+    n = o.shape[0]
+
+    def full(a):
+        return np.ascontiguousarray(np.broadcast_to(np.asarray(a, np.float64), (n, 3)))
+    ba, bs, ra, rs = full(base_a), full(base_s), full(rho_a), full(rho_s)
+    maj = np.broadcast_to(np.asarray(majorant, np.float64), (n,))
+    fld = np.broadcast_to(np.asarray(field, np.int64), (n,))
+    bar = (ba + bs + maj[:, None] * (ra + rs)).max(axis=1)
+    w = np.ones((n, 3))
+    scattered = np.zeros(n, bool)
+    active = np.flatnonzero((bar > 0.0) & (b > t))
+    t[bar <= 0.0] = b[bar <= 0.0]
+    step = 0
+    while active.size:
+        if step >= MAX_STEPS:
+            raise ValueError(f"media: delta tracking ran past {MAX_STEPS} tentative collisions")
+        s = np.full(active.size, step0 + step)
+        u = sampling_uniform(seed, idx[active], s, dim)
+        t[active] -= np.log1p(-u) / bar[active]
+        out = t[active] >= b[active]
+        t[active[out]] = b[active[out]]
+        active = active[~out]
+        if not active.size:
+            break
+        p = o[active] + t[active, None] * d[active]
+        rho = _checked_density(density, p, fld[active], maj[active], "delta tracking")[:, None]
+        sig_s = bs[active] + rho * rs[active]
+        sig_t = ba[active] + rho * ra[active] + sig_s
+        wa = w[active]
+        bb = bar[active, None]
+        # Kutz et al.'s throughput-weighted channel means decide scattering vs null
+        scat = (sig_s * wa).sum(axis=1)
+        null = ((bb - sig_t) * wa).sum(axis=1)
+        dead = scat + null <= 0.0
+        p_s = np.where(dead, 0.0, scat / np.where(dead, 1.0, scat + null))
+        hit = sampling_uniform(seed, idx[active], s, dim + 1) < p_s
+        hit_rows = active[hit]
+        w[hit_rows] = wa[hit] * sig_s[hit] / (bb[hit] * p_s[hit, None])
+        scattered[hit_rows] = True
+        go = ~hit & ~dead
+        w[active[go]] = wa[go] * (bb[go] - sig_t[go]) / (bb[go] * (1.0 - p_s[go, None]))
+        w[active[dead]] = 0.0
+        active = active[go]
+        step += 1
+    return t, scattered, w
+
+
+def ratio_tracking_points(density, origins, directions, t0, t1, field, sigma_t, majorant,
+                          seed: int, dim: int, index=None):
+    """``ratio_tracking_batch`` that also returns its tentative collisions: (walk (P,)
+    int64, t (P,) metres, T (P, 3) the running transmittance estimate just after each),
+    sorted by walk then t. Between consecutive tentative collisions the running product is
+    an unbiased estimate of exp(-tau(t)) at every t there (it only changes at them), which
+    is how a camera segment integrates terms along a heterogeneous stretch
+    (core/integrators/volume.py)."""
+    o, d, t, b, idx = _walk_arrays(origins, directions, t0, t1, index)
+    st = np.ascontiguousarray(np.broadcast_to(np.asarray(sigma_t, np.float64), o.shape))
+    maj = np.broadcast_to(np.asarray(majorant, np.float64), t.shape)
+    fld = np.broadcast_to(np.asarray(field, np.int64), t.shape)
+    bar = maj * st.max(axis=1)
+    T = np.ones((o.shape[0], 3))
+    walks, ts, Ts = [], [], []
+    active = np.flatnonzero((bar > 0.0) & (b > t))
+    step = 0
+    while active.size:
+        if step >= MAX_STEPS:
+            raise ValueError(f"media: ratio tracking ran past {MAX_STEPS} tentative collisions")
+        u = sampling_uniform(seed, idx[active], np.full(active.size, step), dim)
+        t[active] -= np.log1p(-u) / bar[active]
+        active = active[t[active] < b[active]]
+        if not active.size:
+            break
+        p = o[active] + t[active, None] * d[active]
+        rho = _checked_density(density, p, fld[active], maj[active], "ratio tracking")
+        T[active] *= 1.0 - rho[:, None] * st[active] / bar[active, None]
+        walks.append(active.copy())
+        ts.append(t[active].copy())
+        Ts.append(T[active].copy())
+        step += 1
+    if not walks:
+        return np.zeros(0, np.int64), np.zeros(0), np.zeros((0, 3)), T
+    w, tt, TT = np.concatenate(walks), np.concatenate(ts), np.concatenate(Ts)
+    order = np.lexsort((tt, w))
+    return w[order], tt[order], TT[order], T

@@ -34,6 +34,7 @@ from numba import njit, prange
 from .. import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
 from .. import sampling
 from ..media.free_flight import sample_distance
+from ..media.tracking import delta_tracking_batch
 from ..media.phase import hg_sample
 from .store import MODE_CAUSTIC
 
@@ -44,7 +45,7 @@ stay far below it)."""
 
 @njit(cache=True, parallel=True, error_model="numpy")
 def fly_kernel(o, d, flux, pid, n_diff, n_spec, start, t0, t1, sigma_a, sigma_s, g, seed, dims,
-               bounce, mode, caustic_apart, store_direct, last,
+               bounce, mode, caustic_apart, store_direct, last, pre, pre_t, pre_s, pre_w,
                collided, v_store, v_camera, v_pos, v_flux, v_dir, alive, o_new, d_new, f_new):
     """One free flight per photon (module doc).
 
@@ -54,7 +55,9 @@ def fly_kernel(o, d, flux, pid, n_diff, n_spec, start, t0, t1, sigma_a, sigma_s,
     photon scatters in the medium); the homogeneous stretches of each photon's flight to
     its surface hit (regions.Stretches): start (N + 1,) int64, t0, t1 (S,) float64 metres,
     sigma_a, sigma_s (S, 3) 1/m, g (S,) the anisotropy; dims (4,) int64 random dimensions;
-    bounce the wavefront's index; mode MODE_GLOBAL / MODE_CAUSTIC.
+    bounce the wavefront's index; mode MODE_GLOBAL / MODE_CAUSTIC. Heterogeneous stretches
+    come tracked already (``pre`` (S,) bool; their delta-tracking flight: pre_t (S,)
+    metres from t0, pre_s (S,) bool scattered, pre_w (S, 3) weights; ``flight_through``).
     Outputs: collided (N,) bool; v_store (N,) bool, a volume photon is stored, v_camera
     (N,) bool, it belongs to the camera rays' map (the rules of the module doc; the
     global emission's map for final-gather rays takes every collision, as the global
@@ -71,12 +74,16 @@ def fly_kernel(o, d, flux, pid, n_diff, n_spec, start, t0, t1, sigma_a, sigma_s,
         t, w0, w1, w2, gs = 0.0, 1.0, 1.0, 1.0, 0.0
         for k in range(start[i], start[i + 1]):
             # The first stretch keeps the step counter of a flight in one medium.
-            step = bounce + (k - start[i]) * STRETCH_STEP
-            u_c = sampling.hash_uniform(seed, pid[i], step, dims[0])
-            u_t = sampling.hash_uniform(seed, pid[i], step, dims[1])
-            ts, scattered, v0, v1, v2 = sample_distance(
-                sigma_a[k, 0], sigma_a[k, 1], sigma_a[k, 2], sigma_s[k, 0], sigma_s[k, 1],
-                sigma_s[k, 2], t1[k] - t0[k], u_c, u_t)
+            if pre[k]:
+                ts, scattered, v0, v1, v2 = pre_t[k], pre_s[k], pre_w[k, 0], pre_w[k, 1], \
+                    pre_w[k, 2]
+            else:
+                step = bounce + (k - start[i]) * STRETCH_STEP
+                u_c = sampling.hash_uniform(seed, pid[i], step, dims[0])
+                u_t = sampling.hash_uniform(seed, pid[i], step, dims[1])
+                ts, scattered, v0, v1, v2 = sample_distance(
+                    sigma_a[k, 0], sigma_a[k, 1], sigma_a[k, 2], sigma_s[k, 0], sigma_s[k, 1],
+                    sigma_s[k, 2], t1[k] - t0[k], u_c, u_t)
             w0 *= v0
             w1 *= v1
             w2 *= v2
@@ -123,6 +130,39 @@ def fly_kernel(o, d, flux, pid, n_diff, n_spec, start, t0, t1, sigma_a, sigma_s,
         d_new[i, 0], d_new[i, 1], d_new[i, 2] = nx, ny, nz
         f_new[i, 0], f_new[i, 1], f_new[i, 2] = f0 / p, f1 / p, f2 / p
         alive[i] = True
+
+
+def flight_through(medium, st, o, d, pid, seed: int, map_id: int, bounce: int):
+    """The delta-tracking flights (core/media/tracking.py ``delta_tracking_batch``) of
+    the heterogeneous stretches of ``st`` (regions.Stretches of photons o, d (N, 3) with
+    counters pid (N,)): ``fly_kernel``'s pre, pre_t, pre_s, pre_w. Every heterogeneous
+    stretch is tracked, also those behind an earlier collision (fly_kernel ignores them):
+    one batch per wavefront, the density program evaluated over all active points per
+    step. Random numbers: (seed, pid, tentative step, stream(MEDIUM_TRACKING, map, bounce,
+    stretch k of the flight))."""
+    s = st.t0.shape[0]
+    pre = np.zeros(s, bool)
+    pre_t = np.zeros(s)
+    pre_s = np.zeros(s, bool)
+    pre_w = np.ones((s, 3))
+    if st.field is None:
+        return pre, pre_t, pre_s, pre_w
+    het = np.flatnonzero(st.field >= 0)
+    if het.size == 0:
+        return pre, pre_t, pre_s, pre_w
+    ray = st.ray[het]
+    kth = het - st.start[ray]
+    for k in np.unique(kth):
+        sel = het[kth == k]
+        r = st.ray[sel]
+        dim = sampling.stream(sampling.MEDIUM_TRACKING, map_id, min(bounce, 4095), int(k) % 4096)
+        oo = np.asarray(o, np.float64)[r] + st.t0[sel, None] * np.asarray(d, np.float64)[r]
+        t, sc, w = delta_tracking_batch(medium.fields, oo, np.asarray(d, np.float64)[r], 0.0,
+                                        st.t1[sel] - st.t0[sel], st.field[sel], st.sigma_a[sel],
+                                        st.sigma_s[sel], st.het_a[sel], st.het_s[sel],
+                                        st.majorant[sel], seed, dim, index=pid[r])
+        pre[sel], pre_t[sel], pre_s[sel], pre_w[sel] = True, t, sc, w
+    return pre, pre_t, pre_s, pre_w
 
 
 class VolumeStore:

@@ -103,10 +103,11 @@ def _fly(medium: _Medium, hits, o, d, f, pid, n_diff, n_spec, seed, map_id, boun
     out = (np.empty(n, bool), np.empty(n, bool), np.empty(n, bool), np.empty((n, 3), np.float32),
            np.empty((n, 3), np.float32), np.empty((n, 3), np.float32), np.empty(n, bool),
            np.empty((n, 3), np.float32), np.empty((n, 3), np.float32), np.empty((n, 3)))
+    pre = medium_flight.flight_through(m, st, o, d, pid, seed, map_id, bounce)
     medium_flight.fly_kernel(o, d, f, pid, n_diff, n_spec, st.start, st.t0, st.t1,
                              np.ascontiguousarray(st.sigma_a), np.ascontiguousarray(st.sigma_s),
                              st.g, np.int64(seed), dims, np.int64(bounce), mode,
-                             medium.caustic_apart, medium.store_direct, last, *out)
+                             medium.caustic_apart, medium.store_direct, last, *pre, *out)
     collided, v_store, v_camera, v_pos, v_flux, v_dir, alive, o_new, d_new, f_new = out
     medium.vstore.add(v_store, v_camera, v_pos, v_flux, v_dir)
     prim = np.where(collided, -1, hits.prim).astype(hits.prim.dtype)
@@ -595,6 +596,10 @@ def trace_photons(prepared: PreparedScene, settings: RenderSettings,
                          f"({len(volume_gather_map) if volume_gather_map else 0:,} with the "
                          f"direct ones, for final gathering), "
                          f"{len(volume_caustic_map) if volume_caustic_map else 0:,} caustic")
+        if medium.fields is not None:  # heterogeneous media: the majorants, any clipping
+            decisions.append("density majorants " + ", ".join(
+                f"'{medium.names[m]}' {v:.4g}" for m, v in medium.fields.majorant.items()))
+            decisions.extend(medium.fields.warnings())
     if not cancelled:
         if g_store is not None:
             global_map = _balance(g_store, counters)

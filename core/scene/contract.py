@@ -585,7 +585,7 @@ class Scene:
         _validate_lights(self.lights)
         _validate_camera(self.camera)
         check_array("world.radiance", self.world.radiance, (3,), nonnegative=True)
-        self.media.validate(len(self.mesh.object_names), self.textures.count)
+        self.media.validate(len(self.mesh.object_names))
         if self.mesh.triangle_count:
             lo, hi = self.bounds()
             size = float(np.max(hi - lo))

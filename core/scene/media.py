@@ -12,8 +12,11 @@ of the volumes it is inside, the World's at the bottom even inside closed meshes
 point's medium is the sum of every medium of the stack: coefficients and emission add, the
 phase function is the sigma_s-weighted mix of their Henyey-Greenstein lobes.
 
-Heterogeneous density (later: a texture through the shader program) scales sigma_a,
-sigma_s and emission together; ``density_texture == -1`` means homogeneous.
+Heterogeneous density: a shader program (``programs``, one output, target
+``core.shading.program.TARGET_DENSITY``) gives rho(x) >= 0 at every point inside the
+medium and scales its sigma_a and sigma_s (not its emission: Cycles' Principled Volume
+adds its emission independently of the density); ``density_texture == -1`` means
+homogeneous (rho = 1).
 """
 
 from __future__ import annotations
@@ -42,7 +45,11 @@ class Media:
         scattering; the kernels clamp |g| to MAX_ANISOTROPY as Cycles).
     emission: (M, 3) float32, W/(m^3 sr), >= 0.
     bounds: (M,) int32, object index of the closed mesh that bounds the medium, or WORLD.
-    density_texture: (M,) int32, -1 (homogeneous) until heterogeneous density lands.
+    density_texture: (M,) int32, -1 (homogeneous) or the row of ``programs`` whose output
+        is the medium's density rho(x) (dimensionless; the coefficients above are at rho 1).
+    programs: tuple of ``core.shading.program.ShaderProgram``, the density programs; they
+        read the Object and Generated coordinates of the medium's object (``bounds``:
+        ``Mesh.object_to_world``, ``Mesh.object_texspace``) and world positions.
     names: tuple of str, one per medium (the material or World name, for messages).
     boundary: (B, 3, 3) float32, world-space corners (metres) of the triangles that bound
         the mesh media, wound so that the geometric normal (v1 - v0) x (v2 - v0) points
@@ -62,6 +69,7 @@ class Media:
     names: tuple = ()
     boundary: np.ndarray = field(default_factory=lambda: np.zeros((0, 3, 3), np.float32))
     boundary_medium: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int32))
+    programs: tuple = ()
 
     @property
     def count(self) -> int:
@@ -83,12 +91,12 @@ class Media:
         return Media.from_list([])
 
     @staticmethod
-    def from_list(rows: list[dict]) -> "Media":
+    def from_list(rows: list[dict], programs: tuple = ()) -> "Media":
         """Media from dicts with keys sigma_a, sigma_s (RGB, 1/m), anisotropy, emission,
         bounds (object index or WORLD), density_texture, name, boundary ((T, 3, 3)
         metres: the mesh medium's boundary triangles); absent keys take the defaults (no
         absorption, no scattering, isotropic, no emission, World, homogeneous, no
-        boundary)."""
+        boundary). ``programs`` is the density programs' tuple."""
         def col(key, width, default, dtype=np.float32):
             shape = (len(rows), width) if width else (len(rows),)
             return np.array([r.get(key, default) for r in rows], dtype).reshape(shape)
@@ -106,9 +114,10 @@ class Media:
                      boundary_medium=np.concatenate(
                          [np.full(np.asarray(r.get("boundary", np.zeros((0, 3, 3)))).reshape(-1, 9)
                                   .shape[0], i, np.int32) for i, r in enumerate(rows)]
-                         or [np.zeros(0, np.int32)]))
+                         or [np.zeros(0, np.int32)]),
+                     programs=tuple(programs))
 
-    def validate(self, object_count: int, texture_count: int = 0) -> "Media":
+    def validate(self, object_count: int) -> "Media":
         """Check shapes, dtypes and ranges; raise SceneError naming the field and medium.
 
         object_count: how many objects ``Mesh.object_names`` holds (``bounds`` indexes it).
@@ -139,13 +148,21 @@ class Media:
         if worlds.size > 1:
             raise SceneError(f"media.bounds: only one World medium is allowed, got "
                              f"{', '.join(repr(self._name(int(i))) for i in worlds)}")
-        bad = np.flatnonzero((self.density_texture < -1)
-                             | (self.density_texture >= texture_count))
+        count = len(self.programs)
+        bad = np.flatnonzero((self.density_texture < -1) | (self.density_texture >= count))
         if bad.size:
             i = int(bad[0])
             raise SceneError(f"media.density_texture of '{self._name(i)}' must be -1 or a "
-                             f"texture index in [0, {texture_count}), got "
+                             f"density program index in [0, {count}), got "
                              f"{self.density_texture[i]}")
+        for k, prog in enumerate(self.programs):
+            try:
+                prog.validate()
+            except ValueError as exc:
+                raise SceneError(f"media.programs[{k}]: {exc}") from None
+            if prog.outputs.shape[0] != 1:
+                raise SceneError(f"media.programs[{k}] ({prog.name!r}) must have one output "
+                                 f"(the density), got {prog.outputs.shape[0]}")
         check_array("media.boundary", self.boundary, (None, 3, 3), dtype=np.float32)
         check_array("media.boundary_medium", self.boundary_medium, (self.boundary.shape[0],),
                     dtype=np.int32)

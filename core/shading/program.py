@@ -145,7 +145,8 @@ TARGET_CLOSURE = 0    # closure parameter slot (core.scene.closures)
 TARGET_EMISSION = 1   # the material's emission colour, component 0-2 (radiance)
 TARGET_ALPHA = 2      # the material's opacity in [0, 1]
 TARGET_NORMAL = 3     # the shading normal, component 0-2 (world space, unnormalised)
-TARGET_COUNT = 4
+TARGET_DENSITY = 4    # a medium's density rho(x) >= 0 (core/scene/media.py), slot 0
+TARGET_COUNT = 5
 
 
 def _widths(op: int) -> list[int]:
@@ -236,7 +237,7 @@ class ShaderProgram:
             if not 0 <= target < TARGET_COUNT:
                 raise ValueError(f"{who}: output {o} has unknown target {target}")
             limit = closures.PARAM_COUNT if target == TARGET_CLOSURE else \
-                (1 if target == TARGET_ALPHA else 3)
+                (1 if target in (TARGET_ALPHA, TARGET_DENSITY) else 3)
             if not 0 <= slot < limit:
                 raise ValueError(f"{who}: output {o} slot {slot} outside [0, {limit})")
             if closure < 0:

@@ -132,7 +132,7 @@ def test_volume_direct_matches_the_single_scattering_integral():
 
 def test_media_the_renderer_does_not_take_yet_are_refused_by_name():
     textured = Media.from_list([{"sigma_s": [1, 1, 1], "density_texture": 0, "name": "Smoke"}])
-    with pytest.raises(SceneError, match="medium 'Smoke'.*heterogeneous density"):
+    with pytest.raises(SceneError, match="medium 'Smoke'.*World volume of varying density"):
         regions.renderable(textured, 1.0)
 
 
