@@ -205,7 +205,7 @@ def test_cancel_after_pass_k_returns_k_passes():
 
 def test_time_budget_stops_after_the_passes_that_fit():
     scene = caustic_scene(1.0, 16, 16)
-    progressive(scene, SETTINGS, 1, 100)  # load the kernels
+    progressive(scene, SETTINGS, 2, 4_000)  # load the kernels (every path a full pass takes)
     out = progressive(scene, SETTINGS, 100_000, 4_000, time_budget=0.3)
     assert not out.cancelled
     assert out.stats["stopped_by"] == "time_budget"
