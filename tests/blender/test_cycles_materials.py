@@ -33,7 +33,6 @@ SAMPLES = 128
 PENDING = {
     "glass": "rough glass: channel means -0.5 %, but 3 of 108 blocks (the highlight) over",
     "rough_glass": "rough glass: channel means -0.5 %, but 3 of 108 blocks (the highlight) over",
-    "refraction": "rough refraction -3 %, block errors up to 22 %",
     "thin_wall": "channel means within 0.4 %, but 3 of 108 highlight blocks off by up to 38 %",
     "cornell_rough_metal": "channel means within 1.9 %, 10 of 144 blocks over 5 % + 3 sigma",
 }
