@@ -26,6 +26,10 @@ KINDS = {
     "Glossy multiscatter GGX": dict(kind=cl.CLOSURE_GLOSSY, params=dict(roughness=0.4)),
     "Metallic F82": dict(kind=cl.CLOSURE_METALLIC, params=dict(roughness=0.4)),
     "Glass rough": dict(kind=cl.CLOSURE_GLASS, params=dict(roughness=0.3)),
+    "Glossy Beckmann": dict(kind=cl.CLOSURE_GLOSSY, params=dict(
+        roughness=0.4, distribution=cl.DISTRIBUTION_BECKMANN)),
+    "Refraction Beckmann": dict(kind=cl.CLOSURE_REFRACTION, params=dict(
+        roughness=0.2, ior=1.45, distribution=cl.DISTRIBUTION_BECKMANN)),
     "Sheen": dict(kind=cl.CLOSURE_SHEEN),
     "Principled default": dict(kind=cl.CLOSURE_PRINCIPLED),
     "Principled all layers": dict(kind=cl.CLOSURE_PRINCIPLED, params=dict(

@@ -282,11 +282,17 @@ def emission_weight(prepared: PreparedScene, prim, t, d, bsdf_pdf, light_samples
     return w
 
 
-def world_weight(bsdf_pdf, prev_ns, d, light_samples: int):
+def world_weight(bsdf_pdf, prev_ns, d, light_samples: int, prev_sphere=None):
     """(N,) power-heuristic weight of the world seen by rays BSDF-sampled with pdf
     bsdf_pdf (N,) (1 where 0) from points of shading normal prev_ns (N, 3) along d (N, 3),
-    against ``light_samples`` cosine samples of the world (direct.py)."""
-    b = light_samples * np.maximum(np.einsum("ij,ij->i", prev_ns, d), 0.0) / np.pi
+    against ``light_samples`` cosine samples of the world (direct.py): about prev_ns, or
+    where prev_sphere (N,) bool (the point's material transmits, ``closure.transmits``)
+    over the whole sphere (``lights.kernels.world_pdf``)."""
+    c = np.einsum("ij,ij->i", prev_ns, d)
+    pl = np.maximum(c, 0.0) / np.pi
+    if prev_sphere is not None and np.any(prev_sphere):
+        pl = np.where(prev_sphere, np.abs(c) / (2.0 * np.pi), pl)
+    b = light_samples * pl
     a = bsdf_pdf
     with np.errstate(divide="ignore", invalid="ignore"):
         return np.where(a > 0, a * a / (a * a + b * b), 1.0)

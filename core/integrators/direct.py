@@ -82,9 +82,11 @@ def _shade_kernel(source, q, tris_cdf, tris_prob, tris_v0, tris_e1, tris_e2, tri
                 pl = light_kernels.triangle_pdf(tris_prob, tris_area, j, wx, wy, wz,
                                                 tris_n[j, 0], tris_n[j, 1], tris_n[j, 2], dist)
         else:
+            # the whole sphere where the surface transmits: the world behind it too
+            sphere = closure.transmits(tab, mat[i])
             wx, wy, wz, dist, l0, l1, l2, cl, ok = light_kernels.sample_world(
-                world[0], world[1], world[2], nsf[i, 0], nsf[i, 1], nsf[i, 2], u1, u2)
-            pl = max(0.0, nsf[i, 0] * wx + nsf[i, 1] * wy + nsf[i, 2] * wz) / np.pi
+                world[0], world[1], world[2], nsf[i, 0], nsf[i, 1], nsf[i, 2], u1, u2, sphere)
+            pl = light_kernels.world_pdf(nsf[i, 0], nsf[i, 1], nsf[i, 2], wx, wy, wz, sphere)
         if not ok:
             continue
         m = mat[i]

@@ -60,6 +60,7 @@ from numba import njit, prange
 
 from .. import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
 from .. import sampling
+from ..materials import closure
 from ..passes import (LIGHT_PASSES, PASSES, VOLUME_PASSES, ProgressFn, RenderOutput, StopFn,
                       TileFn, UsedPhotonMaps)
 from ..prepared import PreparedScene, prepare
@@ -258,6 +259,7 @@ def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> dict[str, np.ndarray]:
     # or delta lobe), the shading normal it left, and whether a rough lobe was followed.
     prev_pdf = np.zeros(n)
     prev_ns = np.zeros((n, 3))
+    prev_sphere = np.zeros(n, bool)  # the previous hit transmits: the world sampled all round
     glossy = np.zeros(n, bool)
     # The refractive index of the dielectric each path is inside (1: none). Camera paths
     # do not scale radiance by eta^2 at a refraction (Cycles' convention, exact for paths
@@ -303,7 +305,8 @@ def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> dict[str, np.ndarray]:
         # Rays that escape see the world
         if np.any(pr.world > 0) and np.any(miss):
             if not first:
-                wm = camera_paths.world_weight(prev_pdf[miss], prev_ns[miss], dirs[miss], k_light)
+                wm = camera_paths.world_weight(prev_pdf[miss], prev_ns[miss], dirs[miss], k_light,
+                                               prev_sphere[miss])
                 _add(acc["specular"], rows[miss], thr[miss] * wm[:, None] * pr.world)
             elif pr.scene.world.visible_to_camera:
                 _add(acc["environment"], rows[miss], thr[miss] * pr.world)
@@ -387,6 +390,7 @@ def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> dict[str, np.ndarray]:
             pr, pos[sd], ngf[sd], nsf[sd], d[sd], front[sd], crow[sd], eps[sd], texel[sd],
             thr[sd], lam[sd], u2, u1, u3, u_rr, closures=tab, tangent=tangent[sd])
         prev_ns = nsf[sd][keep]
+        prev_sphere = closure.transmitting(tab, crow[sd][keep])
         glossy = glossy[sd][keep] | ~was_delta
         if ctx.volume is not None:  # entering a dielectric at its front face, leaving at its back
             entered = transmitted & front[sd][keep]

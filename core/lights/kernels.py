@@ -205,14 +205,34 @@ def sample_triangles(cdf, prob, v0, e1, e2, nrm, area, radiance, px, py, pz, u0,
 
 
 @njit(cache=True, error_model="numpy")
-def sample_world(l0, l1, l2, nx, ny, nz, u1, u2):
-    """Cosine-weighted direction about unit normal n towards a uniform background."""
+def sample_world(l0, l1, l2, nx, ny, nz, u1, u2, sphere=False):
+    """Cosine-weighted direction about unit normal n towards a uniform background; with
+    ``sphere`` (a surface that transmits) about n or -n with probability 1/2 each, so the
+    world behind the surface is sampled too. Returns (d (3), inf, L / pdf (3), 1, ok), pdf
+    ``world_pdf``."""
+    side = 1.0
+    if sphere:
+        if u1 < 0.5:
+            u1 = 2.0 * u1
+        else:
+            u1, side = 2.0 * u1 - 1.0, -1.0
+        u1 = min(u1, 1.0 - 1e-12)
     x, y, z = sampling.cosine_hemisphere(u1, u2)
-    dx, dy, dz = sampling.to_world(x, y, z, nx, ny, nz)
+    dx, dy, dz = sampling.to_world(x, y, z, side * nx, side * ny, side * nz)
     if z <= 0.0:
         return dx, dy, dz, np.inf, 0.0, 0.0, 0.0, 1.0, False
-    fac = np.pi / z
+    fac = 2.0 * np.pi / z if sphere else np.pi / z
     return dx, dy, dz, np.inf, l0 * fac, l1 * fac, l2 * fac, 1.0, True
+
+
+@njit(cache=True, error_model="numpy")
+def world_pdf(nx, ny, nz, dx, dy, dz, sphere):
+    """Solid-angle pdf of ``sample_world`` about n giving direction d: cos / pi on n's side
+    (0 behind), or with ``sphere`` |cos| / (2 pi) on both."""
+    c = nx * dx + ny * dy + nz * dz
+    if sphere:
+        return abs(c) / (2.0 * np.pi)
+    return max(0.0, c) / np.pi
 
 
 @njit(cache=True, error_model="numpy")

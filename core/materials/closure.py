@@ -133,14 +133,15 @@ def table(materials) -> ClosureTable:
 # --- the lobe list of one hit ------------------------------------------------------------------
 # Each closure expands, for the wo at hand, into rows of a (n, NL) float64 array:
 L_LAMBERT, L_OREN_NAYAR, L_TRANSLUCENT, L_GGX, L_DIELECTRIC, L_SHEEN, L_THIN_T = range(7)
-T, W, SW, AX, AY, ROT_C, ROT_S, ETA, MODE, P0, Q0, RT, TT, EST = (
-    0, 1, 4, 5, 6, 7, 8, 9, 10, 11, 14, 17, 20, 23)
+T, W, SW, AX, AY, ROT_C, ROT_S, ETA, MODE, P0, Q0, RT, TT, EST, BECK = (
+    0, 1, 4, 5, 6, 7, 8, 9, 10, 11, 14, 17, 20, 23, 24)
 # T type; W (3) weight (energy compensation included); SW sample weight; AX, AY alphas (Oren-
 # Nayar: AX = sigma; sheen: AX, AY = the LTC's a, b); ROT_C, ROT_S the lobe frame's rotation
 # about n; ETA; MODE (GGX: FR_*; dielectric: 1 = refraction only); P0 (3) F0 / n / the
 # Oren-Nayar albedo; Q0 (3) F82's b / k; RT, TT (3) reflection and transmission tints;
-# EST the lobe's directional albedo per unit weight (luminance-free mean, for ``albedo``).
-NL = 24
+# EST the lobe's directional albedo per unit weight (luminance-free mean, for ``albedo``);
+# BECK 1 for a Beckmann microfacet lobe (GGX and dielectric rows), else 0 (GGX).
+NL = 25
 MAX_LOBES = 8  # per closure (Principled: sheen, coat, metal, 2 transmission, specular, 2 base)
 FR_NONE, FR_DIELECTRIC, FR_SCHLICK, FR_F82, FR_CONDUCTOR = range(5)
 
@@ -209,12 +210,16 @@ def _rough_of(ax, ay):
 
 
 @njit(cache=True, error_model="numpy")
-def _ggx_lobe(tab, L, n, w0, w1, w2, ax, ay, rc, rs, mode, p, q, eta, mu, multi, fss):
-    """Append a GGX reflection lobe with Fresnel ``mode`` (params p, q: 3-tuples) and its
-    sample weight mean(w) * mean(Fresnel albedo estimate); multiscatter when ``multi``.
-    Returns (n + 1, estimated albedo RGB per unit weight, darkening RGB)."""
+def _ggx_lobe(tab, L, n, w0, w1, w2, ax, ay, rc, rs, mode, p, q, eta, mu, multi, fss,
+              beck=False):
+    """Append a GGX (``beck``: Beckmann) reflection lobe with Fresnel ``mode`` (params p, q:
+    3-tuples) and its sample weight mean(w) * mean(Fresnel albedo estimate); multiscatter
+    when ``multi``. Returns (n + 1, estimated albedo RGB per unit weight, darkening RGB).
+    Beckmann's albedo estimates read the GGX tables (estimates only: sample weights,
+    Russian roulette)."""
     k = n
     n = _row(L, n, L_GGX, w0, w1, w2, _mean3(w0, w1, w2))
+    L[k, BECK] = 1.0 if beck else 0.0
     L[k, AX], L[k, AY], L[k, ROT_C], L[k, ROT_S] = ax, ay, rc, rs
     L[k, ETA], L[k, MODE] = eta, mode
     L[k, P0], L[k, P0 + 1], L[k, P0 + 2] = p[0], p[1], p[2]
@@ -244,10 +249,13 @@ def _ggx_lobe(tab, L, n, w0, w1, w2, ax, ay, rc, rs, mode, p, q, eta, mu, multi,
 
 
 @njit(cache=True, error_model="numpy")
-def _glass_lobe(tab, L, n, w0, w1, w2, alpha, eta, refract_only, f0, rt, tt, mu, multi):
-    """Append a rough dielectric lobe (f0, rt, tt: 3-tuples). Returns n + 1."""
+def _glass_lobe(tab, L, n, w0, w1, w2, alpha, eta, refract_only, f0, rt, tt, mu, multi,
+                beck=False):
+    """Append a rough dielectric lobe (f0, rt, tt: 3-tuples), GGX or (``beck``) Beckmann.
+    Returns n + 1."""
     k = n
     n = _row(L, n, L_DIELECTRIC, w0, w1, w2, _mean3(w0, w1, w2))
+    L[k, BECK] = 1.0 if beck else 0.0
     L[k, AX] = alpha
     L[k, AY] = alpha
     L[k, ETA] = eta
@@ -501,6 +509,7 @@ def _lobes(tab, m, c0, c1, c2, wox, woy, woz, entering, lam=0.0):
         col2 = max(p[cl.COLOR + 2] * b2, 0.0)
         rough = min(max(p[cl.ROUGHNESS], 0.0), 1.0)
         multi = int(p[cl.DISTRIBUTION]) == cl.DISTRIBUTION_MULTI_GGX
+        beck = int(p[cl.DISTRIBUTION]) == cl.DISTRIBUTION_BECKMANN
         if kind == cl.CLOSURE_PRINCIPLED:
             n = _principled(tab, L, n, W0, W1, W2, p, b0, b1, b2, wox, woy, woz, entering,
                             tab.abbe[c], lam)
@@ -525,7 +534,7 @@ def _lobes(tab, m, c0, c1, c2, wox, woy, woz, entering, lam=0.0):
                 rc, rs = _aniso_rotation(p[cl.ANISOTROPIC_ROTATION])
             n, _, _ = _ggx_lobe(tab, L, n, W0 * col0, W1 * col1, W2 * col2, ax, ay, rc, rs,
                                 FR_NONE, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 1.0, mu, multi,
-                                (col0, col1, col2))
+                                (col0, col1, col2), beck)
         elif kind == cl.CLOSURE_METALLIC:
             a = rough * rough
             an = min(max(p[cl.ANISOTROPIC], 0.0), 1.0)
@@ -543,7 +552,7 @@ def _lobes(tab, m, c0, c1, c2, wox, woy, woz, entering, lam=0.0):
                 fss = (fresnel.conductor_fss(nn[0], kk[0]), fresnel.conductor_fss(nn[1], kk[1]),
                        fresnel.conductor_fss(nn[2], kk[2]))
                 n, _, _ = _ggx_lobe(tab, L, n, W0, W1, W2, ax, ay, rc, rs, FR_CONDUCTOR, nn,
-                                    kk, 1.0, mu, multi, fss)
+                                    kk, 1.0, mu, multi, fss, beck)
             else:
                 f0 = (min(col0, 1.0), min(col1, 1.0), min(col2, 1.0))
                 tint = (min(max(p[cl.SPECULAR_TINT], 0.0), 1.0),
@@ -554,7 +563,7 @@ def _lobes(tab, m, c0, c1, c2, wox, woy, woz, entering, lam=0.0):
                 fss = (fresnel.f82_fss(f0[0], q[0]), fresnel.f82_fss(f0[1], q[1]),
                        fresnel.f82_fss(f0[2], q[2]))
                 n, _, _ = _ggx_lobe(tab, L, n, W0, W1, W2, ax, ay, rc, rs, FR_F82, f0, q, 1.0,
-                                    mu, multi, fss)
+                                    mu, multi, fss, beck)
         elif kind == cl.CLOSURE_GLASS or kind == cl.CLOSURE_REFRACTION:
             ior = transmission_ior(max(p[cl.IOR], 1e-5), tab.abbe[c], lam)
             eta = ior if entering else 1.0 / ior
@@ -562,11 +571,11 @@ def _lobes(tab, m, c0, c1, c2, wox, woy, woz, entering, lam=0.0):
                 f0 = fresnel.f0_from_ior(ior)
                 n = _glass_lobe(tab, L, n, W0, W1, W2, rough * rough, eta, False,
                                 (f0, f0, f0), (col0, col1, col2), (col0, col1, col2), mu,
-                                multi)
+                                multi, beck)
             else:
                 n = _glass_lobe(tab, L, n, W0 * col0, W1 * col1, W2 * col2, rough * rough,
                                 eta, True, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (1.0, 1.0, 1.0),
-                                mu, False)
+                                mu, False, beck)
     return L[:n]
 
 
@@ -610,6 +619,43 @@ def pick_wavelength(tab, m, lam, u, t0, t1, t2):
         li, _, s0, s1, s2 = spectral.sample_wavelength(u)
         return li, t0 * s0, t1 * s1, t2 * s2
     return lam, t0, t1, t2
+
+
+@njit(cache=True, error_model="numpy")
+def transmits(tab, m):
+    """Material row m (of any ClosureTable, programmed rows included) has a closure that
+    can send light through the surface: Glass, Refraction, Translucent, or a Principled
+    BSDF with Transmission (or, with Thin Wall, Subsurface: its translucent half). Direct
+    light samples the world over the whole sphere there (core/lights/kernels.py
+    ``sample_world``), not only the front hemisphere."""
+    for c in range(tab.first[m], tab.first[m] + tab.count[m]):
+        if tab.weight[c, 0] <= 0.0 and tab.weight[c, 1] <= 0.0 and tab.weight[c, 2] <= 0.0:
+            continue
+        kind = tab.kind[c]
+        if (kind == cl.CLOSURE_GLASS or kind == cl.CLOSURE_REFRACTION
+                or kind == cl.CLOSURE_TRANSLUCENT):
+            return True
+        if kind == cl.CLOSURE_PRINCIPLED:
+            p = tab.params[c]
+            if p[cl.TRANSMISSION] > CUTOFF or (p[cl.THIN_WALL] > 0.5
+                                               and p[cl.SUBSURFACE_WEIGHT] > CUTOFF):
+                return True
+    return False
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def _transmits_kernel(tab, rows, out):
+    for i in prange(rows.shape[0]):
+        out[i] = transmits(tab, rows[i])
+
+
+def transmitting(tab: ClosureTable, rows) -> np.ndarray:
+    """``transmits`` at N hits: (N,) bool for the material rows (N,) int32 of ``tab``."""
+    rows = np.ascontiguousarray(rows, np.int32)
+    out = np.zeros(rows.shape[0], bool)
+    if rows.shape[0]:
+        _transmits_kernel(tab, rows, out)
+    return out
 
 
 @njit(cache=True, error_model="numpy")
@@ -727,10 +773,11 @@ def lobe_eval(L, k, wox, woy, woz, wix, wiy, wiz):
             wiz = -wiz  # the far side mirrored back: straight-through transmission
         ox, oy = _rot(L, k, wox, woy)
         ix, iy = _rot(L, k, wix, wiy)
-        f, c = microfacet.reflect_eval(L[k, AX], L[k, AY], ox, oy, woz, ix, iy, wiz)
+        beck = L[k, BECK] > 0.5
+        f, c = microfacet.reflect_eval(L[k, AX], L[k, AY], ox, oy, woz, ix, iy, wiz, beck)
         if f <= 0.0:
             return 0.0, 0.0, 0.0, 0.0
-        pdf = microfacet.reflect_pdf(L[k, AX], L[k, AY], ox, oy, woz, ix, iy, wiz)
+        pdf = microfacet.reflect_pdf(L[k, AX], L[k, AY], ox, oy, woz, ix, iy, wiz, beck)
         if t == L_THIN_T:
             return f, f, f, pdf
         g0, g1, g2 = _ggx_fresnel(L, k, c)
@@ -739,7 +786,7 @@ def lobe_eval(L, k, wox, woy, woz, wix, wiy, wiz):
     return microfacet.dielectric_eval_pdf(
         L[k, AX], L[k, ETA], L[k, MODE] > 0.5, L[k, P0], L[k, P0 + 1], L[k, P0 + 2],
         L[k, RT], L[k, RT + 1], L[k, RT + 2], L[k, TT], L[k, TT + 1], L[k, TT + 2],
-        wox, woy, woz, wix, wiy, wiz)
+        wox, woy, woz, wix, wiy, wiz, L[k, BECK] > 0.5)
 
 
 @njit(cache=True, error_model="numpy")
@@ -762,7 +809,8 @@ def lobe_sample(L, k, wox, woy, woz, u1, u2, u3):
         return x, y, z, 1.0, 1.0, 1.0, p, False, w > 0.0
     if t == L_GGX or t == L_THIN_T:
         ox, oy = _rot(L, k, wox, woy)
-        x, y, z, w, p, c = microfacet.reflect_sample(L[k, AX], L[k, AY], ox, oy, woz, u1, u2)
+        x, y, z, w, p, c = microfacet.reflect_sample(L[k, AX], L[k, AY], ox, oy, woz, u1, u2,
+                                                     L[k, BECK] > 0.5)
         x, y = _unrot(L, k, x, y)
         if t == L_THIN_T:
             z = -z
@@ -777,7 +825,7 @@ def lobe_sample(L, k, wox, woy, woz, u1, u2, u3):
     r = microfacet.dielectric_sample(
         L[k, AX], L[k, ETA], L[k, MODE] > 0.5, L[k, P0], L[k, P0 + 1], L[k, P0 + 2],
         L[k, RT], L[k, RT + 1], L[k, RT + 2], L[k, TT], L[k, TT + 1], L[k, TT + 2],
-        wox, woy, woz, u1, u2, u3)
+        wox, woy, woz, u1, u2, u3, L[k, BECK] > 0.5)
     return r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[6] <= 0.0, r[8]
 
 

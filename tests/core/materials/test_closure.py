@@ -43,6 +43,12 @@ CASES = {
     "glass_0.6": [dict(kind=cl.CLOSURE_GLASS, params=dict(color=1.0, roughness=0.6, ior=1.45))],
     "refraction_0.4": [dict(kind=cl.CLOSURE_REFRACTION, params=dict(
         color=1.0, roughness=0.4, ior=1.5))],
+    "glossy_beckmann_0.4": [dict(kind=cl.CLOSURE_GLOSSY, params=dict(
+        color=1.0, roughness=0.4, distribution=cl.DISTRIBUTION_BECKMANN))],
+    "glass_beckmann_0.4": [dict(kind=cl.CLOSURE_GLASS, params=dict(
+        color=1.0, roughness=0.4, ior=1.5, distribution=cl.DISTRIBUTION_BECKMANN))],
+    "refraction_beckmann_0.3": [dict(kind=cl.CLOSURE_REFRACTION, params=dict(
+        color=1.0, roughness=0.3, ior=1.45, distribution=cl.DISTRIBUTION_BECKMANN))],
     "principled_default": [dict(kind=cl.CLOSURE_PRINCIPLED)],
     "principled_metal": [dict(kind=cl.CLOSURE_PRINCIPLED, params=dict(
         metallic=1.0, roughness=0.3, color=(0.95, 0.64, 0.54)))],
@@ -113,7 +119,8 @@ def test_sampler_matches_pdf_chi2(tab, name, theta):
     assert p > 0.01, f"{name} at {theta} deg: chi-square p = {p:.2e}"
 
 
-@pytest.mark.parametrize("name", ["glass_0.3", "glass_0.6", "refraction_0.4"])
+@pytest.mark.parametrize("name", ["glass_0.3", "glass_0.6", "refraction_0.4",
+                                  "glass_beckmann_0.4", "refraction_beckmann_0.3"])
 def test_sampler_matches_pdf_chi2_leaving_glass(tab, name):
     """From inside (eta = 1 / IOR): total internal reflection and the widened lobe."""
     p = _chi2_pvalue(tab, name, _wo(40.0), False)
