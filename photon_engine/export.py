@@ -397,6 +397,9 @@ def read_tangents(me, names, local: _LocalMesh, where: str, warnings) -> np.ndar
         corners = local.corners
         out[:, :, g, :3] = tangent.reshape(-1, 3)[corners]
         out[:, :, g, 3] = np.where(sign.reshape(-1)[corners] < 0, -1.0, 1.0)
+    return out
+
+
 def read_uv_maps(me, names, local: _LocalMesh, where: str, uv_maps: UVMapNames,
                  warnings, materials=None) -> np.ndarray:
     """(T, 3, U, 2) float32: the UV maps ``names`` at the corners of ``local``'s triangles
