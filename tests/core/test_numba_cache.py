@@ -107,8 +107,8 @@ def test_a_read_only_install_renders_says_so_once_and_caches_in_the_fallback(tmp
     """The package copied to a folder nobody may write (mode 0555; when the tests run as
     root, who writes anywhere, the child runs without CAP_DAC_OVERRIDE through setpriv):
     the render works, the message comes once, the kernels land in the fallback.
-    NUMBA_CACHE_DIR points at a folder kept between runs of the suite, so only the first
-    run compiles."""
+    NUMBA_CACHE_DIR points at a folder kept between runs of the suite, seeded from this
+    process's own in-tree cache."""
     import os
     import shutil
     import subprocess
@@ -126,6 +126,15 @@ def test_a_read_only_install_renders_says_so_once_and_caches_in_the_fallback(tmp
     fallback = pathlib.Path(tempfile.gettempdir()) / "photon_map_test_fallback"
     fallback.mkdir(exist_ok=True)
     os.chmod(fallback, 0o1777)
+    # Seed the fallback with this process's in-tree caches of the same sources (the copy
+    # keeps the files' timestamps, which numba's index checks), so the child need not
+    # compile everything cold (~70 s); scatter's entries are removed, so the child must
+    # compile and write those to the fallback, which the last assertion checks.
+    kept = fallback / "photon_map_numba" / f"numba_core_photons_{_numba_cache._DIGEST}"
+    for cache in CORE.rglob(f"__pycache__/numba_core_*_{_numba_cache._DIGEST}"):
+        shutil.copytree(cache, fallback / "photon_map_numba" / cache.name, dirs_exist_ok=True)
+    for stale in kept.glob("scatter.*"):
+        stale.unlink()
     env = {k: v for k, v in os.environ.items() if k not in ("HOME", "NUMBA_CACHE_DIR")}
     env["NUMBA_CACHE_DIR"] = str(fallback)
     command = [sys.executable, "-c", RENDER_FROM_A_READ_ONLY_COPY, str(install)]
@@ -147,6 +156,5 @@ def test_a_read_only_install_renders_says_so_once_and_caches_in_the_fallback(tmp
     assert lines[0].endswith(f"is not writable; compiled kernels are kept in "
                              f"{fallback / 'photon_map_numba'} instead"), lines
     assert float(done.stdout.split()[-1]) > 0
-    kept = fallback / "photon_map_numba" / f"numba_core_photons_{_numba_cache._DIGEST}"
     assert any(kept.glob("scatter.*.nbi"))
     assert not any((install / "core").rglob("*.nbi"))
