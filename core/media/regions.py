@@ -113,6 +113,8 @@ class Medium:
         self.emission = media.emission.astype(np.float64)
         self.g = media.anisotropy.astype(np.float64)
         tri = np.ascontiguousarray(media.boundary, np.float32)
+        self.boundary = tri
+        self.boundary_medium = np.asarray(media.boundary_medium, np.int64)
         self.tri_bit = np.ascontiguousarray(bit_of[media.boundary_medium], np.int64)
         e1 = tri[:, 1].astype(np.float64) - tri[:, 0]
         e2 = tri[:, 2].astype(np.float64) - tri[:, 0]
@@ -177,6 +179,19 @@ class Medium:
             cur[idx] = o64[idx] + t_acc[idx, None] * d64[idx]
             active = idx
         return np.stack(ts, 1), np.stack(bits, 1), np.stack(fronts, 1)
+
+    def holds(self, row: int, origins, directions) -> np.ndarray:
+        """(N,) bool: does mesh medium ``row`` hold each origin (N, 3) metres, by the
+        first-crossing rule along its unit direction (N, 3) (module doc; the rule every
+        stretch walk from that origin along that direction applies)?"""
+        o = np.ascontiguousarray(origins, np.float64).reshape(-1, 3)
+        bit = np.flatnonzero(self.mesh_rows == row)
+        if bit.size == 0 or o.shape[0] == 0:
+            return np.zeros(o.shape[0], bool)
+        ct, cb, cf = self._crossings(o, np.ascontiguousarray(directions, np.float64).reshape(-1, 3))
+        mine = (cb == bit[0]) & np.isfinite(ct)
+        first = np.argmax(mine, axis=1)
+        return mine.any(axis=1) & ~cf[np.arange(o.shape[0]), first]
 
     def stretches(self, origins, directions, t_end) -> Stretches:
         """The homogeneous stretches of N segments (Stretches): origins, unit directions
