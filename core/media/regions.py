@@ -301,7 +301,7 @@ def emitted(emission, sigma_t, length) -> np.ndarray:
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
         decay = np.where(sigma_t > 0, -np.expm1(-sigma_t * t) / np.where(sigma_t > 0, sigma_t, 1.0),
                          t)
-    return np.where(emission > 0, emission * decay, 0.0)
+        return np.where(emission > 0, emission * decay, 0.0)
 
 
 @njit(cache=True, error_model="numpy")
