@@ -95,11 +95,13 @@ class Medium:
     the boundary's Embree scene."""
 
     def __init__(self, media: Media, extent: float, threads: int = 0,
-                 fields: DensityFields | None = None):
+                 fields: DensityFields | None = None, seed: int = 0):
         self.names = tuple(media.names[i] if i < len(media.names) else f"medium {i}"
                            for i in range(media.count))
         self.world = media.world
         self.extent = float(extent)
+        # The render seed: the ratio-tracking walks of ``stretches`` follow it
+        self.seed = int(seed)
         mesh_rows = np.flatnonzero(media.bounds != WORLD)
         if mesh_rows.size > MAX_MESH_MEDIA:
             raise SceneError(f"{mesh_rows.size} media inside meshes; at most {MAX_MESH_MEDIA} "
@@ -223,7 +225,7 @@ class Medium:
                 # and its row: the same for the same call whatever runs before or beside it
                 # (photon chunks may run in threads)
                 T = ratio_tracking_batch(self.fields, o[ray[het]], d[ray[het]], t0[het],
-                                         t1[het], fld[het], ha[het] + hs[het], maj[het], 0,
+                                         t1[het], fld[het], ha[het] + hs[het], maj[het], self.seed,
                                          sampling.stream(sampling.MEDIUM_TRANSMITTANCE),
                                          index=_walk_keys(o[ray[het]], d[ray[het]], het))
                 factor = np.ones((s, 3))
@@ -276,11 +278,11 @@ class Medium:
 
 
 def renderable(media: Media, extent: float, threads: int = 0,
-               fields: DensityFields | None = None) -> Medium | None:
+               fields: DensityFields | None = None, seed: int = 0) -> Medium | None:
     """The Medium of ``media`` as the renderer takes it, or None when there is no medium or
     none has an effect (every coefficient and emission 0: the scene then renders exactly as
     without media). ``fields``: the densities of the heterogeneous media (core/prepared.py
-    binds their programs). Raises SceneError naming the medium for a heterogeneous World
+    binds their programs); ``seed``: the render seed of the ratio-tracking walks. Raises SceneError naming the medium for a heterogeneous World
     volume (its rays reach infinity; not supported yet)."""
     for i in range(media.count):
         if int(media.density_texture[i]) != -1 and int(media.bounds[i]) == WORLD:
@@ -290,7 +292,7 @@ def renderable(media: Media, extent: float, threads: int = 0,
     if not (np.any(media.sigma_a > 0) or np.any(media.sigma_s > 0)
             or np.any(media.emission > 0)):
         return None
-    return Medium(media, extent, threads, fields)
+    return Medium(media, extent, threads, fields, seed)
 
 
 def emitted(emission, sigma_t, length) -> np.ndarray:

@@ -14,6 +14,11 @@ irradiance, W/m^2):
 - caustic: photons aimed at the specular objects (projection map, ``caustic_photons``),
   stored at the first diffuse hit of paths light -> specular+ -> diffuse.
 
+Sources: the lights, emissive triangles, the world background and the emissive media
+inside closed meshes (core/photons/medium_emission.py: their photons start with one
+diffuse-like bounce counted, since no shadow ray samples a medium, and emit no caustic
+photons).
+
 With more than one source, each map's photons are shared by power x visual importance
 (``photon_importance``; core/photons/importance.py: a camera pre-pass and pilot photons), still
 unbiased: every photon's flux is divided by its own source's count.
