@@ -585,8 +585,10 @@ def diffuse_area(tri_vertices: np.ndarray, tri_material: np.ndarray,
                                       axis=1).sum())
 
 
-def prepare(scene: Scene, threads: int = 0) -> PreparedScene:
-    """Build the PreparedScene of ``scene`` with ``threads`` workers (0 = every core)."""
+def prepare(scene: Scene, threads: int = 0, seed: int = 0) -> PreparedScene:
+    """Build the PreparedScene of ``scene`` with ``threads`` workers (0 = every core);
+    ``seed``: the render seed, which the media's ratio-tracking walks follow
+    (``regions.Medium.seed``)."""
     mesh = scene.mesh
     workers = use_threads(threads)
     mats = bsdf.material_table(scene.materials)
@@ -644,4 +646,4 @@ def prepare(scene: Scene, threads: int = 0) -> PreparedScene:
         diffuse_area=diffuse_area(tri_vertices, tri_material, has_diffuse),
         hit_shader=hit_shader,
         medium=regions.renderable(scene.media, geometry.scene_extent(lo, hi), workers,
-                                  density_fields(scene, hit_shader)))
+                                  density_fields(scene, hit_shader), seed=seed))

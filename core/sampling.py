@@ -49,6 +49,7 @@ WAVELENGTH = 24        # the wavelength a photon picks at its first dispersive s
 CAMERA_WAVELENGTH = 25  # the wavelength a camera path picks at its first dispersive surface
 MEDIUM_TRANSMITTANCE = 26  # ratio tracking through heterogeneous media (per call)
 MEDIUM_TRACKING = 27    # delta tracking of photons and camera sub-stretches in them
+MEDIUM_EMISSION = 28    # where and in which direction an emissive medium's photons start
 
 PROGRESSIVE = 7
 """Last stream index of the progressive integrator's camera paths: keeps its visible-point

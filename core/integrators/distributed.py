@@ -145,7 +145,7 @@ def render_block_on_worker(scene_payload_, settings_values, token, start, stop):
             prepared.close()
         _WORKER.clear()
         settings = RenderSettings(**settings_values).validated()
-        prepared = prepare(scene_from_payload(scene_payload_), settings.threads)
+        prepared = prepare(scene_from_payload(scene_payload_), settings.threads, settings.seed)
         entry = _WORKER[token] = (prepared, sppm.PassRenderer(prepared, settings))
     t0 = time.perf_counter()
     sums = entry[1].render_block(start, stop)

@@ -8,7 +8,8 @@ At a diffuse hit x (a material with a diffuse lobe) seen with path throughput T:
   through mirrors and glass if need be (so L D S D paths are kept), and
   L(y_j) = rho_y / pi * E_g(y_j) from the global map built WITH direct photons. Light
   sources, emission and background seen by gather rays count nothing: the direct and
-  caustics terms hold them;
+  caustics terms hold them; the media's emission along gather rays counts (no shadow ray
+  samples an emissive medium);
 - indirect, preview: T * rho_x / pi * E_g(x) from the global map built WITHOUT direct
   photons (the direct visualisation: fast, blotchy, labelled a preview).
 
@@ -48,6 +49,7 @@ from ..prepared import PreparedScene
 from ..scene import geometry
 from ..settings import RenderSettings
 from . import camera_paths, volume
+from ..media import regions
 from ..materials import closure
 from ..photons.estimate import BsdfHits, radiance_estimate, radiance_estimate_sides
 from ..photons.photon_map import PhotonMap
@@ -399,8 +401,8 @@ def final_gather(terms: PhotonTerms, prepared: PreparedScene, settings: RenderSe
 def _through_medium(terms: PhotonTerms, o, d, hits, thr, radiance, rows) -> np.ndarray:
     """Final-gather segments through the scene's media: radiance[rows] += thr x the beam
     estimate of every volume photon along their homogeneous stretches (single scattering
-    included, as the global map of final gathering holds direct photons); returns thr x
-    their transmittance."""
+    included, as the global map of final gathering holds direct photons) and the media's
+    emission along them; returns thr x their transmittance."""
     seg = np.where(hits.prim >= 0, hits.t.astype(np.float64), np.inf)
     st = terms.medium.stretches(o, d, seg)
     vmap = terms.volume_gather_map
@@ -411,6 +413,13 @@ def _through_medium(terms: PhotonTerms, o, d, hits, thr, radiance, rows) -> np.n
         est = volume.beam_estimate(vmap, s_o, np.asarray(d, np.float64)[ray], st.length[scat],
                                    st.sigma_t[scat], st.g[scat])
         np.add.at(radiance, rows[ray], thr[ray] * st.before[scat] * est)
+    if terms.medium.emits:
+        # No shadow ray samples an emissive medium: its direct light at the gathering
+        # point is what the gather rays see of it (the global map holds the rest).
+        glow = np.flatnonzero(np.any(st.emission > 0, axis=1))
+        ray = st.ray[glow]
+        np.add.at(radiance, rows[ray], thr[ray] * st.before[glow] * regions.emitted(
+            st.emission[glow], st.sigma_t[glow], st.length[glow]))
     return thr * st.through
 
 

@@ -453,7 +453,7 @@ def render(scene: Scene, settings: RenderSettings | None = None,
     t_start = time.perf_counter()
     scene.validate()
     settings = (settings or RenderSettings()).validated()
-    prepared = prepare(scene, settings.threads)
+    prepared = prepare(scene, settings.threads, settings.seed)
     ctx = _camera_pass(prepared, settings)
     t_prepared = time.perf_counter()
     try:

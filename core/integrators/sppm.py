@@ -552,7 +552,7 @@ def progressive_passes(scene: Scene, settings: RenderSettings | None = None,
     settings = (settings or RenderSettings()).validated()
     max_passes = check_passes(settings.progressive_passes if max_passes is None else max_passes)
     settings = settings.with_values(progressive_passes=max_passes)
-    prepared = prepare(scene, settings.threads)
+    prepared = prepare(scene, settings.threads, settings.seed)
     try:
         yield from _passes(PassRenderer(prepared, settings), max_passes)
     finally:

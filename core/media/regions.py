@@ -95,11 +95,13 @@ class Medium:
     the boundary's Embree scene."""
 
     def __init__(self, media: Media, extent: float, threads: int = 0,
-                 fields: DensityFields | None = None):
+                 fields: DensityFields | None = None, seed: int = 0):
         self.names = tuple(media.names[i] if i < len(media.names) else f"medium {i}"
                            for i in range(media.count))
         self.world = media.world
         self.extent = float(extent)
+        # The render seed: the ratio-tracking walks of ``stretches`` follow it
+        self.seed = int(seed)
         mesh_rows = np.flatnonzero(media.bounds != WORLD)
         if mesh_rows.size > MAX_MESH_MEDIA:
             raise SceneError(f"{mesh_rows.size} media inside meshes; at most {MAX_MESH_MEDIA} "
@@ -113,6 +115,8 @@ class Medium:
         self.emission = media.emission.astype(np.float64)
         self.g = media.anisotropy.astype(np.float64)
         tri = np.ascontiguousarray(media.boundary, np.float32)
+        self.boundary = tri
+        self.boundary_medium = np.asarray(media.boundary_medium, np.int64)
         self.tri_bit = np.ascontiguousarray(bit_of[media.boundary_medium], np.int64)
         e1 = tri[:, 1].astype(np.float64) - tri[:, 0]
         e2 = tri[:, 2].astype(np.float64) - tri[:, 0]
@@ -178,6 +182,19 @@ class Medium:
             active = idx
         return np.stack(ts, 1), np.stack(bits, 1), np.stack(fronts, 1)
 
+    def holds(self, row: int, origins, directions) -> np.ndarray:
+        """(N,) bool: does mesh medium ``row`` hold each origin (N, 3) metres, by the
+        first-crossing rule along its unit direction (N, 3) (module doc; the rule every
+        stretch walk from that origin along that direction applies)?"""
+        o = np.ascontiguousarray(origins, np.float64).reshape(-1, 3)
+        bit = np.flatnonzero(self.mesh_rows == row)
+        if bit.size == 0 or o.shape[0] == 0:
+            return np.zeros(o.shape[0], bool)
+        ct, cb, cf = self._crossings(o, np.ascontiguousarray(directions, np.float64).reshape(-1, 3))
+        mine = (cb == bit[0]) & np.isfinite(ct)
+        first = np.argmax(mine, axis=1)
+        return mine.any(axis=1) & ~cf[np.arange(o.shape[0]), first]
+
     def stretches(self, origins, directions, t_end) -> Stretches:
         """The homogeneous stretches of N segments (Stretches): origins, unit directions
         (N, 3) metres, t_end (N,) metres (inf: the ray escapes)."""
@@ -208,7 +225,7 @@ class Medium:
                 # and its row: the same for the same call whatever runs before or beside it
                 # (photon chunks may run in threads)
                 T = ratio_tracking_batch(self.fields, o[ray[het]], d[ray[het]], t0[het],
-                                         t1[het], fld[het], ha[het] + hs[het], maj[het], 0,
+                                         t1[het], fld[het], ha[het] + hs[het], maj[het], self.seed,
                                          sampling.stream(sampling.MEDIUM_TRANSMITTANCE),
                                          index=_walk_keys(o[ray[het]], d[ray[het]], het))
                 factor = np.ones((s, 3))
@@ -261,11 +278,11 @@ class Medium:
 
 
 def renderable(media: Media, extent: float, threads: int = 0,
-               fields: DensityFields | None = None) -> Medium | None:
+               fields: DensityFields | None = None, seed: int = 0) -> Medium | None:
     """The Medium of ``media`` as the renderer takes it, or None when there is no medium or
     none has an effect (every coefficient and emission 0: the scene then renders exactly as
     without media). ``fields``: the densities of the heterogeneous media (core/prepared.py
-    binds their programs). Raises SceneError naming the medium for a heterogeneous World
+    binds their programs); ``seed``: the render seed of the ratio-tracking walks. Raises SceneError naming the medium for a heterogeneous World
     volume (its rays reach infinity; not supported yet)."""
     for i in range(media.count):
         if int(media.density_texture[i]) != -1 and int(media.bounds[i]) == WORLD:
@@ -275,7 +292,7 @@ def renderable(media: Media, extent: float, threads: int = 0,
     if not (np.any(media.sigma_a > 0) or np.any(media.sigma_s > 0)
             or np.any(media.emission > 0)):
         return None
-    return Medium(media, extent, threads, fields)
+    return Medium(media, extent, threads, fields, seed)
 
 
 def emitted(emission, sigma_t, length) -> np.ndarray:
@@ -286,7 +303,7 @@ def emitted(emission, sigma_t, length) -> np.ndarray:
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
         decay = np.where(sigma_t > 0, -np.expm1(-sigma_t * t) / np.where(sigma_t > 0, sigma_t, 1.0),
                          t)
-    return np.where(emission > 0, emission * decay, 0.0)
+        return np.where(emission > 0, emission * decay, 0.0)
 
 
 @njit(cache=True, error_model="numpy")

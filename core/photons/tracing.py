@@ -14,6 +14,11 @@ irradiance, W/m^2):
 - caustic: photons aimed at the specular objects (projection map, ``caustic_photons``),
   stored at the first diffuse hit of paths light -> specular+ -> diffuse.
 
+Sources: the lights, emissive triangles, the world background and the emissive media
+inside closed meshes (core/photons/medium_emission.py: their photons start with one
+diffuse-like bounce counted, since no shadow ray samples a medium, and emit no caustic
+photons).
+
 With more than one source, each map's photons are shared by power x visual importance
 (``photon_importance``; core/photons/importance.py: a camera pre-pass and pilot photons), still
 unbiased: every photon's flux is divided by its own source's count.
@@ -44,7 +49,7 @@ from ..scene.bounds import Targets
 from ..settings import RenderSettings
 from ..media import regions
 from ..scene.contract import LIGHT_SUN
-from . import emission, importance, medium_flight, scatter
+from . import emission, importance, medium_emission, medium_flight, scatter
 from .beam import VolumePhotonMap, photon_radii
 from .photon_map import PhotonMap
 from .store import MODE_CAUSTIC, MODE_GLOBAL, STORE_ALL, STORE_BOUNCED, PhotonStore, compact_stored
@@ -116,9 +121,12 @@ def _fly(medium: _Medium, hits, o, d, f, pid, n_diff, n_spec, seed, map_id, boun
 
 def _trace_chunk(prepared: PreparedScene, em: emission.Emitted, pid: np.ndarray, mode: int,
                  store_rule: int, max_bounces: int, seed: int, map_id: int,
-                 store: PhotonStore, counters: dict, medium: _Medium | None = None) -> None:
+                 store: PhotonStore, counters: dict, medium: _Medium | None = None,
+                 first_bounces: int = 0) -> None:
     """Trace one chunk of emitted photons through every bounce into ``store`` (and, in a
-    medium, its volume photons into ``medium.vstore``)."""
+    medium, its volume photons into ``medium.vstore``). first_bounces: the diffuse-like
+    bounces the photons start with (``medium_emission.FIRST_BOUNCES`` for an emissive
+    medium's, whose direct light no shadow ray takes)."""
     keep = np.any(em.flux > 0, axis=1)
     if keep.all():  # the usual case: no boolean indexing (~30 ns per (N, 3) row)
         o, d, f = em.origin.astype(np.float32), em.direction.astype(np.float32), em.flux
@@ -126,7 +134,7 @@ def _trace_chunk(prepared: PreparedScene, em: emission.Emitted, pid: np.ndarray,
         idx = np.flatnonzero(keep)
         o, d = em.origin[idx].astype(np.float32), em.direction[idx].astype(np.float32)
         f, pid = em.flux[idx], pid[idx]
-    n_diff = np.zeros(o.shape[0], np.int32)
+    n_diff = np.full(o.shape[0], first_bounces, np.int32)
     n_spec = np.zeros(o.shape[0], np.int32)
     lam = np.zeros(o.shape[0])  # nm; 0 = RGB, until a dispersive surface (scatter.py)
     dims = np.array([sampling.stream(sampling.PHOTON, 1 + map_id, k) for k in range(4)]
@@ -238,11 +246,17 @@ def _trace_map(prepared, sources, counts, targets_per_source, mode, store_rule, 
         for first in range(0, n_src, CHUNK):
             count = min(CHUNK, n_src - first)
             t0 = time.perf_counter()
-            em = emission.emit(src, prepared.light_set, prepared.emissive, prepared.world,
-                               prepared.centre, prepared.radius, n_src, first, count, seed=seed,
-                               map_id=map_id, source_slot=slot, targets=targets,
-                               target_prob=probs, extent=prepared.extent,
-                               emission_points=prepared.hit_shader.emission_points)
+            from_medium = medium_emission.is_medium(src.index)
+            if from_medium:
+                em, dropped = medium_emission.emit(src, prepared.medium, n_src, first, count,
+                                                   seed=seed, map_id=map_id, source_slot=slot)
+                counters["medium_dropped"] = counters.get("medium_dropped", 0) + dropped
+            else:
+                em = emission.emit(src, prepared.light_set, prepared.emissive, prepared.world,
+                                   prepared.centre, prepared.radius, n_src, first, count,
+                                   seed=seed, map_id=map_id, source_slot=slot, targets=targets,
+                                   target_prob=probs, extent=prepared.extent,
+                                   emission_points=prepared.hit_shader.emission_points)
             counters["time_emission"] += time.perf_counter() - t0
             if flux_out is not None:
                 flux_out[slot] += em.flux.sum(axis=0)
@@ -252,7 +266,8 @@ def _trace_map(prepared, sources, counts, targets_per_source, mode, store_rule, 
             pid = np.arange(first_id + first, first_id + first + count, dtype=np.int64)
             t1 = time.perf_counter()
             _trace_chunk(prepared, em, pid, mode, store_rule, max_bounces, seed, map_id,
-                         store, counters, medium)
+                         store, counters, medium,
+                         medium_emission.FIRST_BOUNCES if from_medium else 0)
             counters["time_tracing"] += time.perf_counter() - t1
             done += count
             if on_progress is not None:
@@ -307,10 +322,13 @@ def _balance(store: PhotonStore, counters: dict):
 
 
 def photon_sources(prepared: PreparedScene) -> list:
-    """The emitting sources of a prepared scene (``emission.Source``), power-weighted."""
+    """The emitting sources of a prepared scene (``emission.Source``), power-weighted:
+    the lights, emissive triangles, the world background and the emissive media inside
+    closed meshes (``medium_emission.sources``)."""
     spheres = prepared.objects if prepared.objects.count else None
-    return emission.source_powers(prepared.light_set, prepared.emissive, prepared.world,
-                                  prepared.centre, prepared.radius, spheres, True)
+    return (emission.source_powers(prepared.light_set, prepared.emissive, prepared.world,
+                                   prepared.centre, prepared.radius, spheres, True)
+            + medium_emission.sources(prepared.medium)[0])
 
 
 def trace_stored_photons(prepared: PreparedScene, sources: list, n_photons: int, *, seed: int,
@@ -359,7 +377,8 @@ def _source_label(src, light_set: LightSet) -> str:
     watts = f"{float(luminance(src.power)):,.4g} W"
     if src.index >= 0:
         return f"light '{src.name}' ({_KIND_NAMES.get(int(light_set.kind[src.index]), 'light')}, {watts})"
-    kind = "mesh" if src.index == emission.SOURCE_TRIANGLES else "background"
+    kind = ("mesh" if src.index == emission.SOURCE_TRIANGLES else
+            "volume" if medium_emission.is_medium(src.index) else "background")
     return f"{src.name} ({kind}, {watts})"
 
 
@@ -414,6 +433,7 @@ def trace_photons(prepared: PreparedScene, settings: RenderSettings,
                for i in range(ls.count) if i not in {s.index for s in sources}]
     for name in skipped:
         decisions.append(f"light '{name}': no photons, zero power or no geometry in reach")
+    decisions.extend(medium_emission.sources(prepared.medium)[1])
 
     skip = dict(skip or {})
     # A scattering medium receives photons (volume photons) even without a diffuse surface.
@@ -456,6 +476,10 @@ def trace_photons(prepared: PreparedScene, settings: RenderSettings,
                 if src.index == emission.SOURCE_WORLD:
                     decisions.append("world background: no caustic photons (not aimed)")
                     continue
+                if medium_emission.is_medium(src.index):
+                    decisions.append(f"{src.name}: no caustic photons (its light -> "
+                                     f"specular -> diffuse paths are in the global map)")
+                    continue
                 power, probs = emission.aimed_power(src, ls, prepared.emissive, targets,
                                                     prepared.centre, prepared.radius)
                 if np.any(power > 0) and np.any(probs > 0):
@@ -466,9 +490,9 @@ def trace_photons(prepared: PreparedScene, settings: RenderSettings,
             caustic_counts = emission.allocate(caustic_power, n_caustic)
             caustic_how = f"aimed at {targets.count} specular object(s) (projection map)"
         else:
-            caustic_sources = list(sources)
-            caustic_targets = [(None, None)] * len(sources)
-            caustic_power = np.array([luminance(s.power) for s in sources])
+            caustic_sources = [s for s in sources if not medium_emission.is_medium(s.index)]
+            caustic_targets = [(None, None)] * len(caustic_sources)
+            caustic_power = np.array([luminance(s.power) for s in caustic_sources])
             caustic_counts = emission.allocate(caustic_power, n_caustic)
             caustic_how = "emitted unaimed (projection map off)"
         if not caustic_sources or caustic_counts.sum() == 0:
@@ -596,6 +620,10 @@ def trace_photons(prepared: PreparedScene, settings: RenderSettings,
                          f"({len(volume_gather_map) if volume_gather_map else 0:,} with the "
                          f"direct ones, for final gathering), "
                          f"{len(volume_caustic_map) if volume_caustic_map else 0:,} caustic")
+        if counters.get("medium_dropped"):
+            decisions.append(f"emissive media: {counters['medium_dropped']:,} photons found no "
+                             f"point inside their mesh in {medium_emission.MAX_ROUNDS} tries "
+                             f"and were dropped (is the boundary closed?)")
         if medium.fields is not None:  # heterogeneous media: the majorants, any clipping
             decisions.append("density majorants " + ", ".join(
                 f"'{medium.names[m]}' {v:.4g}" for m, v in medium.fields.majorant.items()))
