@@ -5,14 +5,18 @@ At a diffuse hit x (a material with a diffuse lobe) seen with path throughput T:
 - indirect, final gather: T * rho_x * mean_j L(y_j), over ``gather_rays`` directions
   w_j cosine-distributed about the shading normal at x (pdf cos / pi cancels the
   cosine and the pi of rho / pi). y_j is the first diffuse hit along w_j, reached
-  through mirrors and glass if need be (so L D S D paths are kept), and
+  through mirrors and glass if need be (so L D S D paths are kept), and through rough
+  glossy materials without a diffuse lobe (a rough metal: ``prepared.sampled_only``) by one
+  BSDF sample each (``camera_paths.follow_bsdf``, weight f |cos| / pdf), and
   L(y_j) = rho_y / pi * E_g(y_j) from the global map built WITH direct photons. Light
   sources, emission and background seen by gather rays count nothing: the direct and
   caustics terms hold them;
 - indirect, preview: T * rho_x / pi * E_g(x) from the global map built WITHOUT direct
   photons (the direct visualisation: fast, blotchy, labelled a preview).
 
-Glossy (rough) lobes get direct light only; photon terms use the diffuse albedo, the
+Glossy (rough) lobes of the camera path's hits get direct light (and their own BSDF-sampled
+continuation, core/integrators/photon_mapping.py); at a gather hit y_j with a diffuse lobe
+only the diffuse part is read. Photon terms use the diffuse albedo, the
 textured one at each hit (core/materials/textures.py). Gather rays pass cut-outs like camera rays.
 
 Diffuse-like lobes that are not Lambert (``PhotonTerms.bsdf_materials``: Oren-Nayar,
