@@ -1,19 +1,21 @@
-"""Jensen's classic test scene: a Cornell box with a mirror sphere and a glass sphere.
+"""Jensen's classic test scene: a Cornell box with a mirror sphere and a glass sphere, and
+the demo built on it: the same box with a glossy floor and a rough copper sphere.
 
 As a script, from the repository root (renders with Photon Map, writes OUT.exr and OUT.png):
 
-    .venv/bin/python examples/cornell_box.py -o out/demo [--quality final]
+    .venv/bin/python examples/cornell_box.py -o out/demo [--classic] [--quality final]
         [--resolution 320x240] [--samples N] [--global-photons N] [--caustic-photons N]
         [--gather-rays N] [--indirect final_gather|preview|off] [--save-blend out/demo.blend]
 
 The settings are the Quality dial's (Render Properties > Quality; default Final: 32
 samples, 500,000 + 500,000 photons, k 100, 256 gather rays); any of --samples,
 --global-photons, --caustic-photons, --gather-rays or --indirect changes that value only,
-and the dial reads Custom, as it does in Blender.
+and the dial reads Custom, as it does in Blender. The script renders the demo
+(``build_demo``); --classic renders Jensen's box as it is (``build_cornell_box``).
 
 As a module (the tests build it for Cycles and Photon Map alike):
 
-    from examples.cornell_box import build_cornell_box
+    from examples.cornell_box import build_cornell_box, build_demo
     build_cornell_box(scale=1e-3, offset=(1e4, 1e4, 1e4))
 
 The box is 2 m wide, deep and high (x in [-1, 1], y in [-1, 1], z in [0, 2] before
@@ -22,6 +24,11 @@ BSDFs with the reflectances of the original Cornell box (white floor, ceiling an
 wall, red left wall, green right wall). The mirror is a Glossy BSDF of roughness 0, the
 glass sphere a Glass BSDF of IOR 1.5; a small square area light hangs just below the
 ceiling, facing down, and is visible to the camera. The world is black.
+
+The demo (``build_demo``) changes two things: the floor is a Principled BSDF of roughness
+0.2 (white base, a dielectric specular layer: a glossy floor that blurs the spheres and the
+light in it), and a copper sphere (Principled, Metallic 1, Roughness 0.3) lies in the left
+front corner beside the mirror sphere.
 """
 
 from __future__ import annotations
@@ -53,6 +60,15 @@ MIRROR_CENTRE = (-0.45, 0.35, SPHERE_RADIUS)
 GLASS_CENTRE = (0.45, -0.35, SPHERE_RADIUS)
 CAMERA_LOCATION = (0.0, -3.0, 1.0)
 
+FLOOR_ROUGHNESS = 0.2
+"""The demo's glossy floor: a Principled BSDF (base WHITE) of this roughness."""
+COPPER = (0.955, 0.637, 0.538)
+"""Copper's Base Color (linear RGB, its reflectance at normal incidence)."""
+COPPER_ROUGHNESS = 0.3
+COPPER_RADIUS = 0.22
+COPPER_CENTRE = (-0.68, -0.25, COPPER_RADIUS)
+"""On the floor, 0.06 m clear of the mirror sphere and 0.1 m of the left wall."""
+
 DEMO_QUALITY = "final"
 """The demo's Quality preset: smooth indirect light and caustics at 320 x 240 in about
 30 s on 2 cores (docs/photon_rendering.md)."""
@@ -66,6 +82,22 @@ def _material(name, idname, color, **inputs):
     nodes.clear()
     bsdf = nodes.new(idname)
     bsdf.inputs["Color"].default_value = (*color, 1.0)
+    for key, value in inputs.items():
+        bsdf.inputs[key].default_value = value
+    out = nodes.new('ShaderNodeOutputMaterial')
+    links.new(bsdf.outputs[0], out.inputs["Surface"])
+    return mat
+
+
+def _principled(name, color, **inputs):
+    """A material of one Principled BSDF: Base Color ``color``, other inputs by name."""
+    mat = bpy.data.materials.new(name)
+    if mat.node_tree is None:  # Blender < 5.0
+        mat.use_nodes = True
+    nodes, links = mat.node_tree.nodes, mat.node_tree.links
+    nodes.clear()
+    bsdf = nodes.new('ShaderNodeBsdfPrincipled')
+    bsdf.inputs["Base Color"].default_value = (*color, 1.0)
     for key, value in inputs.items():
         bsdf.inputs[key].default_value = value
     out = nodes.new('ShaderNodeOutputMaterial')
@@ -175,6 +207,23 @@ def build_cornell_box(scale=1.0, offset=(0.0, 0.0, 0.0), resolution=(320, 240),
     return scene
 
 
+def build_demo(scale=1.0, offset=(0.0, 0.0, 0.0), resolution=(320, 240),
+                light_power=LIGHT_POWER, scene=None):
+    """The demo scene: ``build_cornell_box`` (same arguments, same return) with a glossy
+    floor (Principled, roughness FLOOR_ROUGHNESS) and a rough copper sphere (Principled,
+    Metallic 1, Roughness COPPER_ROUGHNESS, radius COPPER_RADIUS at COPPER_CENTRE)."""
+    scene = build_cornell_box(scale, offset, resolution, light_power, scene)
+    s = float(scale)
+    ox, oy, oz = (float(v) for v in offset)
+    floor = bpy.data.objects["Floor"]
+    floor.data.materials[0] = _principled("GlossyFloor", WHITE, Roughness=FLOOR_ROUGHNESS)
+    copper = _principled("Copper", COPPER, Metallic=1.0, Roughness=COPPER_ROUGHNESS)
+    cx, cy, cz = COPPER_CENTRE
+    _sphere("CopperSphere", (ox + s * cx, oy + s * cy, oz + s * cz), s * COPPER_RADIUS, copper,
+            scene.collection)
+    return scene
+
+
 def load_photon_map():
     """Import the repository as the extension package ``photon_map`` and register the engine.
 
@@ -202,9 +251,12 @@ def _resolution(text):
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(description="Render Jensen's Cornell box with Photon Map.")
+    parser = argparse.ArgumentParser(description="Render the demo (a Cornell box with a glossy "
+                                     "floor and a copper sphere) with Photon Map.")
     parser.add_argument("-o", "--output", default="out/demo",
                         help="output path without extension: writes OUTPUT.exr and OUTPUT.png")
+    parser.add_argument("--classic", action="store_true",
+                        help="Jensen's box as it is: Lambert floor, no copper sphere")
     parser.add_argument("--quality", choices=("draft", "preview", "final", "converged"),
                         default=DEMO_QUALITY, help=f"the Quality preset (default {DEMO_QUALITY})")
     parser.add_argument("--samples", type=int, help="camera samples per pixel")
@@ -223,7 +275,8 @@ def main(argv=None):
 
     package = load_photon_map()
     bpy.ops.wm.read_factory_settings(use_empty=True)
-    scene = build_cornell_box(resolution=args.resolution)
+    build = build_cornell_box if args.classic else build_demo
+    scene = build(resolution=args.resolution)
     scene.render.engine = 'PHOTON_MAP'
     settings = scene.photon_map
     settings.quality = args.quality
@@ -258,7 +311,8 @@ def main(argv=None):
         result.save_render(filepath=str(out) + ext, scene=scene)
         print(f"wrote {out}{ext}")
     w, h = args.resolution
-    print(f"rendered {w}x{h} at {settings.samples} samples/pixel (quality "
+    print(f"rendered {'classic box' if args.classic else 'demo'} {w}x{h} at "
+          f"{settings.samples} samples/pixel (quality "
           f"{settings.quality}) in {elapsed:.2f} s")
     return 0
 

@@ -5,7 +5,9 @@ At a diffuse hit x (a material with a diffuse lobe) seen with path throughput T:
 - indirect, final gather: T * rho_x * mean_j L(y_j), over ``gather_rays`` directions
   w_j cosine-distributed about the shading normal at x (pdf cos / pi cancels the
   cosine and the pi of rho / pi). y_j is the first diffuse hit along w_j, reached
-  through mirrors and glass if need be (so L D S D paths are kept), and
+  through mirrors and glass if need be (so L D S D paths are kept), and through rough
+  glossy materials without a diffuse lobe (a rough metal: ``prepared.sampled_only``) by one
+  BSDF sample each (``camera_paths.follow_bsdf``, weight f |cos| / pdf), and
   L(y_j) = rho_y / pi * E_g(y_j) from the global map built WITH direct photons. Light
   sources, emission and background seen by gather rays count nothing: the direct and
   caustics terms hold them; the media's emission along gather rays counts (no shadow ray
@@ -13,7 +15,9 @@ At a diffuse hit x (a material with a diffuse lobe) seen with path throughput T:
 - indirect, preview: T * rho_x / pi * E_g(x) from the global map built WITHOUT direct
   photons (the direct visualisation: fast, blotchy, labelled a preview).
 
-Glossy (rough) lobes get direct light only; photon terms use the diffuse albedo, the
+Glossy (rough) lobes of the camera path's hits get direct light (and their own BSDF-sampled
+continuation, core/integrators/photon_mapping.py); at a gather hit y_j with a diffuse lobe
+only the diffuse part is read. Photon terms use the diffuse albedo, the
 textured one at each hit (core/materials/textures.py). Gather rays pass cut-outs like camera rays.
 
 Diffuse-like lobes that are not Lambert (``PhotonTerms.bsdf_materials``: Oren-Nayar,
@@ -423,6 +427,37 @@ def _through_medium(terms: PhotonTerms, o, d, hits, thr, radiance, rows) -> np.n
     return thr * st.through
 
 
+def _follow_rough(prepared, seed, depth, bounce, ray_pixel, index, rs, hits, hs, pos, ngf, nsf, d,
+                  front, mat, eps, thr, lam):
+    """Gather rays rs (K,) at hits hs (K,) of rough glossy materials without a diffuse lobe
+    (``prepared.sampled_only``): one lobe of the hit's shaded closures sampled each
+    (``camera_paths.follow_bsdf``; the whole f |cos| / pdf, as no diffuse part is there).
+    Lights, emission and the world the rays then meet count nothing, as for gather rays
+    after a mirror: the caustic map holds light reaching x through glossy lobes.
+    Random numbers: dimensions 2 x and 2 x + 1 of x = (GATHER_LOBE, depth, bounce) for
+    the lobe and the direction (as at mirrors), (GATHER_LOBE, depth, bounce, 1) and (.., 2)
+    for the direction's second coordinate and the roulette.
+    Returns (rows (J,), origins (J, 3), directions (J, 3), throughput (J, 3), lam (J,))."""
+    pix, idx = ray_pixel[rs], index[rs]
+    dim = sampling.stream(sampling.GATHER_LOBE, depth, bounce)
+    u_lobe = sampling.uniform(seed, pix, idx, 2 * dim)
+    u1 = sampling.uniform(seed, pix, idx, 2 * dim + 1)
+    u2 = sampling.uniform(seed, pix, idx, sampling.stream(sampling.GATHER_LOBE, depth, bounce, 1))
+    u_rr = sampling.uniform(seed, pix, idx, sampling.stream(sampling.GATHER_LOBE, depth, bounce, 2))
+    prim, u, v = hits.prim[hs], hits.u[hs], hits.v[hs]
+    texel = prepared.texels.albedo(prim, u, v, mat)
+    tab, crow, nsf = prepared.hit_shader.shade(prim, u, v, d, mat, nsf)
+    tangent = prepared.hit_shader.tangents(prim, pos, tab, crow)
+    keep, o, d2, thr2, _, _, _, lam2 = camera_paths.follow_bsdf(
+        prepared, np.ascontiguousarray(pos, np.float64), np.ascontiguousarray(ngf, np.float64),
+        np.ascontiguousarray(nsf, np.float64), np.ascontiguousarray(d, np.float64),
+        np.ascontiguousarray(front, np.bool_), np.ascontiguousarray(crow, np.int32),
+        np.ascontiguousarray(eps, np.float64), np.ascontiguousarray(texel, np.float64),
+        np.ascontiguousarray(thr, np.float64), np.ascontiguousarray(lam, np.float64),
+        u_lobe, u1, u2, u_rr, closures=tab, tangent=tangent)
+    return rs[keep], o, d2, thr2, lam2
+
+
 def _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sample,
                         depth, bsdf=None) -> np.ndarray:
     t_start = time.perf_counter()
@@ -513,20 +548,35 @@ def _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sa
             terms.stats["gather_queries"] += diff.size
         if bounce == st.max_specular_depth:
             break
-        sd = np.flatnonzero(prepared.has_delta[mat])
-        if sd.size == 0:
+        # Mirrors and glass: one delta lobe (follow_delta). Rough glossy lobes without a
+        # diffuse one (a rough metal): no estimate is read there, so the ray goes on through
+        # one BSDF sample (follow_bsdf, as camera paths do) to the next diffuse hit.
+        rough = prepared.sampled_only[mat]
+        sd = np.flatnonzero(prepared.has_delta[mat] & ~rough)
+        sr = np.flatnonzero(rough)
+        if sd.size == 0 and sr.size == 0:
             break
-        rs = rows[sd]
         dim = sampling.stream(sampling.GATHER_LOBE, depth, bounce)
-        u_lobe = sampling.uniform(st.seed, ray_pixel[rs], index[rs], 2 * dim)
-        u_pick = sampling.uniform(st.seed, ray_pixel[rs], index[rs], 2 * dim + 1)
-        hs = hit[sd]
-        texel = prepared.texels.albedo(hits.prim[hs], hits.u[hs], hits.v[hs], mat[sd])
-        tangent = prepared.hit_shader.tangents(hits.prim[hs], p2[sd], prepared.closures,
-                                               mat[sd])
-        keep, o, d, thr, _, lam = camera_paths.follow_delta(
-            prepared, p2[sd], n2[sd], s2[sd], d[sd], front[sd], mat[sd], e2[sd], texel,
-            u_lobe, u_pick, thr[sd], lam[sd], tangent=tangent)
-        rows = rs[keep]
+        go = []
+        if sd.size:
+            rs = rows[sd]
+            u_lobe = sampling.uniform(st.seed, ray_pixel[rs], index[rs], 2 * dim)
+            u_pick = sampling.uniform(st.seed, ray_pixel[rs], index[rs], 2 * dim + 1)
+            hs = hit[sd]
+            texel = prepared.texels.albedo(hits.prim[hs], hits.u[hs], hits.v[hs], mat[sd])
+            tangent = prepared.hit_shader.tangents(hits.prim[hs], p2[sd], prepared.closures,
+                                                   mat[sd])
+            keep, o_s, d_s, thr_s, _, lam_s = camera_paths.follow_delta(
+                prepared, p2[sd], n2[sd], s2[sd], d[sd], front[sd], mat[sd], e2[sd], texel,
+                u_lobe, u_pick, thr[sd], lam[sd], tangent=tangent)
+            go.append((rs[keep], o_s, d_s, thr_s, lam_s))
+        if sr.size:
+            go.append(_follow_rough(prepared, st.seed, depth, bounce, ray_pixel, index, rows[sr],
+                                    hits, hit[sr], p2[sr], n2[sr], s2[sr], d[sr], front[sr],
+                                    mat[sr], e2[sr], thr[sr], lam[sr]))
+        if len(go) == 1:
+            rows, o, d, thr, lam = go[0]
+        else:
+            rows, o, d, thr, lam = (np.concatenate(c) for c in zip(*go))
     terms.stats["time_gather"] += time.perf_counter() - t_start
     return radiance.reshape(n, g, 3).mean(axis=1)

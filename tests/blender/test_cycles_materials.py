@@ -38,9 +38,7 @@ channel means move by under 0.5 %)."""
 # What still differs from Cycles, as measured on this core (channel means PM / Cycles - 1;
 # the note of issue 13 has every figure). The other scenes are plain tests. Strict: a case
 # that starts passing must leave this list.
-PENDING = {
-    "cornell_rough_metal": "channel means within 1.9 %, 10 of 144 blocks over 5 % + 3 sigma",
-}
+PENDING = {}
 
 
 def photon_map_pair(name):

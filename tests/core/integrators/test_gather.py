@@ -142,6 +142,38 @@ def test_white_furnace_traced(albedo):
     np.testing.assert_allclose(out.passes["combined"].mean(), 1 / (1 - albedo), rtol=0.02)
 
 
+def half_metal_furnace(res=8):
+    """The furnace sphere (radius 1) with its upper half (z > 0) a white rough mirror
+    (Glossy BSDF, colour 1, roughness 0.4, multiscatter GGX: it reflects all it receives)
+    and its lower half emissive (L_e = 1) Lambert of albedo 1/2; the camera at the centre
+    looks down at the lower half. The radiance is uniform, L = L_e / (1 - 1/2) = 2."""
+    from core.scene import closures as cl
+    sphere = inward(shapes.uv_sphere([0, 0, 0], 1.0, 24, 48))
+    up = sphere.corners[:, :, 2].mean(axis=1) > 0
+    metal = shapes.Part(sphere.corners[up], sphere.normals[up])
+    lamp = shapes.Part(sphere.corners[~up], sphere.normals[~up])
+    mats = Materials.from_list([
+        {"diffuse": [0.5] * 3, "emission": [1.0] * 3},
+        {"closures": [dict(kind=cl.CLOSURE_GLOSSY, params=dict(color=1.0, roughness=0.4))]}])
+    cam = shapes.pinhole([0, 0, 0], [0.05, 0.1, -1.0], res, res, np.radians(60))
+    cam = Camera(to_world=cam.to_world, width=res, height=res, film_size=cam.film_size,
+                 clip_start=1e-3, clip_end=10.0)
+    return Scene(shapes.assemble([(lamp, 0), (metal, 1)]), mats, Lights.empty(), cam)
+
+
+def test_final_gather_reads_the_light_behind_a_rough_metal():
+    """Half the furnace a rough metal (half_metal_furnace): L = 2 everywhere. A gather
+    ray that lands on the metal (no diffuse lobe, no estimate there) goes on through one
+    BSDF sample to the diffuse half and reads the global map there; were it to stop at the
+    metal, the light it reflects from diffuse bounces would be lost (about 1.75)."""
+    st = RenderSettings(samples=4, final_gather_rays=64, global_photons=100_000, global_k=64,
+                        caustic_photons=100_000, photon_max_bounces=16, max_specular_depth=4)
+    out = integrator.render(half_metal_furnace(), st)
+    assert out.stats["caustic_photons_stored"] > 0  # emission reflected by the metal
+    np.testing.assert_allclose(out.passes["emission"].mean(), 1.0, rtol=1e-3)
+    np.testing.assert_allclose(out.passes["combined"].mean(), 2.0, rtol=0.025)
+
+
 # --- leaks ----------------------------------------------------------------------------------
 
 def thin_wall_scene(side, thickness=1e-3):
