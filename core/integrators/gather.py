@@ -27,7 +27,7 @@ photon by f_d(wo, w_p), photons of both sides counting (``estimate.BsdfHits``); 
 gathering weights each gather ray by f_d |cos| / pdf, the rays cosine-distributed on the
 far side too with probability BACK_SHARE where a lobe transmits (Translucent); at gather
 hits of such materials L(y_j) is the BSDF estimate toward x (the radiance cache, which
-holds rho / pi E, is not read there).
+holds E / pi for Lambert lobes, is not read there).
 
 Radiance estimates: core/photons/estimate.py's ``radiance_estimate`` (the k nearest
 photons within the maximum radius, front-side only, the filter, Jensen's flattened disc),
@@ -78,9 +78,9 @@ CACHE_MIN_COS = 0.5
 class RadianceCache:
     """Outgoing diffuse radiance precomputed at points on the diffuse surfaces.
 
-    points: a PhotonMap over the cache points whose "flux" is the radiance rho / pi * E
-    (W/(m^2 sr)) on the side of its "direction", the surface normal of that side (each
-    surface point has one entry per side). Final gathering reads the nearest entry with
+    points: a PhotonMap over the cache points whose "flux" is E / pi (W/(m^2 sr) per unit
+    albedo) on the side of its "direction", the surface normal of that side (each surface
+    point has one entry per side); the lookup multiplies by the gather hit's own albedo. Final gathering reads the nearest entry with
     a compatible normal (k = CACHE_NEIGHBOURS lookups instead of a k = global_k estimate,
     several times faster); a hit with none within the radius gets the full estimate.
     """
@@ -129,7 +129,6 @@ def build_radiance_cache(terms: "PhotonTerms", prepared: PreparedScene,
     uniformly over the diffuse surfaces (both sides of each). Deterministic: the points
     are counter hashes of (seed, point index). should_stop() -> True (asked between
     chunks of points) abandons the cache: returns None."""
-    mats = prepared.materials
     diffuse_tri = np.flatnonzero(prepared.has_diffuse[prepared.tri_material])
     if terms.global_map is None or diffuse_tri.size == 0:
         return None
@@ -150,14 +149,10 @@ def build_radiance_cache(terms: "PhotonTerms", prepared: PreparedScene,
     bu, bv = np.empty(m), np.empty(m)
     _cache_points_kernel(np.ascontiguousarray(v), np.cumsum(area), u0, u1, u2, pos, nrm, tri,
                          bu, bv)
-    prim = tri_ids[tri]
-    if prepared.surfaces.textured:
-        # Textured: cache E / pi (albedo 1) and multiply by the hit's own texel at lookup,
-        # so the cache does not blur the texture.
-        albedo = np.ones((m, 3))
-        terms.cache_unit_albedo = True
-    else:
-        albedo = mats["diffuse"][prepared.tri_material[prim]]
+    # The cache holds E / pi (albedo 1): the lookup multiplies by the hit's own albedo
+    # (a texel or a shader program's per-hit colour), so the cache neither blurs a texture
+    # nor reads a material's constant colour where a program sets it per hit.
+    albedo = np.ones((m, 3))
     # One neighbour search per point serves both of its sides.
     sides = radiance_estimate_sides(terms.global_map, pos, [nrm, -nrm], albedo,
                                     terms.global_k, terms.global_radius, terms.filter,
@@ -197,8 +192,10 @@ def _cache_lookup_kernel(idx, cache_dirs, cache_rad, normals, min_cos, out, foun
 
 
 def cached_radiance(terms: "PhotonTerms", points, normals, albedo) -> np.ndarray:
-    """(M, 3) radiance at gather hits from the cache; the full estimate where no cache
-    entry with a compatible normal lies within the radius."""
+    """(M, 3) float64 radiance albedo / pi * E (W/(m^2 sr)) at M Lambert hits: the cached
+    E / pi times ``albedo`` (M, 3), the hits' own (textured, programmed) diffuse albedo;
+    the full estimate where no cache entry with a compatible normal lies within the
+    radius. points, normals (M, 3) metres / non-zero geometric normals facing the viewer."""
     cache = terms.cache
     m = points.shape[0]
     out = np.empty((m, 3))
@@ -207,8 +204,7 @@ def cached_radiance(terms: "PhotonTerms", points, normals, albedo) -> np.ndarray
     idx, _ = cache.points.nearest(np.ascontiguousarray(points, np.float32), k, cache.radius)
     _cache_lookup_kernel(idx, terms.cache_dirs, terms.cache_radiance,
                          np.ascontiguousarray(normals, np.float64), CACHE_MIN_COS, out, found)
-    if terms.cache_unit_albedo:
-        out *= albedo
+    out *= albedo
     missing = np.flatnonzero(~found)
     if missing.size:
         out[missing] = radiance_estimate(terms.global_map, points[missing], normals[missing],
@@ -244,7 +240,6 @@ class PhotonTerms:
     cache: RadianceCache | None = None
     cache_dirs: np.ndarray | None = None      # (C, 3) float64 decoded cache normals
     cache_radiance: np.ndarray | None = None  # (C, 3) float64 decoded cache radiance
-    cache_unit_albedo: bool = False           # the cache holds E / pi (textured scenes)
     bsdf_materials: np.ndarray | None = None  # (M,) bool diffuse-like lobes not Lambert
     back_share: np.ndarray | None = None      # (M,) float64 gather rays on the far side
     volume_map: object = None
@@ -514,7 +509,7 @@ def _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sa
         diff = np.flatnonzero(prepared.has_diffuse[mat])
         if diff.size and terms.bsdf_materials is not None:
             b = terms.bsdf_materials[mat[diff]]
-            if b.any():  # L(y_j) toward x by the BSDF estimate (the cache holds rho / pi E)
+            if b.any():  # L(y_j) toward x by the BSDF estimate (the cache holds Lambert's E / pi)
                 bd, diff = diff[b], diff[~b]
                 hd = hit[bd]
                 texel = prepared.texels.albedo(hits.prim[hd], hits.u[hd], hits.v[hd], mat[bd])

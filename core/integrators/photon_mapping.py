@@ -164,7 +164,7 @@ def _photon_terms(ctx: _CameraPass, rows, pos, ngf, nsf, eps, mat, thr, pixel, s
         if g.size:
             t0 = time.perf_counter()
             # Non-Lambert diffuse-like lobes: the BSDF estimate (photons of both sides; the
-            # cache holds rho / pi E, so it is not read there)
+            # cache holds Lambert's E / pi, so it is not read there)
             g, gb, hb = gather.bsdf_terms(terms, tab, g, mat, crow, texel, d, nsf, front, tangent)
             if hb is not None:
                 _add(indirect_target, rows[gb],
