@@ -44,7 +44,7 @@ from .materials.textures import SurfaceTextures
 from .media import regions
 from .media.density import DensityFields
 from .scene import geometry
-from .shading import interpreter
+from .shading import interpreter, normals
 from .shading import program as pg
 from .shading.inputs import ShadingInputs
 from .scene.accel import Accelerator, use_threads
@@ -166,11 +166,13 @@ class HitShader:
         used = np.bincount(mesh.material_index, minlength=mats.count)[:mats.count] > 0
         self.programs = progs
         self.images = scene.program_images
-        # materials whose closures or shading normal a program computes (TARGET_CLOSURE,
-        # TARGET_NORMAL outputs): their hits get closure rows of their own
+        # materials whose closures, their weights or the shading normal a program
+        # computes (TARGET_CLOSURE, TARGET_WEIGHT, TARGET_NORMAL outputs): their hits get
+        # closure rows of their own
         self.programmed = np.array(
             [p is not None and bool(np.any(np.isin(p.outputs[:, 1],
-                                                   (pg.TARGET_CLOSURE, pg.TARGET_NORMAL))))
+                                                   (pg.TARGET_CLOSURE, pg.TARGET_WEIGHT,
+                                                    pg.TARGET_NORMAL))))
              for p in progs], bool).reshape(mats.count)
         # materials whose emission a program computes (TARGET_EMISSION outputs)
         self.emission_programmed = np.array(
@@ -469,16 +471,24 @@ class HitShader:
         for m in np.unique(mat[hit]):
             sel = np.flatnonzero(mat[hit] == m)
             f, k = int(tab.first[m]), int(tab.count[m])
-            out = interpreter.closure_params(self.programs[m], _subset(ins, sel),
+            sub = _subset(ins, sel)
+            out = interpreter.closure_params(self.programs[m], sub,
                                              tab.params[f:f + k].astype(np.float32),
                                              self.images)
             if out["normal"] is not None and ns is not None:
                 if bent is ns:
                     bent = np.array(ns, np.float64, copy=True)
-                bent[hit[sel]] = _unit_or(out["normal"], bent[hit[sel]])
+                # Cycles' ensure_valid_specular_reflection: the programmed normal
+                # tilted until the mirror direction leaves above the true surface
+                bent[hit[sel]] = normals.valid_specular_reflection(
+                    sub.true_normal[:sel.size], sub.incoming[:sel.size],
+                    _unit_or(out["normal"], bent[hit[sel]]))
             h = sel.size
             kinds.append(np.tile(tab.kind[f:f + k], h))
-            weights.append(np.tile(tab.weight[f:f + k], (h, 1)))
+            w = np.tile(tab.weight[f:f + k], (h, 1))
+            if out["weight"] is not None:  # the linked Mix factors of each closure here
+                w = w * out["weight"].reshape(h * k, 1)
+            weights.append(w)
             params.append(out["params"].reshape(h * k, -1).astype(np.float64))
             textures.append(np.tile(tab.texture[f:f + k], h))
             abbes.append(np.tile(tab.abbe[f:f + k], h))

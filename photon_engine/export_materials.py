@@ -29,10 +29,11 @@ import numpy as np
 
 from . import compat
 from .export_images import DEFAULT_GREY, ImageTable  # noqa: F401  (ImageTable re-exported)
-from .export_nodes import Closure, NodeReader, UnreadableTree, diffuse_closure, follow_reroutes
+from .export_nodes import Closure, NodeReader, UnreadableTree, diffuse_closure, \
+    follow_reroutes, kept_row
 from .export_shaders import HANDLERS as BSDF_HANDLERS
-from .export_shader import AttributeNames, UVMapNames, compile_sockets, opacity_product, \
-    weighted_sum
+from .export_shader import AttributeNames, UVMapNames, compile_sockets, mix_weight, \
+    opacity_product, weighted_sum
 from ..core.scene import closures as cl
 from ..core.shading import program as pg
 
@@ -92,6 +93,14 @@ class TreeReader(NodeReader):
                         "node": node, "socket": sock.name, "weight": 1.0,
                         "kind": "mix_a" if first else "mix_b", "mean": clear.transparency}]
                     return other
+            # A node graph into the factor: each closure's weight gets fac or 1 - fac
+            # per hit (the program's TARGET_WEIGHT, ``_program``); the legacy lobes take
+            # the socket's own value, as before.
+            value = float(np.clip(np.nan_to_num(float(getattr(sock, "default_value", 0.5))),
+                                  0.0, 1.0))
+            self._check_textures(node, a, b)
+            return a.factored(node, sock, False, 1.0 - value).plus(
+                b.factored(node, sock, True, value))
         fac = self.ranged(node, "Factor")
         self._check_textures(node, a, b)
         return a.scaled(1.0 - fac).plus(b.scaled(fac))
@@ -262,7 +271,7 @@ def _program(mat, closure: Closure, reader: TreeReader, warnings: list[str],
     emission, alpha) are reported as before: their socket value is used. A linked Normal
     input is the material's shading normal (TARGET_NORMAL): one per material, the first
     BSDF's; another BSDF's different Normal link is reported and takes that one too."""
-    kept = [b for b in closure.bsdfs if np.any(np.asarray(b["weight"]) > 0)]
+    kept = [b for b in closure.bsdfs if kept_row(b)]
     index = {}
     for i, b in enumerate(kept):
         if "node" in b:
@@ -271,7 +280,8 @@ def _program(mat, closure: Closure, reader: TreeReader, warnings: list[str],
     normal = None
     emitting = {(e["node"].as_pointer(), name) for e in closure.emitters
                 for name in (e["color"], e["strength"])}
-    emission_linked = False
+    # An emitter under a linked Mix factor: the emission is the program's.
+    emission_linked = any(e.get("factors") for e in closure.emitters)
     cutting = {(e["node"].as_pointer(), e["socket"]) for e in closure.cutouts}
     for node, sock in reader.linked:
         key = (node.as_pointer(), sock.as_pointer())
@@ -303,6 +313,11 @@ def _program(mat, closure: Closure, reader: TreeReader, warnings: list[str],
         for i in index[node.as_pointer()]:
             targets.append((sock, pg.TARGET_CLOSURE, i, slot))
             rows.append(kept[i])
+    for i, b in enumerate(kept):
+        if b.get("factors"):  # its weight's linked Mix factors, per hit (TARGET_WEIGHT)
+            targets.append((mix_weight([(f["socket"], f["take"]) for f in b["factors"]]),
+                            pg.TARGET_WEIGHT, i, 0))
+            rows.append(("weight", b))
     if emission_linked:
         # The whole emission (every emitting node, weighted by the Mix / Add factors
         # above it, over the opacity as ``Closure.as_row`` divides it) becomes the
@@ -310,7 +325,8 @@ def _program(mat, closure: Closure, reader: TreeReader, warnings: list[str],
         opacity = float(np.clip(1.0 - closure.transparency, 0.0, 1.0))
         k = 1.0 / opacity if 0.0 < opacity < 1.0 else 1.0
         terms = [(compat.input_socket(e["node"], e["color"]),
-                  compat.input_socket(e["node"], e["strength"]), e["weight"] * k)
+                  compat.input_socket(e["node"], e["strength"]), e["weight"] * k,
+                  [(f["socket"], f["take"]) for f in e.get("factors", [])])
                  for e in closure.emitters if e["weight"] > 0]
         targets.append((weighted_sum(terms), pg.TARGET_EMISSION, 0, 0))
         rows.append(None)
@@ -338,6 +354,10 @@ def _program(mat, closure: Closure, reader: TreeReader, warnings: list[str],
     for (sock, _, _, slot), b, value in zip(targets, rows, compiled.constant):
         if isinstance(b, str) and b == "normal":
             continue  # the shading normal: a constant one is not a closure parameter
+        if isinstance(b, tuple):  # a closure's Mix factors: the program applies them
+            if value is not None and compiled.program is None:  # unless none is left
+                b[1]["weight"] = b[1]["weight"] * float(np.clip(value[0], 0.0, 1.0))
+            continue
         if value is not None and isinstance(b, str):  # a folded opacity: the constant form
             a = float(np.clip(value[0], 0.0, 1.0))
             for lobe in ("diffuse", "specular", "transmission", "emission"):

@@ -37,7 +37,10 @@ class Closure:
     """One shader's contribution. Colours are (3,) float64 linear RGB.
 
     bsdfs: closure rows, dicts with ``kind`` (closures.CLOSURE_*), ``weight`` (3,) float64
-        >= 0, ``params`` (closures.PARAM_COUNT,) float32, ``texture`` int (-1 = none).
+        >= 0, ``params`` (closures.PARAM_COUNT,) float32, ``texture`` int (-1 = none),
+        and ``factors`` when a linked Mix Shader factor weights it (``factored``: dicts
+        with the Mix ``node``, its factor ``socket`` and ``take``, True for fac, False
+        for 1 - fac; ``weight`` is then the constant rest of the product).
     diffuse, specular, transmission, roughness, ior, glossy_weight, diffuse_texture: the
         legacy lobes; roughness and ior are shared by specular and transmission,
         ``glossy_weight`` (the luminance of specular + transmission) says how much of the
@@ -45,8 +48,9 @@ class Closure:
     emission: radiance W/(m^2 sr). transparency: weight of the straight pass-through
         (1 - opacity); alpha_texture: image whose alpha multiplies the opacity.
     emitters: the shader nodes that emit, for emission programs: dicts with ``node``,
-        ``color`` / ``strength`` (their input socket names) and ``weight`` (the Mix /
-        Add factor product above them); ``emission`` is their constant sum.
+        ``color`` / ``strength`` (their input socket names), ``weight`` (the Mix /
+        Add factor product above them) and ``factors`` as a closure row's; ``emission``
+        is their constant sum.
     cutouts: opacities a program computes (their constant part is 1): dicts with
         ``node``, ``socket`` (input name) and ``kind``: "alpha" (Principled Alpha:
         opacity = clamp(value)), "mix_a" / "mix_b" (a Mix Shader whose Factor is linked
@@ -76,6 +80,19 @@ class Closure:
                        [dict(e, weight=e["weight"] * w) for e in self.emitters],
                        [dict(e, weight=e["weight"] * w) for e in self.cutouts])
 
+    def factored(self, node, sock, take: bool, value: float) -> "Closure":
+        """This closure under a Mix Shader ``node`` whose factor input ``sock`` is linked
+        to a node graph: each closure row and emitter keeps its weight and gets the factor
+        (clamped fac if ``take``, else 1 - fac) appended to its ``factors``, which a
+        shader program evaluates per hit (``TARGET_WEIGHT`` / the emission program); the
+        legacy lobes, transparency and cut-outs take ``value`` (the factor's constant
+        stand-in, fac or 1 - fac of the socket's own value)."""
+        f = {"node": node, "socket": sock, "take": bool(take)}
+        c = self.scaled(value)
+        c.bsdfs = [dict(b, factors=b.get("factors", []) + [f]) for b in self.bsdfs]
+        c.emitters = [dict(e, factors=e.get("factors", []) + [f]) for e in self.emitters]
+        return c
+
     def plus(self, other: "Closure") -> "Closure":
         wa, wb = self.glossy_weight, other.glossy_weight
         if wa + wb > 0:
@@ -96,17 +113,24 @@ class Closure:
         1 - t, and the lobes and closure weights are divided by the opacity (the core
         scales what a hit sees by the opacity when it picks the surface instead of the
         pass-through). Closures of zero weight (a Mix at factor 0) are left out, as
-        Cycles skips them."""
+        Cycles skips them (``kept_row``)."""
         opacity = float(np.clip(1.0 - self.transparency, 0.0, 1.0))
         k = 1.0 / opacity if 0.0 < opacity < 1.0 else 1.0
         rows = [{"kind": b["kind"], "weight": np.asarray(b["weight"], np.float64) * k,
                  "params": b["params"], "texture": int(b["texture"])}
-                for b in self.bsdfs if np.any(np.asarray(b["weight"]) > 0)]
+                for b in self.bsdfs if kept_row(b)]
         return {"name": name, "diffuse": self.diffuse * k, "specular": self.specular * k,
                 "transmission": self.transmission * k, "emission": self.emission * k,
                 "roughness": float(np.clip(self.roughness, 0.0, 1.0)), "ior": float(self.ior),
                 "diffuse_texture": int(self.diffuse_texture), "alpha": opacity,
                 "alpha_texture": int(self.alpha_texture), "closures": rows}
+
+
+def kept_row(b: dict) -> bool:
+    """A closure row reaches the material: a weight > 0 somewhere, or a per-hit weight
+    (``factors``, a linked Mix factor) even where its constant part folded to 0, so the
+    program's closure indices stay those of ``Closure.as_row``."""
+    return bool(np.any(np.asarray(b["weight"]) > 0) or b.get("factors"))
 
 
 def closure_row(kind: int, weight=1.0, texture: int = -1, **values) -> dict:

@@ -978,13 +978,44 @@ SUPPORTED = {
 Group Input / Output and muted nodes, handled by the walk itself)."""
 
 
+def _factor_product(b, factors):
+    """The register value of the product over [(factor socket, take)] of clamp(fac, 0, 1)
+    (take) or 1 - clamp(fac, 0, 1) (Cycles clamps a Mix Shader's factor); 1 for none."""
+    one, zero = b.const((1.0,), "f"), b.const((0.0,), "f")
+    total = None
+    for sock, take in factors:
+        v = b.as_kind(b.socket_value(sock, ()), "f")
+        c = b.new("f")
+        b.emit(pg.OP_CLAMP, [0], [v, zero, one], [c])
+        if not take:
+            s = b.new("f")
+            b.emit(pg.OP_MATH, [cn.MATH_OPS["SUBTRACT"], 0], [one, c, zero], [s])
+            c = s
+        if total is not None:
+            t = b.new("f")
+            b.emit(pg.OP_MATH, [cn.MATH_OPS["MULTIPLY"], 0], [total, c, zero], [t])
+            c = t
+        total = c
+    return one if total is None else total
+
+
+def mix_weight(factors):
+    """A ``compile_sockets`` target (TARGET_WEIGHT) computing a closure's share under
+    linked Mix Shader factors, [(factor socket, take)] (``export_nodes.Closure.factored``):
+    the product of clamp(fac) (take) or 1 - clamp(fac) along its path."""
+    def build(b):
+        return _factor_product(b, factors)
+    return build
+
+
 def weighted_sum(terms):
     """A ``compile_sockets`` target computing sum_k weight_k x colour_k x strength_k (a
-    colour) from [(colour socket, strength socket or None, weight float)]: a material's
-    emission over its emitting nodes."""
+    colour) from [(colour socket, strength socket or None, weight float[, factors])]: a
+    material's emission over its emitting nodes; ``factors`` (as ``mix_weight``) the
+    linked Mix Shader factors above a node, multiplying its term per hit."""
     def build(b):
         total = None
-        for color_sock, strength_sock, weight in terms:
+        for color_sock, strength_sock, weight, *factors in terms:
             c = b.as_kind(b.socket_value(color_sock, ()), "c")
             s = b.const((float(weight),), "f") if strength_sock is None else \
                 b.as_kind(b.socket_value(strength_sock, ()), "f")
@@ -992,6 +1023,11 @@ def weighted_sum(terms):
                 w = b.new("f")
                 b.emit(pg.OP_MATH, [cn.MATH_OPS["MULTIPLY"], 0],
                        [s, b.const((float(weight),), "f"), b.const((0.0,), "f")], [w])
+                s = w
+            if factors and factors[0]:
+                w = b.new("f")
+                b.emit(pg.OP_MATH, [cn.MATH_OPS["MULTIPLY"], 0],
+                       [s, _factor_product(b, factors[0]), b.const((0.0,), "f")], [w])
                 s = w
             term, junk = b.new("c"), b.new("f")
             zero = b.const((0.0, 0.0, 0.0), "v")

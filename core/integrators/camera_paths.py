@@ -302,7 +302,7 @@ def world_weight(bsdf_pdf, prev_ns, d, light_samples: int, prev_sphere=None):
 
 @njit(cache=True, parallel=True, error_model="numpy")
 def _path_kernel(pos, d, ng, ns, mat, eps, thr, u_vp, u_lobe, u_pick, has_diffuse, tab, tan,
-                 sampled, texel, lam, vp, new_o, new_d, new_thr, go_on, transmitted):
+                 sampled, texel, lam, vp, new_o, new_d, new_thr, go_on, transmitted, rows):
     """At each hit: stop at the non-singular lobes (vp) or follow one delta lobe (go_on),
     by the closures' sample weights (``closure.sample_delta``: the delta lobes' share s of
     the material's; the point stops with probability 1 - s where it has a diffuse lobe,
@@ -310,7 +310,9 @@ def _path_kernel(pos, d, ng, ns, mat, eps, thr, u_vp, u_lobe, u_pick, has_diffus
     sampled[m] (rough glossy lobes and no diffuse one: no photon is stored there, so no
     visible point) go on through one lobe of ``closure.sample_bsdf``, weight f |cos| /
     pdf: the lights, emission and world the path meets count in full (no shadow rays are
-    cast from such a hit). tab: the ClosureTable, tan (N, 3) the frames' tangents, texel
+    cast from such a hit). tab: the ClosureTable and rows (N,) int32 each hit's row in it
+    (``HitShader.shade``: programmed hits have their own; mat indexes the per-material
+    masks has_diffuse and sampled), tan (N, 3) the frames' tangents, texel
     (N, 3) the texel colour, lam (N,) float64 each path's wavelength in nm (0: RGB; the
     transmission lobes refract it at their IOR there, docs/dispersion.md).
 
@@ -330,12 +332,12 @@ def _path_kernel(pos, d, ng, ns, mat, eps, thr, u_vp, u_lobe, u_pick, has_diffus
         transmitted[i] = False
         if sampled[m]:
             ox, oy, oz, w0, w1, w2, pdf, flags = closure.sample_bsdf(
-                tab, m, texel[i, 0], texel[i, 1], texel[i, 2], -dx, -dy, -dz, sx, sy, sz,
-                gx, gy, gz, tan[i, 0], tan[i, 1], tan[i, 2], entering,
+                tab, rows[i], texel[i, 0], texel[i, 1], texel[i, 2], -dx, -dy, -dz, sx, sy,
+                sz, gx, gy, gz, tan[i, 0], tan[i, 1], tan[i, 2], entering,
                 u_lobe[i], u_pick[i], u_vp[i], lam[i])
         else:
             ox, oy, oz, w0, w1, w2, share, flags = closure.sample_delta(
-                tab, m, texel[i, 0], texel[i, 1], texel[i, 2], -dx, -dy, -dz, sx, sy, sz,
+                tab, rows[i], texel[i, 0], texel[i, 1], texel[i, 2], -dx, -dy, -dz, sx, sy, sz,
                 gx, gy, gz, tan[i, 0], tan[i, 1], tan[i, 2], entering,
                 u_lobe[i], u_pick[i], u_pick[i], lam[i])
             if not u_vp[i] < share:  # the non-singular lobes, probability 1 - share
@@ -485,19 +487,19 @@ def visible_points(prepared: PreparedScene, cam: Camera, seed: int, k: int, max_
         # kernel on the winding's side, which it flips to face the ray again.
         entering = np.einsum("ij,ij->i", d, ng) < 0.0
         facing = np.where(entering[:, None], ns, -ns)
-        _, _, bent = prepared.hit_shader.shade(hits.prim[h], hits.u[h], hits.v[h], d,
-                                               sp.material, facing)
+        # the per-hit closures (programmed parameters and Mix weights) choose the lobe
+        tab, rows, bent = prepared.hit_shader.shade(hits.prim[h], hits.u[h], hits.v[h], d,
+                                                    sp.material, facing)
         if bent is not facing:
             ns = np.where(entering[:, None], bent, -bent)
         vp, go_on, new_tr = np.empty(m, bool), np.empty(m, bool), np.empty(m, bool)
         new_o, new_d, new_thr = np.empty((m, 3)), np.empty((m, 3)), np.empty((m, 3))
         texel = prepared.texels.albedo(hits.prim[h], hits.u[h], hits.v[h], sp.material)
         _path_kernel(sp.position, d, ng, ns, sp.material, sp.eps, thr, u_vp, u_lobe, u_pick,
-                     prepared.has_diffuse, prepared.closures,
-                     prepared.hit_shader.tangents(hits.prim[h], sp.position, prepared.closures,
-                                                  sp.material),
+                     prepared.has_diffuse, tab,
+                     prepared.hit_shader.tangents(hits.prim[h], sp.position, tab, rows),
                      prepared.sampled_only, texel, lam, vp, new_o,
-                     new_d, new_thr, go_on, new_tr)
+                     new_d, new_thr, go_on, new_tr, np.ascontiguousarray(rows, np.int32))
         if features is not None:  # ns now faces the ray, as the shading normal does there
             features.surface(rows, albedo, mats["specular"][sp.material],
                              mats["transmission"][sp.material], mats["alpha"][sp.material], ns)

@@ -172,7 +172,8 @@ class Materials:
 
     programs: None, or a tuple of M ``core.shading.program.ShaderProgram`` or None: the
     material's compiled node graph (docs/shading.md), whose outputs replace closure
-    parameters per hit (TARGET_CLOSURE: closure index within the material, slot). A
+    parameters per hit (TARGET_CLOSURE: closure index within the material, slot) and
+    scale closure weights per hit (TARGET_WEIGHT: a linked Mix Shader factor). A
     material without links has None and costs nothing.
     pass_index: (M,) float32, each material's pass index (Blender's ``pass_index``: Object
         Info's Material Index); None: 0.
@@ -791,8 +792,9 @@ def _validate_programs(m: Materials, names) -> None:
         except ValueError as exc:
             raise SceneError(f"materials.programs{label(names, i)}: {exc}") from None
         for row in np.asarray(prog.outputs).reshape(-1, 4):
-            # row[1] == 0: core.shading.program.TARGET_CLOSURE (rank 2, not importable here)
-            if int(row[1]) == 0 and not 0 <= int(row[2]) < int(count[i]):
+            # row[1] 0 / 5: core.shading.program.TARGET_CLOSURE / TARGET_WEIGHT (rank 2,
+            # not importable here)
+            if int(row[1]) in (0, 5) and not 0 <= int(row[2]) < int(count[i]):
                 raise SceneError(f"materials.programs{label(names, i)}: an output writes "
                                  f"closure {int(row[2])}, but the material has "
                                  f"{int(count[i])} closures")

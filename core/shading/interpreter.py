@@ -400,15 +400,26 @@ def closure_params(program: pg.ShaderProgram, inputs: ShadingInputs,
     params: (C, PARAM_COUNT) float32, the material's closure rows with their constant
     inputs (closure c of the material = row c). Returns ``{"params": (N, C, PARAM_COUNT)
     float32, "emission": (N, 3) or None, "alpha": (N,) or None, "normal": (N, 3) or
-    None}``: each program output written into its slot, the others copied from params.
+    None, "weight": (N, C) float64 or None}``: each program output written into its
+    slot, the others copied from params; "weight" the factor of each closure's weight
+    (TARGET_WEIGHT, clamped to [0, 1]; 1 for the rows without one), None when the
+    program has no TARGET_WEIGHT output.
     """
     values = evaluate(program, inputs, images)
     n = inputs.count
     rows = np.broadcast_to(np.asarray(params, np.float32), (n,) + np.shape(params)).copy()
-    result = {"params": rows, "emission": None, "alpha": None, "normal": None}
+    result = {"params": rows, "emission": None, "alpha": None, "normal": None,
+              "weight": None}
     for o, (_, target, closure, slot) in enumerate(program.outputs.tolist()):
         if target == pg.TARGET_CLOSURE:
             rows[:, closure, slot] = values[:, o]
+        elif target == pg.TARGET_WEIGHT:
+            if result["weight"] is None:
+                result["weight"] = np.ones((n, rows.shape[1]), np.float64)
+            # a factor outside [0, 1] (or NaN) means nothing: the exporter clamps each
+            # Mix factor, so only rounding can leave it
+            w = np.nan_to_num(values[:, o].astype(np.float64), nan=0.0)
+            result["weight"][:, closure] *= np.clip(w, 0.0, 1.0)
         elif target == pg.TARGET_ALPHA:
             result["alpha"] = values[:, o].copy()
         else:

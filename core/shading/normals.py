@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 from numba import njit
 
 from .. import _numba_cache  # noqa: F401
@@ -117,3 +118,44 @@ def bump(invert, strength, distance, width, h_c, h_x, h_y, nx, ny, nz,
     if not ok or not (math.isfinite(ox) and math.isfinite(oy) and math.isfinite(oz)):
         return nx, ny, nz
     return ox, oy, oz
+
+
+def valid_specular_reflection(ng, incoming, n) -> np.ndarray:
+    """(N, 3) float64 unit: shading normals n (N, 3, unit) tilted towards the true normal
+    ng (N, 3, unit, on the viewer's side) just enough that the mirror reflection of
+    ``incoming`` (N, 3, unit, towards the viewer) leaves at least min(0.9 I.Ng, 0.01)
+    above the true surface, as Cycles' ensure_valid_specular_reflection (what its BSDFs
+    apply to a bumped or normal-mapped normal): a strong bump cannot reflect a ray into
+    the surface it came from. Normals already valid are returned unchanged."""
+    ng = np.asarray(ng, np.float64)
+    i = np.asarray(incoming, np.float64)
+    n = np.asarray(n, np.float64)
+    out = n.copy()
+    dot = np.einsum
+    ni = dot("ij,ij->i", n, i)
+    iz = dot("ij,ij->i", i, ng)
+    threshold = np.minimum(0.9 * iz, 0.01)
+    r_z = 2.0 * ni * dot("ij,ij->i", n, ng) - iz  # Ng . R, R = 2 (N.I) N - I
+    bad = np.flatnonzero(r_z < threshold)
+    if bad.size == 0:
+        return out
+    ng, i, n, iz, t = ng[bad], i[bad], n[bad], iz[bad], threshold[bad]
+    # Frame: Ng the z axis, x along N's component orthogonal to Ng (N itself if none).
+    x = n - dot("ij,ij->i", n, ng)[:, None] * ng
+    length = np.linalg.norm(x, axis=1)
+    x = np.where(length[:, None] > 0, x / np.where(length > 0, length, 1.0)[:, None], n)
+    ix = dot("ij,ij->i", i, x)
+    # N'.z solves 4 a z^4 - 2 b z^2 + c = 0 with the root whose reflection is the one
+    # asked for (Cycles' derivation, kernel/geom/shader_data or util/math)
+    a = ix * ix + iz * iz
+    b = 2.0 * (a + iz * t)
+    c = (t + iz) ** 2
+    root = np.sqrt(np.maximum(b * b - 4.0 * a * c, 0.0))
+    a_safe = np.where(a > 0, a, 1.0)
+    nz2 = np.where(ix < 0, 0.25 * (b + root) / a_safe, 0.25 * (b - root) / a_safe)
+    nx = np.sqrt(np.maximum(1.0 - nz2, 0.0))
+    nz = np.sqrt(np.maximum(nz2, 0.0))
+    fixed = nx[:, None] * x + nz[:, None] * ng
+    fixed /= np.maximum(np.linalg.norm(fixed, axis=1), 1e-300)[:, None]
+    out[bad] = np.where((a > 0)[:, None], fixed, ng)
+    return out

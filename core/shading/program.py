@@ -16,9 +16,10 @@ tables: (T, 4) float32, rows baked by the exporter (ColorRamp: RGBA at 256 evenl
   over [min x, max x]), indexed by integer parameters.
 n_registers: int >= K.
 outputs: (O, 4) int32, one row per output value: register, target (TARGET_*), closure
-  index (the material's closure it feeds, for TARGET_CLOSURE; else 0), slot (a
-  ``core.scene.closures`` parameter slot for TARGET_CLOSURE; the component 0-2 of the
-  emission colour or shading normal; 0 for alpha). ``interpreter.evaluate`` returns
+  index (the material's closure it feeds, for TARGET_CLOSURE and TARGET_WEIGHT; else
+  0), slot (a ``core.scene.closures`` parameter slot for TARGET_CLOSURE; the component
+  0-2 of the emission colour or shading normal; 0 for alpha and a closure's weight
+  factor). ``interpreter.evaluate`` returns
   (N, O) float32, column o for output row o.
 """
 
@@ -146,7 +147,10 @@ TARGET_EMISSION = 1   # the material's emission colour, component 0-2 (radiance)
 TARGET_ALPHA = 2      # the material's opacity in [0, 1]
 TARGET_NORMAL = 3     # the shading normal, component 0-2 (world space, unnormalised)
 TARGET_DENSITY = 4    # a medium's density rho(x) >= 0 (core/scene/media.py), slot 0
-TARGET_COUNT = 5
+TARGET_WEIGHT = 5     # a per-hit factor of closure row ``closure``'s weight, slot 0: the
+                      # product of the linked Mix Shader factors above it (clamped f or
+                      # 1 - f each); rows without one keep their constant weight
+TARGET_COUNT = 6
 
 
 def _widths(op: int) -> list[int]:
@@ -237,7 +241,7 @@ class ShaderProgram:
             if not 0 <= target < TARGET_COUNT:
                 raise ValueError(f"{who}: output {o} has unknown target {target}")
             limit = closures.PARAM_COUNT if target == TARGET_CLOSURE else \
-                (1 if target in (TARGET_ALPHA, TARGET_DENSITY) else 3)
+                (1 if target in (TARGET_ALPHA, TARGET_DENSITY, TARGET_WEIGHT) else 3)
             if not 0 <= slot < limit:
                 raise ValueError(f"{who}: output {o} slot {slot} outside [0, {limit})")
             if closure < 0:

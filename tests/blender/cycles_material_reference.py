@@ -13,7 +13,9 @@ Translucent, Sheen) and the Principled BSDF (default; roughness 0 / 0.25 / 0.6 x
 metal, whose unlinked Tangent is Cycles' radial default), a Mix Shader of Diffuse
 and Glossy and an Add Shader of Diffuse and Sheen; two Principled BSDFs driven by node
 graphs (issue 14's shader programs: Noise into Base Color and a ColorRamp into Roughness,
-Mapping + Checker into Base Color).
+Mapping + Checker into Base Color); a Mix Shader of Diffuse and Glossy whose Factor is
+Layer Weight's Facing and a Glossy BSDF with a strong Bump (per-hit closure weights and
+normals, ``per_hit``).
 
 The Cornell box: the demo's box (examples/cornell_box.py) without its spheres and with one
 rough-metal sphere (Principled metallic 1, roughness 0.3) where the mirror sphere was, so
@@ -144,6 +146,45 @@ def textured(name, which):
     return mat
 
 
+def per_hit(name, which):
+    """Node graphs that change a closure per hit (issue 14): "mix_facing" a Mix Shader of
+    a red Diffuse and a white Glossy (roughness 0.2) whose Factor is Layer Weight's Facing
+    (blend 0.5), the artists' rim pattern; "bump_glossy" a white Glossy (roughness 0.15)
+    whose Normal is a Bump (distance 0.2) of a Noise Texture (Object coordinates, scale 6,
+    detail 1): strong enough that some mirror directions would leave into the sphere."""
+    mat = bpy.data.materials.new(name)
+    tree = scenes.ensure_node_tree(mat)
+    nodes, links = tree.nodes, tree.links
+    nodes.clear()
+    glossy = nodes.new('ShaderNodeBsdfGlossy')
+    glossy.inputs["Color"].default_value = (0.9, 0.9, 0.9, 1.0)
+    out = nodes.new('ShaderNodeOutputMaterial')
+    if which == "mix_facing":
+        glossy.inputs["Roughness"].default_value = 0.2
+        diffuse = nodes.new('ShaderNodeBsdfDiffuse')
+        diffuse.inputs["Color"].default_value = RED
+        weight = nodes.new('ShaderNodeLayerWeight')
+        weight.inputs["Blend"].default_value = 0.5
+        mix = nodes.new('ShaderNodeMixShader')
+        links.new(weight.outputs["Facing"], mix.inputs[0])
+        links.new(diffuse.outputs[0], mix.inputs[1])
+        links.new(glossy.outputs[0], mix.inputs[2])
+        links.new(mix.outputs[0], out.inputs["Surface"])
+    else:
+        glossy.inputs["Roughness"].default_value = 0.15
+        coords = nodes.new('ShaderNodeTexCoord')
+        noise = nodes.new('ShaderNodeTexNoise')
+        noise.inputs["Scale"].default_value = 6.0
+        noise.inputs["Detail"].default_value = 1.0
+        bump = nodes.new('ShaderNodeBump')
+        bump.inputs["Distance"].default_value = 0.2
+        links.new(coords.outputs["Object"], noise.inputs["Vector"])
+        links.new(noise.outputs[0], bump.inputs["Height"])
+        links.new(bump.outputs["Normal"], glossy.inputs["Normal"])
+        links.new(glossy.outputs[0], out.inputs["Surface"])
+    return mat
+
+
 GOLD = (1.0, 0.71, 0.29, 1.0)
 RED = (0.8, 0.15, 0.1, 1.0)
 
@@ -183,6 +224,8 @@ MATERIALS = {
     "add_diffuse_sheen": lambda: combined("AddDiffuseSheen", "ADD"),
     "noise_roughness": lambda: textured("NoiseRoughness", "noise"),
     "mapping_checker": lambda: textured("MappingChecker", "checker"),
+    "mix_layer_weight": lambda: per_hit("MixLayerWeight", "mix_facing"),
+    "bump_glossy": lambda: per_hit("BumpGlossy", "bump_glossy"),
 }
 """Scene name -> a function making the sphere's material (in a fresh scene)."""
 
@@ -266,6 +309,8 @@ def fingerprint(name) -> str:
             parts.append(inspect.getsource(combined))
         if name in ("noise_roughness", "mapping_checker"):
             parts.append(inspect.getsource(textured))
+        if name in ("mix_layer_weight", "bump_glossy"):
+            parts.append(inspect.getsource(per_hit))
     return hashlib.sha256("\n".join(parts).encode()).hexdigest()[:16]
 
 
