@@ -149,9 +149,11 @@ def build_radiance_cache(terms: "PhotonTerms", prepared: PreparedScene,
     _cache_points_kernel(np.ascontiguousarray(v), np.cumsum(area), u0, u1, u2, pos, nrm, tri,
                          bu, bv)
     prim = tri_ids[tri]
-    if prepared.surfaces.textured:
-        # Textured: cache E / pi (albedo 1) and multiply by the hit's own texel at lookup,
-        # so the cache does not blur the texture.
+    layered = bool(prepared.hit_shader.layered[prepared.tri_material[prim]].any())
+    if prepared.surfaces.textured or layered:
+        # Textured, or a layered diffuse lobe (its albedo depends on the view,
+        # HitShader.diffuse_albedo): cache E / pi (albedo 1) and multiply by the hit's own
+        # albedo at lookup, so the cache does not blur the texture.
         albedo = np.ones((m, 3))
         terms.cache_unit_albedo = True
     else:
