@@ -233,6 +233,32 @@ def test_preview_mode_shows_the_global_map_directly(rng):
     np.testing.assert_allclose(out.passes["combined"].mean(), 2.0, rtol=0.03)
 
 
+@pytest.mark.parametrize("theta", [0.0, 1.05])
+def test_photon_terms_take_the_principled_diffuse_albedo_under_its_specular_layer(theta, rng):
+    """A default Principled plane (base 0.8, roughness 0.5, IOR 1.5) under a hand-built
+    global map of irradiance pi (preview mode): the indirect pass is the diffuse lobe's
+    albedo toward the camera, base x (1 - the specular layer's albedo), as Cycles layers it
+    (the closure evaluator's diffuse part, 0.770 at normal view, 0.745 at 60 deg), not the
+    constant 0.8 of Materials.diffuse (4 to 7 % too bright before)."""
+    from core.materials import closure
+    from core.scene import closures as cl
+    plane = shapes.quad([0, 0, 0], [2, 0, 0], [0, 2, 0])
+    mats = Materials.from_list([{"diffuse": [0.8] * 3, "closures": [dict(
+        kind=cl.CLOSURE_PRINCIPLED, params=dict(color=0.8, roughness=0.5, ior=1.5))]}])
+    eye = np.array([np.sin(theta), 0.0, np.cos(theta)])
+    cam = Camera(to_world=shapes.look_at(eye, [0, 0, 0], up=(0, 1, 0)), width=8, height=8,
+                 film_size=np.array([0.4, 0.4]), kind=1, clip_start=1e-3, clip_end=10.0)
+    scene = Scene(shapes.assemble([(plane, 0)]), mats, Lights.empty(), cam)
+    pm = uniform_photons(plane.corners, np.array([[0, 0, 1.0]] * 2), [math.pi] * 3,
+                         200_000, rng)
+    out = integrator.render(scene, RenderSettings(samples=2, indirect_mode="preview",
+                                                  caustics=False, global_k=200),
+                            photon_maps=maps(pm))
+    expected = closure.albedo_at(closure.table(mats), 0, eye, [0, 0, 1.0])[0]
+    assert expected < 0.8 * 0.97
+    np.testing.assert_allclose(out.passes["indirect"].mean(), expected, rtol=0.02)
+
+
 # --- a caustic against a ray-traced oracle ----------------------------------------------------
 
 def _fresnel(cos_i, n1, n2):
