@@ -1,11 +1,13 @@
 """The measured agreement of every shader node test plane with Cycles (docs/shading.md's
-table): renders the scenes of tests/blender/test_shader_nodes.py and prints, per plane,
+table): renders the scenes of tests/blender/test_shader_nodes.py, test_shader_nodes_view.py,
+test_shader_images.py and test_shader_attributes.py and prints, per plane,
 the 99th-percentile per-pixel error (relative to max(1, |Cycles|)) on the non-edge
 pixels, the worst error beyond our value's variation within 0.2 pixel (Cycles' occasional
 off-centre sample) and at the centre, and the fraction of edge pixels.
 
     .venv/bin/python tools/shader_agreement.py > /tmp/agreement.md
     .venv/bin/python tools/shader_agreement.py "Fresnel" "HSL"   # only the scenes named so
+    .venv/bin/python tools/shader_agreement.py "Image" "Attributes"
 """
 
 from __future__ import annotations
@@ -93,16 +95,48 @@ def scenes():
     yield "Textures, groups", specs
     yield "Fresnel, Layer Weight, Texture Coordinate", tv.VIEW_SPECS
     yield "HSL, Vector Curves, Wavelength", tv.COLOR_SPECS
+    yield from image_and_attribute_scenes()
+
+
+def image_and_attribute_scenes():
+    """tests/blender/test_shader_images.py's interpolation / extension / file-format planes
+    (the images written to a temporary folder as the test does) and
+    tests/blender/test_shader_attributes.py's attribute planes; (title, specs, setup)."""
+    import tempfile
+
+    from tests.blender import test_shader_attributes as ta
+    from tests.blender import test_shader_images as ti
+
+    d = pathlib.Path(tempfile.mkdtemp(prefix="shader_agreement_"))
+    png = ti.write_png(str(d / "byte.png"), ti.texels(np.uint8))
+    png16 = ti.write_png(str(d / "short.png"), ti.texels(np.uint16, 4))
+    exr = ti.write_exr(str(d / "float.exr"), ti.texels(np.float32, 5))
+    specs = [(f"Image {i} {e}", ti.image_plane(png, i, e))
+             for i in ("Linear", "Closest") for e in ("REPEAT", "EXTEND", "CLIP", "MIRROR")]
+    specs += [("Image Linear Non-Color", ti.image_plane(png, colorspace="Non-Color")),
+              ("Image Cubic", ti.image_plane(png, "Cubic")),
+              ("Image 16-bit PNG", ti.image_plane(png16)),
+              ("Image float EXR", ti.image_plane(exr, colorspace="Non-Color"))]
+    yield "Image Texture", specs, None
+    specs = [("Color Attribute corner", ta.color_attribute("ColCorner")),
+             ("Color Attribute point", ta.color_attribute("ColPoint")),
+             ("Color Attribute byte corner", ta.color_attribute("ByteCorner")),
+             ("Color Attribute byte point", ta.color_attribute("BytePoint")),
+             ("Color Attribute alpha", ta.color_attribute("ColCorner", "Alpha")),
+             ("Attribute vector", ta.attribute("VecCorner", "Vector")),
+             ("Attribute float", ta.attribute("FloatPoint", "Fac")),
+             ("Attribute face", ta.attribute("FloatFace", "Fac"))]
+    yield "Attributes", specs, ta.add_layers
 
 
 def main():
     print("| node (plane) | 99th percentile | max beyond 0.2 px | max at the centre | edge pixels |")
     print("|---|---:|---:|---:|---:|")
     only = sys.argv[1:]
-    for title, specs in scenes():
+    for title, specs, *setup in scenes():
         if only and not any(o in title for o in only):
             continue
-        result = ss.compare(specs)
+        result = ss.compare(specs, setup=setup[0] if setup else None)
         figures = ss.per_plane(result, lambda e, edge, loose: (
             float(e[~edge].max()) if (~edge).any() else 0.0,
             float(np.percentile(e[~edge], 99)) if (~edge).any() else 0.0,
