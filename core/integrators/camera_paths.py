@@ -467,8 +467,8 @@ def visible_points(prepared: PreparedScene, cam: Camera, seed: int, k: int, max_
         direct[pixel[rows]] += thr * prepared.hit_shader.emission_at(
             hits.prim[h], hits.u[h], hits.v[h], d, sp.material, mats["emission"][sp.material])
         albedo = prepared.surfaces.albedo(hits.prim[h], hits.u[h], hits.v[h], sp.material)
-        # Shader programs: the visible point's diffuse albedo (its direct light and lobe
-        # choice still read the material's constant closures).
+        # Shader programs: the visible point's diffuse albedo (its lobe choice reads the
+        # per-hit closures below, its direct light sppm's own closures_at).
         albedo = prepared.hit_shader.albedo_at(
             prepared.texels, hits.prim[h], hits.u[h], hits.v[h], d, sp.material,
             sp.shading_normal, albedo)
@@ -488,7 +488,7 @@ def visible_points(prepared: PreparedScene, cam: Camera, seed: int, k: int, max_
         entering = np.einsum("ij,ij->i", d, ng) < 0.0
         facing = np.where(entering[:, None], ns, -ns)
         # the per-hit closures (programmed parameters and Mix weights) choose the lobe
-        tab, rows, bent = prepared.hit_shader.shade(hits.prim[h], hits.u[h], hits.v[h], d,
+        tab, crow, bent = prepared.hit_shader.shade(hits.prim[h], hits.u[h], hits.v[h], d,
                                                     sp.material, facing)
         if bent is not facing:
             ns = np.where(entering[:, None], bent, -bent)
@@ -497,9 +497,9 @@ def visible_points(prepared: PreparedScene, cam: Camera, seed: int, k: int, max_
         texel = prepared.texels.albedo(hits.prim[h], hits.u[h], hits.v[h], sp.material)
         _path_kernel(sp.position, d, ng, ns, sp.material, sp.eps, thr, u_vp, u_lobe, u_pick,
                      prepared.has_diffuse, tab,
-                     prepared.hit_shader.tangents(hits.prim[h], sp.position, tab, rows),
+                     prepared.hit_shader.tangents(hits.prim[h], sp.position, tab, crow),
                      prepared.sampled_only, texel, lam, vp, new_o,
-                     new_d, new_thr, go_on, new_tr, np.ascontiguousarray(rows, np.int32))
+                     new_d, new_thr, go_on, new_tr, np.ascontiguousarray(crow, np.int32))
         if features is not None:  # ns now faces the ray, as the shading normal does there
             features.surface(rows, albedo, mats["specular"][sp.material],
                              mats["transmission"][sp.material], mats["alpha"][sp.material], ns)

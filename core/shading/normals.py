@@ -1,6 +1,7 @@
 """Shading-normal nodes with Cycles' definitions (docs/shading.md, "Normals"): the Normal
 Map node (``normal_map``, Cycles' svm_node_normal_map) and the Bump node (``bump``,
-svm_node_set_bump) as our own numba code.
+svm_node_set_bump) as our own numba code, and ``valid_specular_reflection`` (Cycles'
+ensure_valid_specular_reflection) that ``HitShader.shade`` applies to a programmed normal.
 """
 
 from __future__ import annotations

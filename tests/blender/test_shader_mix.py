@@ -75,3 +75,61 @@ def test_a_checker_mix_of_diffuse_and_emission_matches_the_analytic_squares_and_
           f"{100 * rel.max():.2f} %")
     assert rel.max() < 0.03
     assert np.all(np.abs(means) < 0.01)
+
+
+def test_nested_linked_factors_give_each_closure_the_product_along_its_path():
+    """Mix(Factor = U) of [Add(Mix(Factor = V) of [Diffuse, Glossy], Sheen), Emission]:
+    per hit Diffuse (1 - V)(1 - U), Glossy V (1 - U), Sheen (1 - U) (one TARGET_WEIGHT
+    output per closure, the constant weights 1) and the emission U x 2 (TARGET_EMISSION),
+    the program run by the core interpreter at known UVs."""
+    from photon_map.core.shading import program as pg
+    from photon_map.core.shading.inputs import ShadingInputs
+    from photon_map.core.shading.interpreter import closure_params, evaluate
+
+    scenes.reset()
+    scenes.set_resolution(16, 16)
+    scenes.add_camera(location=(0.0, -6.0, 2.0))
+    mat = bpy.data.materials.new("Nested")
+    tree = scenes.ensure_node_tree(mat)
+    tree.nodes.clear()
+    n = tree.nodes.new
+    out = n("ShaderNodeOutputMaterial")
+    diffuse, glossy, sheen = n("ShaderNodeBsdfDiffuse"), n("ShaderNodeBsdfGlossy"), \
+        n("ShaderNodeBsdfSheen")
+    emit = n("ShaderNodeEmission")
+    emit.inputs["Strength"].default_value = 2.0
+    inner, outer, add = n("ShaderNodeMixShader"), n("ShaderNodeMixShader"), \
+        n("ShaderNodeAddShader")
+    coords, sep = n("ShaderNodeTexCoord"), n("ShaderNodeSeparateXYZ")
+    link = tree.links.new
+    link(coords.outputs["UV"], sep.inputs[0])
+    link(sep.outputs[1], inner.inputs[0])
+    link(sep.outputs[0], outer.inputs[0])
+    link(diffuse.outputs[0], inner.inputs[1])
+    link(glossy.outputs[0], inner.inputs[2])
+    link(inner.outputs[0], add.inputs[0])
+    link(sheen.outputs[0], add.inputs[1])
+    link(add.outputs[0], outer.inputs[1])
+    link(emit.outputs[0], outer.inputs[2])
+    link(outer.outputs[0], out.inputs["Surface"])
+    scenes.add_plane(size=1.0, material=mat, name="P0")
+    result = export()
+    assert not [w for w in result.warnings if "Mix" in w], result.warnings
+    mats = result.scene.materials
+    prog = mats.programs[0]
+    table = mats.closure_table()
+    assert table["count"][0] == 3
+    np.testing.assert_allclose(table["weight"][:3], 1.0)  # the factors are the program's
+    weights = prog.outputs[prog.outputs[:, 1] == pg.TARGET_WEIGHT]
+    assert sorted(weights[:, 2].tolist()) == [0, 1, 2]
+    k = 5
+    u, v = np.linspace(0.05, 0.95, k), np.linspace(0.9, 0.1, k)
+    ins = ShadingInputs.build(np.zeros((k, 3)), np.tile([0.0, 0.0, 1.0], (k, 1)),
+                              uv=np.stack([u, v], axis=1)[None].astype(np.float32))
+    params = np.asarray(table["params"][:3], np.float32)
+    got = closure_params(prog, ins, params)["weight"]
+    want = np.stack([(1 - v) * (1 - u), v * (1 - u), 1 - u], axis=1)
+    np.testing.assert_allclose(got, want, atol=1e-6)
+    cols = np.flatnonzero(prog.outputs[:, 1] == pg.TARGET_EMISSION)
+    np.testing.assert_allclose(evaluate(prog, ins)[:, cols], 2.0 * u[:, None] * np.ones(3),
+                               atol=1e-6)
