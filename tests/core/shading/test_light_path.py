@@ -172,3 +172,33 @@ def test_is_shadow_ray_makes_a_leaf_transparent_to_shadow_rays_only():
     on_leaf = (np.abs(Y) < 0.5) & (np.abs(X) < 0.5)  # the leaf itself, opaque: its own
     np.testing.assert_allclose(direct[on_leaf], 0.5 / np.pi * leaf.SUN * np.cos(np.pi / 4),
                                rtol=1e-4)
+
+
+def test_is_camera_ray_in_sppm():
+    """SPPM's camera paths (visible points) and photons: an emitter of L0 x (1 - Is Camera
+    Ray) is not seen and lights the floor exactly as the constant emitter; L0 x Is Camera
+    Ray is seen as the constant emitter at its own pixels and lights nothing."""
+    from core.integrators import sppm
+    st = RenderSettings(integrator="progressive", progressive_passes=2,
+                        photons_per_pass=2000, threads=2)
+    plain = sppm.render(lamp.emitter_scene(None, constant=(lamp.L0,) * 3), st).passes
+    seen = sppm.render(lamp.emitter_scene(camera_emission("camera"), constant=(0.0,) * 3),
+                       st).passes
+    hidden = sppm.render(lamp.emitter_scene(camera_emission("hidden"), constant=(0.0,) * 3),
+                         st).passes
+    lamp_px = np.s_[3:5, 3:5]  # covered whole by the lamp
+    floor = np.ones((lamp.RES, lamp.RES), bool)
+    floor[2:6, 2:6] = False  # away from the lamp's pixels
+    for name, image in plain.items():
+        if image.ndim != 3 or image.max() == 0:
+            continue
+        print(name, float(image[lamp_px].mean()), float(image[floor].mean()),
+              float(seen[name][lamp_px].mean()), float(seen[name][floor].max()),
+              float(hidden[name][lamp_px].mean()), float(hidden[name][floor].mean()))
+        np.testing.assert_array_equal(hidden[name][floor], image[floor], err_msg=name)
+        np.testing.assert_array_equal(seen[name][lamp_px], image[lamp_px], err_msg=name)
+        assert seen[name][floor].max() == 0, name
+    # measured: the lamp's pixels 5.0 = L0 (plain and seen), 0 hidden; the floor's mean
+    # 0.1293 (plain and hidden), 0 seen
+    assert plain["combined"][lamp_px].min() == lamp.L0
+    assert hidden["combined"][lamp_px].max() == 0
