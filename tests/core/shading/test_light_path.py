@@ -12,6 +12,8 @@ import numpy as np
 
 from core.integrators import photon_mapping
 from core.prepared import prepare
+from core.scene import closures
+from core.scene.contract import Materials
 from core.settings import RenderSettings
 from core.shading import light_path
 from core.shading import program as pg
@@ -202,3 +204,43 @@ def test_is_camera_ray_in_sppm():
     # 0.1293 (plain and hidden), 0 seen
     assert plain["combined"][lamp_px].min() == lamp.L0
     assert hidden["combined"][lamp_px].max() == 0
+
+
+def wall_program(col, k=1.0):
+    """COLOR = 0.8 x Light Path column col (col None: x the constant k)."""
+    code = [] if col is None else [ins(pg.OP_INPUT, [pg.SOURCE_LIGHT_PATH, col], [2])]
+    code.append(ins(pg.OP_MATH, [MATH_OPS["MULTIPLY"], 0], [0, 1 if col is None else 2, 0,
+                                                            5]))
+    return pg.ShaderProgram.build(code, [0.8, k], [[5, pg.TARGET_CLOSURE, 0,
+                                                    closures.COLOR + c] for c in range(3)],
+                                  6, name=f"wall {col}")
+
+
+def walls_scene(program):
+    """tests/core/shading/test_at_hits.py's floor under a sun, its four walls (out of the
+    camera's view: only final-gather rays and photons meet them) of colour ``program``."""
+    from tests.core.shading import test_at_hits as at
+    s = at.scene(None, 0.5)
+    floor_row = {"closures": [{"kind": closures.CLOSURE_DIFFUSE,
+                               "params": {"color": 0.5, "roughness": 0.0}}],
+                 "diffuse": [0.5] * 3}
+    wall_row = {"closures": [{"kind": closures.CLOSURE_DIFFUSE,
+                              "params": {"color": 0.8, "roughness": 0.0}}],
+                "diffuse": [0.8] * 3, "program": program}
+    return replace(s, materials=Materials.from_list([floor_row, wall_row]))
+
+
+def test_final_gather_and_photon_hits_are_diffuse_rays_not_camera_rays():
+    """Walls of colour 0.8 x Is Diffuse Ray render every pass bit for bit like walls of
+    0.8 x 1 (final-gather and photon hits are diffuse rays); 0.8 x Is Camera Ray like 0.8
+    x 0 there (they are not camera rays)."""
+    st = RenderSettings(samples=2, global_photons=3000, caustic_photons=1000,
+                        final_gather_rays=4, threads=2)
+    one = photon_mapping.render(walls_scene(wall_program(None)), st).passes
+    diffuse = photon_mapping.render(walls_scene(wall_program(light_path.DIFFUSE)), st).passes
+    camera = photon_mapping.render(walls_scene(wall_program(light_path.CAMERA)), st).passes
+    zero = photon_mapping.render(walls_scene(wall_program(None, 0.0)), st).passes
+    assert one["indirect"].max() > zero["indirect"].max()
+    for name, image in one.items():
+        np.testing.assert_array_equal(diffuse[name], image, err_msg=name)
+        np.testing.assert_array_equal(camera[name], zero[name], err_msg=name)
