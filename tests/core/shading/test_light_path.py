@@ -244,3 +244,13 @@ def test_final_gather_and_photon_hits_are_diffuse_rays_not_camera_rays():
     for name, image in one.items():
         np.testing.assert_array_equal(diffuse[name], image, err_msg=name)
         np.testing.assert_array_equal(camera[name], zero[name], err_msg=name)
+
+
+def test_a_bad_light_path_output_or_tangent_mode_is_a_clear_error():
+    import pytest
+    with pytest.raises(ValueError, match="Light Path output 15"):
+        read_column(light_path.COUNT)
+    bad = [ins(pg.OP_INPUT, [pg.SOURCE_GENERATED, 0], [0]),
+           ins(pg.OP_TANGENT, [4], [0, 0, 0, 0, 0, 3])]
+    with pytest.raises(ValueError, match="unknown mode 4"):
+        pg.ShaderProgram.build(bad, [], [[3, pg.TARGET_EMISSION, 0, 0]], 6, name="bad")
