@@ -644,7 +644,8 @@ def prepare(scene: Scene, threads: int = 0) -> PreparedScene:
     surfaces = SurfaceTextures(scene, mats["diffuse"])
     if np.any(hit_shader.alpha_programmed):
         for table in (texels, surfaces):
-            table.use_program_alpha(hit_shader.alpha_programmed, hit_shader.alpha_at)
+            table.use_program_alpha(hit_shader.alpha_programmed, hit_shader.alpha_at,
+                                    light_path.shadow, light_path.with_length)
     emissive_index = np.full(mesh.triangle_count, -1, np.int32)
     emissive_index[emissive.triangle] = np.arange(emissive.count, dtype=np.int32)
     return PreparedScene(

@@ -29,7 +29,6 @@ from numba import njit, prange
 
 from .. import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
 from ..scene import geometry
-from ..shading import light_path
 
 MAX_LAYERS = 64
 """Cut-out surfaces a ray passes at most (further ones are treated as opaque)."""
@@ -170,15 +169,21 @@ class SurfaceTextures:
         self.height = np.ascontiguousarray(tx.height, np.int64)
         self.alpha_programmed = np.zeros(mats.count, bool)
         self.program_alpha = None
+        self.shadow_path = self.with_length = None
         self._used = used
 
-    def use_program_alpha(self, programmed: np.ndarray, alpha_at) -> None:
+    def use_program_alpha(self, programmed: np.ndarray, alpha_at, shadow_path=None,
+                          with_length=None) -> None:
         """Materials whose opacity a shader program computes: programmed (M,) bool, and
         alpha_at(prim, u, v, path) -> (N,) float64 in [0, 1] the program's opacity at hits
         on them (``HitShader.alpha_at``; path their Light Path context or None), which
-        multiplies the material's own."""
+        multiplies the material's own. shadow_path(lengths (N,)) -> (N, K) the Light
+        Path context of shadow-ray hits, with_length(path (N, K), lengths (N,)) -> (N, K)
+        a context with its Ray Length set (core/shading/light_path.py ``shadow``,
+        ``with_length``; None: no context, zeros)."""
         self.alpha_programmed = np.asarray(programmed, bool)
         self.program_alpha = alpha_at
+        self.shadow_path, self.with_length = shadow_path, with_length
         if np.any(self.alpha_programmed & self._used):
             self.cutout = True
             if self.tri_uv.shape[0] == 0:
@@ -257,9 +262,8 @@ class SurfaceTextures:
             if active.size == 0:
                 break
             lp = None
-            if path is not None and self.program_alpha is not None:
-                lp = np.array(path[active], np.float32)
-                lp[:, light_path.RAY_LENGTH] = t[active] - base[active]
+            if path is not None and self.with_length is not None:
+                lp = self.with_length(path[active], t[active] - base[active])
             a = self.opacity(prim[active], u[active], v[active], lp)
             through = active[uniforms(active, layer) >= a]
             if through.size == 0:
@@ -297,8 +301,7 @@ class SurfaceTextures:
             hit = h.prim >= 0
             idx = active[hit]
             a = self.opacity(h.prim[hit], h.u[hit], h.v[hit],
-                             light_path.shadow(h.t[hit]) if self.program_alpha is not None
-                             else None)
+                             None if self.shadow_path is None else self.shadow_path(h.t[hit]))
             trans[idx] *= 1.0 - a
             go = (trans[idx] > 0.0)
             idx = idx[go]

@@ -73,6 +73,14 @@ def shadow(length) -> np.ndarray:
     return out
 
 
+def with_length(path, length) -> np.ndarray:
+    """(N, COUNT) float32: a copy of the contexts path (N, COUNT) with Ray Length set to
+    length (N,) metres (a ray's segment behind a cut-out it passed)."""
+    out = np.array(path, np.float32)
+    out[:, RAY_LENGTH] = _length(out.shape[0], length)
+    return out
+
+
 def emission_sample(n: int) -> np.ndarray:
     """(n, COUNT) float32 for light samples and photon emission on textured emitters."""
     return empty(n)
