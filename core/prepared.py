@@ -44,7 +44,7 @@ from .materials.textures import SurfaceTextures
 from .media import regions
 from .media.density import DensityFields
 from .scene import geometry
-from .shading import interpreter, normals
+from .shading import interpreter, light_path, normals
 from .shading import program as pg
 from .shading.inputs import ShadingInputs
 from .scene.accel import Accelerator, use_threads
@@ -230,6 +230,12 @@ class HitShader:
                        else np.asarray(mesh.origin, np.float64))
         self.bumped = np.array([p is not None and _reads_bump(p) for p in progs],
                                bool).reshape(mats.count)
+        # some used material's program reads the Light Path node: the callers then fill
+        # the hits' context (core/shading/light_path.py; else they pass None, zeros)
+        self.reads_light_path = bool(np.any(used & np.array(
+            [p is not None and bool(np.any((p.instructions[:, 0] == pg.OP_INPUT) & (
+                p.instructions[:, 1] == pg.SOURCE_LIGHT_PATH))) for p in progs],
+            bool).reshape(mats.count)))
         cam = scene.camera
         self.camera_position = np.asarray(cam.to_world, np.float64)[:3, 3]
         self.pixel_angle = float(cam.film_size[0]) / max(int(cam.width), 1)
@@ -245,13 +251,16 @@ class HitShader:
             return np.full(pos.shape[0], self.pixel_angle)
         return self.pixel_angle * np.linalg.norm(pos - self.camera_position, axis=1)
 
-    def inputs(self, prim, u, v, d, bump=False) -> tuple[ShadingInputs, np.ndarray]:
+    def inputs(self, prim, u, v, d, bump=False, path=None
+               ) -> tuple[ShadingInputs, np.ndarray]:
         """The ShadingInputs of N hits (prim (N,) int32 triangles, Embree barycentrics u, v
         (N,), d (N, 3) the arriving unit directions) and their materials (N,) int32. bump:
         also the rows at P + dPdx and P + dPdy (``ShadingInputs.bump_points``): dPdx, dPdy
         the ``footprint`` radius along two orthonormal tangents of the true normal (Cycles'
         differential_from_compact, make_orthonormals), reached by moving the barycentrics
-        in the triangle's plane."""
+        in the triangle's plane. path: the Light Path node's outputs for the rays that
+        reached the hits (``ShadingInputs.light_path``: (N, K) or (K,) float32, the
+        caller's context, core/shading/light_path.py; None: zeros)."""
         pos, ngf, nsf, mat, _, front = geometry.facing_surface_points(
             self.tri_vertices, self.tri_normals, self.tri_material, prim, u, v,
             np.ascontiguousarray(d, np.float64), self.extent)
@@ -270,8 +279,9 @@ class HitShader:
                 us.append((u + (g22 * b1 - g12 * b2) / det).astype(np.float32))
                 vs.append((v + (g11 * b2 - g12 * b1) / det).astype(np.float32))
             d3 = np.concatenate([d, d, d])
+            p3 = path if path is None or np.ndim(path) == 1 else np.concatenate([path] * 3)
             ins, _ = self.inputs(np.concatenate([prim] * 3), np.concatenate(us),
-                                 np.concatenate(vs), d3)
+                                 np.concatenate(vs), d3, path=p3)
             return replace(ins, bump_points=prim.shape[0]), mat
         world = pos + self.origin
         obj = self.tri_object[prim]
@@ -292,24 +302,26 @@ class HitShader:
                                   material_index=self.pass_index[mat], uv=uv,
                                   attributes=self._attributes(prim, u, v, w),
                                   tangents=self._tangents(prim, u, v, w),
+                                  light_path=path,
                                   normal_to_world=np.transpose(self.to_object[obj][:, :3, :3],
                                                                (0, 2, 1)))
         return ins, mat
 
-    def emission_at(self, prim, u, v, d, mat, emission=None) -> np.ndarray:
+    def emission_at(self, prim, u, v, d, mat, emission=None, path=None) -> np.ndarray:
         """(N, 3) float64 emitted radiance W/(m^2 sr) at N hits (prim, u, v, d as for
         ``inputs``, mat (N,) their materials): ``emission`` (default: the materials'
         constant emission) with the hits whose material's emission is programmed
         replaced by the program's value there (clamped to >= 0: a negative radiance
         means nothing here). ``emission`` itself when no hit is programmed (bit for bit
-        as without programs)."""
+        as without programs). path: the hits' Light Path context (``inputs``)."""
         if emission is None:
             emission = self.emission[mat]
         if prim.shape[0] == 0 or not np.any(self.emission_programmed[mat]):
             return emission
         hit = np.flatnonzero(self.emission_programmed[mat])
         out = np.array(emission, np.float64, copy=True)
-        ins, _ = self.inputs(prim[hit], u[hit], v[hit], np.asarray(d)[hit])
+        ins, _ = self.inputs(prim[hit], u[hit], v[hit], np.asarray(d)[hit],
+                             path=_path_rows(path, hit))
         for m in np.unique(mat[hit]):
             sel = np.flatnonzero(mat[hit] == m)
             prog = self.programs[m]
@@ -321,12 +333,13 @@ class HitShader:
             out[hit[sel]] = np.maximum(np.nan_to_num(em, nan=0.0, posinf=0.0), 0.0)
         return out
 
-    def alpha_at(self, prim, u, v) -> np.ndarray:
+    def alpha_at(self, prim, u, v, path=None) -> np.ndarray:
         """(N,) float64 in [0, 1]: the program's opacity (TARGET_ALPHA) at N hits on
         triangles prim (N,) whose material's opacity is programmed, Embree barycentrics
         (u, v); seen along the triangle's normal (a cut-out has no direction:
         ``SurfaceTextures.opacity`` is asked without one). It multiplies the material's
-        constant opacity (``SurfaceTextures.use_program_alpha``)."""
+        constant opacity (``SurfaceTextures.use_program_alpha``). path: the rays' Light
+        Path context (``inputs``; a shadow ray's ``light_path.shadow``)."""
         out = np.ones(prim.shape[0])
         if prim.shape[0] == 0:
             return out
@@ -334,7 +347,7 @@ class HitShader:
         tv = self.tri_vertices[prim].astype(np.float64)
         n = np.cross(tv[:, 1] - tv[:, 0], tv[:, 2] - tv[:, 0])
         n /= np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
-        ins, _ = self.inputs(prim, np.asarray(u), np.asarray(v), -n)
+        ins, _ = self.inputs(prim, np.asarray(u), np.asarray(v), -n, path=path)
         for m in np.unique(mat):
             if not self.alpha_programmed[m]:
                 continue
@@ -347,8 +360,10 @@ class HitShader:
 
     def emission_points(self, prim, u, v, d) -> np.ndarray:
         """``emission_at`` for triangles prim (N,) at barycentrics (u, v), their own
-        materials (light sampling and photon emission on textured emitters)."""
-        return self.emission_at(prim, u, v, d, self.mesh_material[prim])
+        materials (light sampling and photon emission on textured emitters: every Light
+        Path flag 0, as Cycles' light samples, ``light_path.emission_sample``)."""
+        return self.emission_at(prim, u, v, d, self.mesh_material[prim],
+                                path=light_path.emission_sample(1)[0])
 
     STRATA = 4
     """Textured emitters: each triangle's mean radiance is the average of the program at
@@ -450,20 +465,22 @@ class HitShader:
         out[sel] = np.einsum("nji,nj->ni", self.to_object[obj][:, :3, :3], t_obj)
         return out
 
-    def closures_at(self, prim, u, v, d, mat) -> tuple[closure.ClosureTable, np.ndarray]:
+    def closures_at(self, prim, u, v, d, mat, path=None
+                    ) -> tuple[closure.ClosureTable, np.ndarray]:
         """(tab, rows) for N hits (class doc): prim, u, v, d as for ``inputs``, mat (N,)
         int32 their materials. rows is ``mat`` itself when no hit has a program. For the
-        shading normal the programs give too, ``shade``."""
-        tab, rows, _ = self.shade(prim, u, v, d, mat)
+        shading normal the programs give too, ``shade``; path as for ``inputs``."""
+        tab, rows, _ = self.shade(prim, u, v, d, mat, path=path)
         return tab, rows
 
-    def shade(self, prim, u, v, d, mat, ns=None):
+    def shade(self, prim, u, v, d, mat, ns=None, path=None):
         """(tab, rows, ns) for N hits: ``closures_at``'s (tab, rows) and the hits' shading
         normals, ns (N, 3) (the interpolated normals facing the ray, float64) with the
         programmed hits' normal output (a Normal Map or Bump node into a BSDF's Normal
         input) in place: normalised, facing where the program made it face (the program
         reads the normal facing the ray, as Cycles' sd->N). ns is returned as given (the
-        same object) when no hit's program sets a normal; None stays None."""
+        same object) when no hit's program sets a normal; None stays None. path: the
+        hits' Light Path context (``inputs``)."""
         if not self.active or prim.shape[0] == 0:
             return self.table, mat, ns
         hit = np.flatnonzero(self.programmed[mat])
@@ -472,7 +489,8 @@ class HitShader:
         tab = self.table
         n_mat, n_cl = tab.first.shape[0], tab.kind.shape[0]
         ins, _ = self.inputs(prim[hit], u[hit], v[hit], np.asarray(d)[hit],
-                             bump=bool(self.bumped[mat[hit]].any()))
+                             bump=bool(self.bumped[mat[hit]].any()),
+                             path=_path_rows(path, hit))
         rows = np.array(mat, np.int32, copy=True)
         kinds, weights, params, textures, firsts, counts, abbes = [], [], [], [], [], [], []
         done = 0
@@ -538,13 +556,13 @@ class HitShader:
         out[shaded] = closure.diffuse_albedo(tab, rows[shaded], texel[shaded], d, ns)
         return out
 
-    def albedo_at(self, texels, prim, u, v, d, mat, ns, albedo) -> np.ndarray:
+    def albedo_at(self, texels, prim, u, v, d, mat, ns, albedo, path=None) -> np.ndarray:
         """``diffuse_albedo`` at N hits given by triangle and barycentrics (prim, u, v),
         for callers without (tab, rows): texels the SurfaceTextures of the texel colour
-        (``PreparedScene.texels``)."""
+        (``PreparedScene.texels``); path as for ``inputs``."""
         if not self.active and not self.layered[mat].any():
             return albedo
-        tab, rows = self.closures_at(prim, u, v, d, mat)
+        tab, rows = self.closures_at(prim, u, v, d, mat, path)
         return self.diffuse_albedo(tab, rows, mat, texels.albedo(prim, u, v, mat), d, ns,
                                    albedo)
 
@@ -556,6 +574,11 @@ def _unit_or(normal, fallback) -> np.ndarray:
     length = np.linalg.norm(n, axis=1)
     ok = np.isfinite(length) & (length > 0)
     return np.where(ok[:, None], n / np.where(ok, length, 1.0)[:, None], fallback)
+
+
+def _path_rows(path, sel):
+    """The Light Path context of hits ``sel``: path (N, K) indexed, (K,) or None as is."""
+    return path if path is None or np.ndim(path) == 1 else np.asarray(path)[sel]
 
 
 def _reads_bump(program) -> bool:
@@ -586,7 +609,7 @@ def _subset(ins: ShadingInputs, sel) -> ShadingInputs:
     pick = {k: getattr(ins, k)[sel] for k in (
         "position", "normal", "true_normal", "incoming", "backfacing", "generated",
         "object_coords", "object_normal", "object_location", "object_random",
-        "object_color", "object_index", "object_alpha", "material_index")}
+        "object_color", "object_index", "object_alpha", "material_index", "light_path")}
     return ShadingInputs(**pick, uv=np.ascontiguousarray(ins.uv[:, sel]),
                          attributes=np.ascontiguousarray(ins.attributes[:, sel]),
                          tangents=np.ascontiguousarray(ins.tangents[:, sel]),
@@ -646,7 +669,8 @@ def prepare(scene: Scene, threads: int = 0, seed: int = 0) -> PreparedScene:
     surfaces = SurfaceTextures(scene, mats["diffuse"])
     if np.any(hit_shader.alpha_programmed):
         for table in (texels, surfaces):
-            table.use_program_alpha(hit_shader.alpha_programmed, hit_shader.alpha_at)
+            table.use_program_alpha(hit_shader.alpha_programmed, hit_shader.alpha_at,
+                                    light_path.shadow, light_path.with_length)
     emissive_index = np.full(mesh.triangle_count, -1, np.int32)
     emissive_index[emissive.triangle] = np.arange(emissive.count, dtype=np.int32)
     return PreparedScene(

@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..core.shading import program as pg
+from ..core.shading import light_path
 from ..core.shading import converters as cn
 from ..core.shading import color as cc
 from ..core.shading import textures as ct
@@ -478,8 +479,59 @@ def _uv_map(b, node, path):
     return {"UV": b.source(pg.SOURCE_UV, index)}
 
 
+def _tangent_out(b, mode, vector):
+    """OP_TANGENT (core/shading/normals.py ``tangent``) of ``vector`` (Generated for the
+    radial modes, the UV map's world-space tangent for UV_MAP)."""
+    out = b.new("v")
+    b.emit(pg.OP_TANGENT, [mode], [vector, *[b.source(pg.SOURCE_NORMAL_TO_WORLD, i)
+                                             for i in range(3)],
+                                   b.source(pg.SOURCE_NORMAL)], [out])
+    return out
+
+
+def _tangent(b, node, path):
+    """Tangent node (Cycles' svm_node_tangent): radial about the object's X / Y / Z axis
+    from Generated, or the MikkTSpace tangent of the node's UV map ("" = the active
+    render one, as the Normal Map reads it)."""
+    if node.direction_type == 'UV_MAP':
+        g = b.tangent_maps.index(getattr(node, "uv_map", "") or "")
+        return {"Tangent": _tangent_out(b, pg.TANGENT_MODES["UV_MAP"],
+                                        b.source(pg.SOURCE_TANGENT, g))}
+    return {"Tangent": _tangent_out(b, pg.TANGENT_MODES[node.axis],
+                                    b.source(pg.SOURCE_GENERATED))}
+
+
+def _light_path(b, node, path):
+    """Light Path node: each output is a column of ``ShadingInputs.light_path``, filled by
+    the caller for the ray that reached the hit (core/shading/light_path.py); an output
+    the engine does not track reads 0, reported once per material and output."""
+    outs = {name: b.source(pg.SOURCE_LIGHT_PATH, k, "f")
+            for k, name in enumerate(light_path.OUTPUTS)}
+
+    def on_read(name):
+        if name in light_path.UNANSWERED:
+            b.warn(("lightpath", name), f"node '{node.name}': Light Path '{name}' is not "
+                   f"tracked by the engine; 0 is used")
+    return _ReadOutputs(outs, on_read)
+
+
+class _ReadOutputs(dict):
+    """A handler's outputs that call ``on_read(name)`` when one is read (a warning only
+    for the outputs a graph uses)."""
+
+    def __init__(self, values, on_read):
+        super().__init__(values)
+        self.on_read = on_read
+
+    def get(self, name, default=None):
+        if name in self:
+            self.on_read(name)
+        return super().get(name, default)
+
+
 def _geometry(b, node, path):
     return {"Position": b.source(pg.SOURCE_POSITION), "Normal": b.source(pg.SOURCE_NORMAL),
+            "Tangent": _tangent_out(b, pg.TANGENT_MODES["Z"], b.source(pg.SOURCE_GENERATED)),
             "True Normal": b.source(pg.SOURCE_TRUE_NORMAL),
             "Incoming": b.source(pg.SOURCE_INCOMING),
             "Backfacing": b.source(pg.SOURCE_BACKFACING, 0, "f")}
@@ -972,7 +1024,8 @@ SUPPORTED = {
     "ShaderNodeBlackbody": _blackbody, "ShaderNodeRGBCurve": _rgb_curves,
     "ShaderNodeFloatCurve": _float_curve, "ShaderNodeFresnel": _fresnel,
     "ShaderNodeLayerWeight": _layer_weight, "ShaderNodeVectorCurve": _vector_curves,
-    "ShaderNodeWavelength": _wavelength,
+    "ShaderNodeWavelength": _wavelength, "ShaderNodeTangent": _tangent,
+    "ShaderNodeLightPath": _light_path,
 }
 """bl_idname -> handler of every node the compiler translates (plus Reroute, Group,
 Group Input / Output and muted nodes, handled by the walk itself)."""

@@ -36,6 +36,7 @@ from ..photons.importance import VisibleView, prepass_resolution
 from ..prepared import PreparedScene
 from ..scene import camera, geometry
 from ..scene.contract import Camera
+from ..shading import light_path
 from . import denoise_features, direct, volume
 
 
@@ -51,16 +52,17 @@ def dim_lobe(depth: int) -> int:
 
 
 def intersect(prepared: PreparedScene, seed: int, origins, dirs, tmax, rows, pixel, sample,
-              dim_of_layer: Callable[[int], int]):
+              dim_of_layer: Callable[[int], int], path=None):
     """Nearest hits (core.scene.accel.Hits) of camera-path rays ``rows`` (indices into the
     per-sample ``pixel`` and ``sample`` counters), passing cut-outs: the choice at the
-    layer-th cut-out crossed uses the random dimension dim_of_layer(layer)."""
+    layer-th cut-out crossed uses the random dimension dim_of_layer(layer); path: the
+    rays' Light Path context for programmed cut-outs (``SurfaceTextures.intersect``)."""
     def uniforms(index, layer):
         r = rows[index]
         return sampling.uniform(seed, pixel[r], sample[r], dim_of_layer(layer))
     return prepared.surfaces.intersect(prepared.accel, prepared.tri_vertices,
                                        prepared.tri_normals, prepared.extent, origins, dirs,
-                                       tmax, uniforms)
+                                       tmax, uniforms, path)
 
 
 def lights_along(prepared: PreparedScene, first: bool, transmitted, origins, dirs, hits,
@@ -371,7 +373,9 @@ class VisiblePoints:
     the texel colour (``PreparedScene.texels``), prim (V,) int32, u, v (V,) float32 the
     triangle and barycentrics (``HitShader.closures_at`` at the points); lam (V,) float64
     the paths' wavelengths in nm (0: RGB, docs/dispersion.md); front (V,) bool, the point
-    was reached from the front of the mesh's geometric normal."""
+    was reached from the front of the mesh's geometric normal; path (V, K) float32 the
+    Light Path context of the rays that reached them (core/shading/light_path.py), or
+    None when no program reads it."""
 
     pixel: np.ndarray
     position: np.ndarray
@@ -388,6 +392,7 @@ class VisiblePoints:
     v: np.ndarray
     lam: np.ndarray
     front: np.ndarray
+    path: np.ndarray | None = None
 
 
 def visible_points(prepared: PreparedScene, cam: Camera, seed: int, k: int, max_depth: int,
@@ -431,6 +436,11 @@ def visible_points(prepared: PreparedScene, cam: Camera, seed: int, k: int, max_
     dispersive = bool(np.any(prepared.closures.abbe > 0))
     world = prepared.world
     out = []
+    # The Light Path context, only when a program reads it: the bounces so far are
+    # singular (a delta lobe) or glossy (a rough lobe followed by sampling), the
+    # transmissions among them counted.
+    lp_read = prepared.hit_shader.reads_light_path
+    last_delta, n_trans = np.ones(n, bool), np.zeros(n)
     if media is not None:
         seen_media = np.zeros((n, 3))  # per row of pixel: the media's light
         n_inside = np.ones(n)  # the dielectric each path is in (volume.add_segments)
@@ -439,9 +449,16 @@ def visible_points(prepared: PreparedScene, cam: Camera, seed: int, k: int, max_
         if rows.shape[0] == 0:
             break
         first = depth == 0
+        path = None
+        if lp_read:  # Ray Length is set at the hits
+            path = light_path.camera(np.zeros(rows.shape[0])) if first else \
+                light_path.after_bounce(np.zeros(rows.shape[0]), np.where(
+                    last_delta, light_path.BOUNCE_SINGULAR, light_path.BOUNCE_GLOSSY),
+                    transmitted, depth, glossy_depth=depth, transmission_depth=n_trans)
         hits = intersect(prepared, seed, origins, dirs, tmax, rows, pixel, sample,
                          lambda layer, depth=depth: sampling.stream(sampling.CUTOUT_CHOICE, depth,
-                                                                    layer, sampling.PROGRESSIVE))
+                                                                    layer, sampling.PROGRESSIVE),
+                         path)
         thr_light = thr  # the lights along the rays are attenuated to themselves
         if media is not None:  # the segments' media: their light, then their transmittance
             thr = volume.add_segments(
@@ -458,6 +475,10 @@ def visible_points(prepared: PreparedScene, cam: Camera, seed: int, k: int, max_
         if h.size == 0:
             break
         rows, thr, d, transmitted, lam = rows[h], thr[h], dirs[h], transmitted[h], lam[h]
+        if lp_read:
+            path = path[h]
+            path[:, light_path.RAY_LENGTH] = hits.t[h]
+            last_delta, n_trans = last_delta[h], n_trans[h]
         if media is not None:
             n_inside = n_inside[h]
         sp = geometry.surface_points(prepared.tri_vertices, prepared.tri_normals,
@@ -465,13 +486,14 @@ def visible_points(prepared: PreparedScene, cam: Camera, seed: int, k: int, max_
                                      d, prepared.extent)
         # Emission seen (two-sided, like Cycles' emission closure)
         direct[pixel[rows]] += thr * prepared.hit_shader.emission_at(
-            hits.prim[h], hits.u[h], hits.v[h], d, sp.material, mats["emission"][sp.material])
+            hits.prim[h], hits.u[h], hits.v[h], d, sp.material, mats["emission"][sp.material],
+            path)
         albedo = prepared.surfaces.albedo(hits.prim[h], hits.u[h], hits.v[h], sp.material)
         # Shader programs: the visible point's diffuse albedo (its lobe choice reads the
         # per-hit closures below, its direct light sppm's own closures_at).
         albedo = prepared.hit_shader.albedo_at(
             prepared.texels, hits.prim[h], hits.u[h], hits.v[h], d, sp.material,
-            sp.shading_normal, albedo)
+            sp.shading_normal, albedo, path)
         m = len(rows)
         pix, smp = pixel[rows], sample[rows]
         u_vp = sampling.uniform(seed, pix, smp, dim_lobe(depth))
@@ -489,7 +511,7 @@ def visible_points(prepared: PreparedScene, cam: Camera, seed: int, k: int, max_
         facing = np.where(entering[:, None], ns, -ns)
         # the per-hit closures (programmed parameters and Mix weights) choose the lobe
         tab, crow, bent = prepared.hit_shader.shade(hits.prim[h], hits.u[h], hits.v[h], d,
-                                                    sp.material, facing)
+                                                    sp.material, facing, path)
         if bent is not facing:
             ns = np.where(entering[:, None], bent, -bent)
         vp, go_on, new_tr = np.empty(m, bool), np.empty(m, bool), np.empty(m, bool)
@@ -508,7 +530,7 @@ def visible_points(prepared: PreparedScene, cam: Camera, seed: int, k: int, max_
         if s.size:
             out.append((pixel[rows[s]], sp.position[s], ng[s], ns[s], -d[s], sp.material[s], new_thr[s],
                         albedo[s], sp.eps[s], texel[s], hits.prim[h][s], hits.u[h][s],
-                        hits.v[h][s], lam[s], front[s]))
+                        hits.v[h][s], lam[s], front[s]) + ((path[s],) if lp_read else ()))
         if depth == max_depth:
             break
         g = np.flatnonzero(go_on)
@@ -517,6 +539,10 @@ def visible_points(prepared: PreparedScene, cam: Camera, seed: int, k: int, max_
                                 np.where(new_tr[g] & ~front[g], 1.0, n_inside[g]))
         rows, origins, dirs, lam = rows[g], new_o[g], new_d[g], lam[g]
         thr, transmitted, tmax = new_thr[g], new_tr[g], None
+        if lp_read:  # a delta lobe, unless the material's only glossy lobes are rough
+            m_g = sp.material[g]
+            last_delta = prepared.has_delta[m_g] & ~prepared.sampled_only[m_g]
+            n_trans = n_trans[g] + transmitted
     if media is not None:
         direct[pixel] += seen_media
     if not out:

@@ -51,6 +51,7 @@ from .. import _numba_cache  # noqa: F401  (per-package numba cache, before any 
 from .. import sampling
 from ..prepared import PreparedScene
 from ..scene import geometry
+from ..shading import light_path
 from ..settings import RenderSettings
 from . import camera_paths, volume
 from ..media import regions
@@ -498,6 +499,13 @@ def _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sa
         hit = np.flatnonzero(hits.prim >= 0)
         # Escaping rays and light sources count nothing (direct light holds them).
         rows, thr, d, lam = rows[hit], thr[hit], d[hit], lam[hit]
+        path = None
+        if prepared.hit_shader.reads_light_path:  # a diffuse reflection from the camera
+            # path's vertex at depth, then the delta bounces of this loop (follow_delta)
+            path = light_path.after_bounce(
+                hits.t[hit], light_path.BOUNCE_DIFFUSE if bounce == 0 else
+                light_path.BOUNCE_SINGULAR, False, depth + 1 + bounce, diffuse_depth=1,
+                glossy_depth=depth + bounce)
         p2, n2, s2, mat, e2, front = geometry.facing_surface_points(
             prepared.tri_vertices, prepared.tri_normals, prepared.tri_material, hits.prim[hit],
             hits.u[hit], hits.v[hit], d, prepared.extent)
@@ -513,8 +521,9 @@ def _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sa
                 bd, diff = diff[b], diff[~b]
                 hd = hit[bd]
                 texel = prepared.texels.albedo(hits.prim[hd], hits.u[hd], hits.v[hd], mat[bd])
-                tab, crow, s2b = prepared.hit_shader.shade(hits.prim[hd], hits.u[hd],
-                                                           hits.v[hd], d[bd], mat[bd], s2[bd])
+                tab, crow, s2b = prepared.hit_shader.shade(
+                    hits.prim[hd], hits.u[hd], hits.v[hd], d[bd], mat[bd], s2[bd],
+                    None if path is None else path[bd])
                 tan = prepared.hit_shader.tangents(hits.prim[hd], p2[bd], tab, crow)
                 hb = BsdfHits(tab, crow.astype(np.int32), texel, -d[bd], s2b, front[bd],
                               tangent=tan)
@@ -532,7 +541,7 @@ def _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sa
             hd = hit[diff]
             albedo = prepared.hit_shader.albedo_at(prepared.texels, hits.prim[hd], hits.u[hd],
                                                    hits.v[hd], d[diff], mat[diff], s2[diff],
-                                                   albedo)
+                                                   albedo, None if path is None else path[diff])
             if terms.cache is not None:
                 est = cached_radiance(terms, p2[diff], n2[diff], albedo)
             else:

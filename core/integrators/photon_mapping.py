@@ -65,6 +65,7 @@ from ..passes import (LIGHT_PASSES, PASSES, VOLUME_PASSES, ProgressFn, RenderOut
                       TileFn, UsedPhotonMaps)
 from ..prepared import PreparedScene, prepare
 from ..scene import camera, geometry
+from ..shading import light_path
 from ..scene.contract import Scene
 from ..settings import RenderSettings
 from . import camera_paths, debug_overlay, denoise_features, direct, gather, photon_terms, volume
@@ -261,6 +262,11 @@ def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> dict[str, np.ndarray]:
     prev_ns = np.zeros((n, 3))
     prev_sphere = np.zeros(n, bool)  # the previous hit transmits: the world sampled all round
     glossy = np.zeros(n, bool)
+    # The Light Path node's context (core/shading/light_path.py), only when a program reads
+    # it: the last bounce was delta (Is Singular Ray), the transmissions so far.
+    lp_read = pr.hit_shader.reads_light_path
+    last_delta = np.ones(n, bool)
+    n_trans = np.zeros(n)
     # The refractive index of the dielectric each path is inside (1: none). Camera paths
     # do not scale radiance by eta^2 at a refraction (Cycles' convention, exact for paths
     # that leave every dielectric they enter); the photons' estimates inside a dielectric
@@ -278,9 +284,16 @@ def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> dict[str, np.ndarray]:
         first = depth == 0
         # Intersect the batch
         t0 = time.perf_counter()
+        path = None
+        if lp_read:  # the rays' Light Path context; Ray Length is set at the hits
+            path = light_path.camera(np.zeros(rows.shape[0])) if first else \
+                light_path.after_bounce(np.zeros(rows.shape[0]), np.where(
+                    last_delta, light_path.BOUNCE_SINGULAR, light_path.BOUNCE_GLOSSY),
+                    transmitted, depth, glossy_depth=depth, transmission_depth=n_trans)
         hits = camera_paths.intersect(
             pr, st.seed, origins, dirs, tmax, rows, pixel, sample,
-            lambda layer, depth=depth: sampling.stream(sampling.CUTOUT_CHOICE, depth, layer))
+            lambda layer, depth=depth: sampling.stream(sampling.CUTOUT_CHOICE, depth, layer),
+            path)
         t1 = time.perf_counter()
         ctx.stats["time_intersect"] += t1 - t0
         if not first:
@@ -319,6 +332,10 @@ def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> dict[str, np.ndarray]:
         rows, thr, d, transmitted = rows[h], thr[h], dirs[h], transmitted[h]
         prev_pdf, glossy, n_inside, lam = prev_pdf[h], glossy[h], n_inside[h], lam[h]
         prim = hits.prim[h]
+        if lp_read:
+            path = path[h]
+            path[:, light_path.RAY_LENGTH] = hits.t[h]
+            last_delta, n_trans = last_delta[h], n_trans[h]
         pos, ngf, nsf, mat, eps, front = geometry.facing_surface_points(
             pr.tri_vertices, pr.tri_normals, pr.tri_material, prim, hits.u[h],
             hits.v[h], d, pr.extent)
@@ -326,7 +343,7 @@ def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> dict[str, np.ndarray]:
         texel = pr.texels.albedo(prim, hits.u[h], hits.v[h], mat)
         # Shader programs: the closures at each programmed hit (crow: its row in tab) and
         # the shading normal a Normal Map or Bump sets (every term below reads nsf).
-        tab, crow, nsf = pr.hit_shader.shade(prim, hits.u[h], hits.v[h], d, mat, nsf)
+        tab, crow, nsf = pr.hit_shader.shade(prim, hits.u[h], hits.v[h], d, mat, nsf, path)
         albedo = pr.hit_shader.diffuse_albedo(tab, crow, mat, texel, d, nsf, albedo)
         if np.any(tab.abbe > 0):
             # Dispersion: a path picks its wavelength at its first dispersive surface,
@@ -338,7 +355,7 @@ def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> dict[str, np.ndarray]:
             camera_paths.pick_wavelengths(tab, crow, u_lam, lam, thr)
         tangent = pr.hit_shader.tangents(prim, pos, tab, crow)
         emission = pr.hit_shader.emission_at(prim, hits.u[h], hits.v[h], d, mat,
-                                             mats["emission"][mat])
+                                             mats["emission"][mat], path)
         if pr.emissive.count and np.any(prev_pdf > 0):
             emission = emission * camera_paths.emission_weight(
                 pr, prim, hits.t[h], d, prev_pdf, k_light)[:, None]
@@ -392,6 +409,9 @@ def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> dict[str, np.ndarray]:
         prev_ns = nsf[sd][keep]
         prev_sphere = closure.transmitting(tab, crow[sd][keep])
         glossy = glossy[sd][keep] | ~was_delta
+        if lp_read:
+            last_delta = was_delta
+            n_trans = n_trans[sd][keep] + transmitted
         if ctx.volume is not None:  # entering a dielectric at its front face, leaving at its back
             entered = transmitted & front[sd][keep]
             left = transmitted & ~front[sd][keep]

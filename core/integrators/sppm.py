@@ -411,7 +411,7 @@ class PassRenderer:
                     total[frame] += value
             if vps.pixel.size:
                 tab, rows = prepared.hit_shader.closures_at(vps.prim, vps.u, vps.v, -vps.wo,
-                                                            vps.material)
+                                                            vps.material, vps.path)
                 tangent = prepared.hit_shader.tangents(vps.prim, vps.position, tab, rows)
                 vp_closures = BsdfHits(tab, rows, vps.texel, vps.wo, vps.ns, vps.front,
                                        tangent=tangent)

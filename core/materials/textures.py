@@ -169,14 +169,21 @@ class SurfaceTextures:
         self.height = np.ascontiguousarray(tx.height, np.int64)
         self.alpha_programmed = np.zeros(mats.count, bool)
         self.program_alpha = None
+        self.shadow_path = self.with_length = None
         self._used = used
 
-    def use_program_alpha(self, programmed: np.ndarray, alpha_at) -> None:
+    def use_program_alpha(self, programmed: np.ndarray, alpha_at, shadow_path=None,
+                          with_length=None) -> None:
         """Materials whose opacity a shader program computes: programmed (M,) bool, and
-        alpha_at(prim, u, v) -> (N,) float64 in [0, 1] the program's opacity at hits on
-        them (``HitShader.alpha_at``), which multiplies the material's own."""
+        alpha_at(prim, u, v, path) -> (N,) float64 in [0, 1] the program's opacity at hits
+        on them (``HitShader.alpha_at``; path their Light Path context or None), which
+        multiplies the material's own. shadow_path(lengths (N,)) -> (N, K) the Light
+        Path context of shadow-ray hits, with_length(path (N, K), lengths (N,)) -> (N, K)
+        a context with its Ray Length set (core/shading/light_path.py ``shadow``,
+        ``with_length``; None: no context, zeros)."""
         self.alpha_programmed = np.asarray(programmed, bool)
         self.program_alpha = alpha_at
+        self.shadow_path, self.with_length = shadow_path, with_length
         if np.any(self.alpha_programmed & self._used):
             self.cutout = True
             if self.tri_uv.shape[0] == 0:
@@ -203,8 +210,10 @@ class SurfaceTextures:
         mat = self.tri_mat[np.maximum(prim, 0)]
         return self.albedo(prim, u, v, mat)
 
-    def opacity(self, prim, u, v) -> np.ndarray:
-        """(N,) float64 opacity in [0, 1] at N hits (1 on misses)."""
+    def opacity(self, prim, u, v, path=None) -> np.ndarray:
+        """(N,) float64 opacity in [0, 1] at N hits (1 on misses); path: the rays' Light
+        Path context for programmed cut-outs ((N, K) float32, core/shading/light_path.py;
+        None: zeros, no flag)."""
         out = np.empty(prim.shape[0])
         if prim.shape[0]:
             _opacity_kernel(self.opacity_of_mat, self.alpha_tex, self.tri_mat, self.tri_uv,
@@ -215,24 +224,29 @@ class SurfaceTextures:
                 sel = np.flatnonzero(prim >= 0)
                 sel = sel[self.alpha_programmed[self.tri_mat[prim[sel]]]]
                 if sel.size:
-                    out[sel] *= self.program_alpha(prim[sel], u[sel], v[sel])
+                    out[sel] *= self.program_alpha(
+                        prim[sel], u[sel], v[sel], None if path is None else path[sel])
         return out
 
-    def photon_opacity(self, prim, u, v) -> np.ndarray:
-        """``opacity`` for a photon wavefront, or an empty (0,) array without cut-outs."""
+    def photon_opacity(self, prim, u, v, path=None) -> np.ndarray:
+        """``opacity`` for a photon wavefront (path: the hits' Light Path context), or an
+        empty (0,) array without cut-outs."""
         if not self.cutout:
             return np.zeros(0)
-        return self.opacity(prim, u, v)
+        return self.opacity(prim, u, v, path)
 
     # --- rays through cut-outs ---------------------------------------------------------
 
     def intersect(self, accel, tri_vertices, tri_normals, extent, origins, directions,
-                  tmax, uniforms):
+                  tmax, uniforms, path=None):
         """Nearest hit that is not passed through (see the module doc): an ``accel.Hits``
         with t measured from the original origins.
 
         uniforms(index (n,) int64 into the batch, layer) -> (n,) uniforms in [0, 1): the
         random numbers deciding pass-through at the layer-th cut-out along each ray.
+        path: (N, K) float32 the rays' Light Path context for programmed cut-outs (its Ray
+        Length is set to each segment's, from the origin or the last cut-out passed, as
+        Cycles' transparent bounces), or None (zeros).
         """
         hits = accel.intersect(origins, directions, tmax)
         if not self.cutout:
@@ -243,10 +257,14 @@ class SurfaceTextures:
         limit = None if tmax is None else np.broadcast_to(
             np.asarray(tmax, np.float64), (o0.shape[0],))
         active = np.flatnonzero(prim >= 0)
+        base = np.zeros(o0.shape[0])  # where each ray's current segment starts
         for layer in range(MAX_LAYERS):
             if active.size == 0:
                 break
-            a = self.opacity(prim[active], u[active], v[active])
+            lp = None
+            if path is not None and self.with_length is not None:
+                lp = self.with_length(path[active], t[active] - base[active])
+            a = self.opacity(prim[active], u[active], v[active], lp)
             through = active[uniforms(active, layer) >= a]
             if through.size == 0:
                 break
@@ -258,6 +276,7 @@ class SurfaceTextures:
             prim[through] = h2.prim
             u[through], v[through] = h2.u, h2.v
             t[through] = np.where(ok, t_base + h2.t, np.inf).astype(np.float32)
+            base[through] = t_base
             active = through[ok]
         return type(hits)(prim, t, u, v)
 
@@ -281,7 +300,8 @@ class SurfaceTextures:
             h = accel.intersect(cur_o[active], d[active], left[active])
             hit = h.prim >= 0
             idx = active[hit]
-            a = self.opacity(h.prim[hit], h.u[hit], h.v[hit])
+            a = self.opacity(h.prim[hit], h.u[hit], h.v[hit],
+                             None if self.shadow_path is None else self.shadow_path(h.t[hit]))
             trans[idx] *= 1.0 - a
             go = (trans[idx] > 0.0)
             idx = idx[go]

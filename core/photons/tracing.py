@@ -49,6 +49,7 @@ from ..scene.bounds import Targets
 from ..settings import RenderSettings
 from ..media import regions
 from ..scene.contract import LIGHT_SUN
+from ..shading import light_path
 from . import emission, importance, medium_emission, medium_flight, scatter
 from .beam import VolumePhotonMap, photon_radii
 from .photon_map import PhotonMap
@@ -164,13 +165,14 @@ def _trace_chunk(prepared: PreparedScene, em: emission.Emitted, pid: np.ndarray,
             prim, collided, v_alive, v_o, v_d, v_f = _fly(
                 medium, hits, o, d, f, pid, n_diff, n_spec, seed, map_id, bounce, mode,
                 bounce == max_bounces)
-        tab, rows, nrm = photon_closures(prepared, prim, hits.u, hits.v, d)
+        path = photon_path(prepared, hits.t)
+        tab, rows, nrm = photon_closures(prepared, prim, hits.u, hits.v, d, path)
         tan = photon_tangents(prepared, prim, hits.u, hits.v, tab, rows)
         scatter.scatter_kernel(prepared.tri_vertices, prepared.tri_normals, prepared.tri_material,
                                prepared.extent, tab, prepared.has_diffuse,
                                prepared.specular_material,
                                prepared.texels.photon_albedo(prim, hits.u, hits.v), rows,
-                               tan, nrm, surf.photon_opacity(prim, hits.u, hits.v),
+                               tan, nrm, surf.photon_opacity(prim, hits.u, hits.v, path),
                                prim, hits.u, hits.v, d, f, pid, n_diff, n_spec, lam,
                                np.int64(seed), dims, np.int64(bounce), mode,
                                np.int64(store_rule), bounce == max_bounces, s_flag, s_pos,
@@ -184,13 +186,27 @@ def _trace_chunk(prepared: PreparedScene, em: emission.Emitted, pid: np.ndarray,
         counters["time_scatter"] += time.perf_counter() - t1
 
 
-def photon_closures(prepared, prim, u, v, d):
+def photon_path(prepared, t):
+    """(N, K) float32 the Light Path context of photon hits at distances t (N,) metres
+    from the photons' last vertex, or None when no program reads it. A photon hit stands
+    for what camera paths see through diffuse interreflection (the photon maps' indirect
+    and caustic light): Is Diffuse Ray and Is Reflection Ray 1, Ray Depth and Diffuse
+    Depth 1, Is Camera Ray 0 (an object hidden from the camera still scatters photons),
+    Ray Length the photon's segment (core/shading/light_path.py)."""
+    if not prepared.hit_shader.reads_light_path:
+        return None
+    return light_path.after_bounce(np.where(np.isfinite(t), t, 0.0), light_path.BOUNCE_DIFFUSE,
+                                   False, 1, diffuse_depth=1)
+
+
+def photon_closures(prepared, prim, u, v, d, path=None):
     """(tab, rows, normals) for a photon wavefront (``HitShader.shade`` at the hits that
     are not misses; prim (N,) int32 triangle, -1 for a miss or a photon that scattered in a
     medium first; u, v (N,) float32 barycentrics; d (N, 3) directions): rows (N,) int32, -1
     where prim is, or (0,) with the prepared table when no photon met a programmed material
     (the kernel then reads the triangles' materials); normals (N, 3) float64 the shading
-    normal a program set (zero rows elsewhere), or (0, 3) when no program set one."""
+    normal a program set (zero rows elsewhere), or (0, 3) when no program set one.
+    path: (N, K) the hits' Light Path context (``photon_path``) or None."""
     shader = prepared.hit_shader
     none = np.zeros((0, 3))
     if not shader.active:
@@ -198,7 +214,8 @@ def photon_closures(prepared, prim, u, v, d):
     got = np.flatnonzero(prim >= 0)
     mat = prepared.tri_material[prim[got]]
     zero = np.zeros((got.size, 3))
-    tab, r, bent = shader.shade(prim[got], u[got], v[got], d[got], mat, zero)
+    tab, r, bent = shader.shade(prim[got], u[got], v[got], d[got], mat, zero,
+                                None if path is None else path[got])
     if r is mat:
         return tab, np.zeros(0, np.int32), none
     rows = np.full(prim.shape[0], -1, np.int32)

@@ -6,6 +6,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from . import light_path
+
 
 def _vec(a, n, name):
     a = np.ascontiguousarray(a, np.float32)
@@ -32,7 +34,9 @@ class ShadingInputs:
     bump_points: 0, or N when the arrays hold 3 N rows: the N points, then the inputs at
     P + dPdx, then at P + dPdy (the Bump node's footprint, ``HitShader.inputs``); a
     program's results are for the first N. object_alpha (the object colour's alpha),
-    material_index (the material's pass index): (N,) float32.
+    material_index (the material's pass index): (N,) float32. light_path: (N,
+    light_path.COUNT) float32, the Light Path node's outputs for the ray that reached
+    each point (core.shading.light_path: the caller's context).
     """
     position: np.ndarray
     normal: np.ndarray
@@ -53,6 +57,7 @@ class ShadingInputs:
     bump_points: int = 0
     object_alpha: np.ndarray | None = None
     material_index: np.ndarray | None = None
+    light_path: np.ndarray | None = None
 
     @classmethod
     def build(cls, position, normal, **optional):
@@ -60,7 +65,8 @@ class ShadingInputs:
         normal, backfacing 0, generated = object_coords = position, object_normal =
         normal, object location, colour, random and index 0, object alpha 1, material
         index 0, no UV map, attribute or tangent map (a program reading one then reads
-        zeros), normal_to_world the identity."""
+        zeros), normal_to_world the identity, light_path zeros (no flag, length and
+        depths 0); a (COUNT,) light_path is the same for every point."""
         p = np.ascontiguousarray(position, np.float32)
         if p.ndim != 2 or p.shape[1] != 3:
             raise ValueError(f"ShadingInputs.position must be (N, 3) float32, got {p.shape}")
@@ -69,7 +75,7 @@ class ShadingInputs:
         known = {"true_normal", "incoming", "backfacing", "generated", "object_coords",
                  "object_normal", "object_location", "object_random", "object_color",
                  "object_index", "uv", "attributes", "tangents", "normal_to_world",
-                 "bump_points", "object_alpha", "material_index"}
+                 "bump_points", "object_alpha", "material_index", "light_path"}
         unknown = set(optional) - known
         if unknown:
             raise ValueError(f"ShadingInputs: unknown fields {sorted(unknown)}")
@@ -103,8 +109,11 @@ class ShadingInputs:
         if n2w.shape != (n, 3, 3):
             raise ValueError(f"ShadingInputs.normal_to_world must be ({n}, 3, 3) float32, "
                              f"got {n2w.shape}")
+        lp = get("light_path")
+        lp = np.ascontiguousarray(np.zeros((n, light_path.COUNT)) if lp is None else
+                                  np.broadcast_to(lp, (n, light_path.COUNT)), np.float32)
         for k, a in {**vec, **scal, "uv": uv, "attributes": attr, "position": p,
-                     "tangents": tan, "normal_to_world": n2w}.items():
+                     "tangents": tan, "normal_to_world": n2w, "light_path": lp}.items():
             if not np.all(np.isfinite(a)):
                 raise ValueError(f"ShadingInputs.{k} has a non-finite value")
         bump = int(get("bump_points", 0))
@@ -112,7 +121,7 @@ class ShadingInputs:
             raise ValueError(f"ShadingInputs.bump_points {bump}: the arrays must have "
                              f"{3 * bump} rows, got {n}")
         return cls(p, nrm, uv=uv, attributes=attr, tangents=tan, normal_to_world=n2w,
-                   bump_points=bump, **vec, **scal)
+                   bump_points=bump, light_path=lp, **vec, **scal)
 
     @property
     def count(self) -> int:

@@ -26,7 +26,7 @@ from .textures import checker, gradient, white_noise, wave, magic, brick
 from .noise import noise_texture
 from .voronoi import voronoi_texture
 from .images import image_sample, image_projected
-from .normals import bump, normal_map
+from .normals import bump, normal_map, tangent
 from ..scene.images import ProgramImages
 
 _F = pg.FIRST_OPERAND
@@ -35,7 +35,7 @@ _CHUNK = 256
 
 @njit(inline="always", **dict(cache=True, error_model="numpy"))
 def _load_row(r, o, src, idx, i, P, N, Ng, I, back, gen, obj, objn, oloc, orand, ocol, oidx, uv,
-              attr, tan, n2w, oalpha, midx):
+              attr, tan, n2w, oalpha, midx, lp):
     """Source src (index idx) of row i of the inputs into registers r[o:o + 3]."""
     if src == 0:
         a = P
@@ -57,7 +57,11 @@ def _load_row(r, o, src, idx, i, P, N, Ng, I, back, gen, obj, objn, oloc, orand,
         a = ocol
     else:
         a = P  # not used below
-    if src == 20 or src == 21:  # SOURCE_OBJECT_ALPHA, SOURCE_MATERIAL_INDEX
+    if src == 22:  # SOURCE_LIGHT_PATH, output idx
+        r[o] = lp[i, idx]
+        r[o + 1] = r[o]
+        r[o + 2] = r[o]
+    elif src == 20 or src == 21:  # SOURCE_OBJECT_ALPHA, SOURCE_MATERIAL_INDEX
         r[o] = oalpha[i] if src == 20 else midx[i]
         r[o + 1] = r[o]
         r[o + 2] = r[o]
@@ -95,7 +99,7 @@ def _load_row(r, o, src, idx, i, P, N, Ng, I, back, gen, obj, objn, oloc, orand,
 
 @njit(inline="always", **dict(cache=True, error_model="numpy"))
 def _load_input(r, ins, i, stride, P, N, Ng, I, back, gen, obj, objn, oloc, orand, ocol, oidx,
-                uv, attr, tan, n2w, oalpha, midx):
+                uv, attr, tan, n2w, oalpha, midx, lp):
     """OP_INPUT ins at point i. A bump offset (ins[3] 1 or 2, with stride = the points'
     count: the offset rows follow them) reads the source at P + w dPdx (or dPdy), w =
     ins[4] BUMP_WIDTH_UNIT, interpolated linearly from the point to its row at P + dPdx
@@ -107,11 +111,11 @@ def _load_input(r, ins, i, stride, P, N, Ng, I, back, gen, obj, objn, oloc, oran
             r[o + c] = (np.float64(P[j, c]) - np.float64(P[i, c])) if stride > 0 else 0.0
         return
     _load_row(r, o, src, idx, i, P, N, Ng, I, back, gen, obj, objn, oloc, orand, ocol, oidx,
-              uv, attr, tan, n2w, oalpha, midx)
+              uv, attr, tan, n2w, oalpha, midx, lp)
     if ins[3] != 0 and stride > 0:
         x, y, z = r[o], r[o + 1], r[o + 2]
         _load_row(r, o, src, idx, i + ins[3] * stride, P, N, Ng, I, back, gen, obj, objn,
-                  oloc, orand, ocol, oidx, uv, attr, tan, n2w, oalpha, midx)
+                  oloc, orand, ocol, oidx, uv, attr, tan, n2w, oalpha, midx, lp)
         w = ins[4] * pg.BUMP_WIDTH_UNIT
         r[o] = x + w * (r[o] - x)
         r[o + 1] = y + w * (r[o + 1] - y)
@@ -336,16 +340,23 @@ def _run(r, ins, tables, im_bytes, im_shorts, im_floats, im_tiles, im_first, im_
                        r[n], r[n + 1], r[n + 2], r[dx], r[dx + 1], r[dx + 2], r[dy],
                        r[dy + 1], r[dy + 2])
         r[a[9]], r[a[9] + 1], r[a[9] + 2] = x, y, z
+    elif op == pg.OP_TANGENT:
+        v, m0, m1, m2, n = a[0], a[1], a[2], a[3], a[4]
+        x, y, z = tangent(ins[1], r[v], r[v + 1], r[v + 2], r[m0], r[m0 + 1], r[m0 + 2],
+                          r[m1], r[m1 + 1], r[m1 + 2], r[m2], r[m2 + 1], r[m2 + 2], r[n],
+                          r[n + 1], r[n + 2])
+        r[a[5]], r[a[5] + 1], r[a[5] + 2] = x, y, z
 
 
 @njit(parallel=True, **dict(cache=True, error_model="numpy"))
 def evaluate_kernel(instructions, constants, tables, n_registers, outputs, P, N, Ng, I, back,
                     gen, obj, objn, oloc, orand, ocol, oidx, uv, attr, tan, n2w, stride,
                     im_bytes, im_shorts, im_floats, im_tiles, im_first, im_count, out, oalpha,
-                    midx):
+                    midx, lp):
     """Run the program on every point: out[i, o] = register outputs[o, 0] of point i.
     (N, O) float32 ``out``; every other array as ``ShadingInputs`` / ``ShaderProgram`` /
-    ``ProgramImages`` (im_*); stride ``ShadingInputs.bump_points``."""
+    ``ProgramImages`` (im_*); stride ``ShadingInputs.bump_points``; lp
+    ``ShadingInputs.light_path``."""
     n = out.shape[0]
     k = constants.shape[0]
     n_chunks = (n + _CHUNK - 1) // _CHUNK
@@ -359,7 +370,7 @@ def evaluate_kernel(instructions, constants, tables, n_registers, outputs, P, N,
                 ins = instructions[s]
                 if ins[0] == pg.OP_INPUT:
                     _load_input(r, ins, i, stride, P, N, Ng, I, back, gen, obj, objn, oloc,
-                                orand, ocol, oidx, uv, attr, tan, n2w, oalpha, midx)
+                                orand, ocol, oidx, uv, attr, tan, n2w, oalpha, midx, lp)
                 else:
                     _run(r, ins, tables, im_bytes, im_shorts, im_floats, im_tiles,
                          im_first, im_count, px)
@@ -388,7 +399,7 @@ def evaluate(program: pg.ShaderProgram, inputs: ShadingInputs,
                     inputs.uv, inputs.attributes, inputs.tangents, inputs.normal_to_world,
                     inputs.bump_points, im.bytes, im.shorts,
                     im.floats, im.tiles, im.slot_first, im.slot_count, out,
-                    inputs.object_alpha, inputs.material_index)
+                    inputs.object_alpha, inputs.material_index, inputs.light_path)
     return out
 
 

@@ -160,3 +160,34 @@ def valid_specular_reflection(ng, incoming, n) -> np.ndarray:
     fixed /= np.maximum(np.linalg.norm(fixed, axis=1), 1e-300)[:, None]
     out[bad] = np.where((a > 0)[:, None], fixed, ng)
     return out
+
+
+@njit(**_JIT)
+def tangent(mode, vx, vy, vz, m00, m01, m02, m10, m11, m12, m20, m21, m22, nx, ny, nz):
+    """The Tangent node's tangent (3 floats, unit, world space) as Cycles'
+    svm_node_tangent (and Geometry Tangent, primitive_tangent: radial about Z).
+
+    mode: ``program.TANGENT_MODES`` (0-2 radial about the object's X / Y / Z axis, 3 UV
+    map); v: Generated (radial), or the UV map's interpolated world-space tangent (UV
+    map: 0 where the mesh has none, and the result is then 0, as Cycles without the
+    attribute); m: the rows of the object's normal transform inv(A)^T, applied to the
+    radial tangent (Cycles' object_normal_transform; the UV map's tangent is already in
+    world space); n: the shading normal. Result cross(N, normalize(cross(T, N))): T made
+    orthogonal to N; 0 where T is parallel to N or 0 (the radial tangent on its axis,
+    where Cycles' normalize divides by 0)."""
+    if mode == 0:
+        tx, ty, tz = 0.0, -(vz - 0.5), vy - 0.5
+    elif mode == 1:
+        tx, ty, tz = -(vz - 0.5), 0.0, vx - 0.5
+    elif mode == 2:
+        tx, ty, tz = -(vy - 0.5), vx - 0.5, 0.0
+    else:
+        tx, ty, tz = vx, vy, vz
+    if mode != 3:
+        tx, ty, tz = (m00 * tx + m01 * ty + m02 * tz, m10 * tx + m11 * ty + m12 * tz,
+                      m20 * tx + m21 * ty + m22 * tz)
+    cx, cy, cz = ty * nz - tz * ny, tz * nx - tx * nz, tx * ny - ty * nx
+    cx, cy, cz, ok = _safe_normalize(cx, cy, cz)
+    if not ok:
+        return 0.0, 0.0, 0.0
+    return ny * cz - nz * cy, nz * cx - nx * cz, nx * cy - ny * cx

@@ -30,6 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..scene import closures
+from . import light_path
 
 INSTRUCTION_WIDTH = 20
 FIRST_OPERAND = 5
@@ -39,7 +40,7 @@ FIRST_OPERAND = 5
  OP_MAPPING, OP_INVERT, OP_GAMMA, OP_HSV, OP_BRIGHT_CONTRAST, OP_RGB_TO_BW, OP_CHECKER,
  OP_GRADIENT, OP_WHITE_NOISE, OP_NOISE, OP_VORONOI, OP_WAVE, OP_MAGIC, OP_BRICK, OP_BLACKBODY,
  OP_CURVES, OP_FLOAT_CURVE, OP_IMAGE, OP_FRESNEL, OP_LAYER_WEIGHT, OP_TRANSFORM,
- OP_WAVELENGTH, OP_IMAGE_PROJECTED, OP_NORMAL_MAP, OP_BUMP) = range(38)
+ OP_WAVELENGTH, OP_IMAGE_PROJECTED, OP_NORMAL_MAP, OP_BUMP, OP_TANGENT) = range(39)
 
 SIGNATURES = {
     OP_INPUT: ">v",                  # ints: source (SOURCE_*), index (UV map / attribute)
@@ -101,6 +102,9 @@ SIGNATURES = {
     OP_BUMP: "ffffffvvv>v",          # strength, distance, filter width, height at the
                                      # point, at P + w dPdx, at P + w dPdy, normal, dPdx,
                                      # dPdy -> normal; ints: invert
+    OP_TANGENT: "vvvvv>v",           # vector (Generated, or a world-space tangent), the 3
+                                     # rows of the object's normal transform, shading
+                                     # normal N -> tangent; ints: TANGENT_MODES code
 }
 """Register operands of each opcode: ``f`` one register, ``v`` three; ``>`` separates the
 inputs from the outputs."""
@@ -118,19 +122,24 @@ OP_NAMES = {OP_INPUT: "INPUT", OP_MATH: "MATH", OP_VECTOR_MATH: "VECTOR_MATH",
             OP_FLOAT_CURVE: "FLOAT_CURVE", OP_IMAGE: "IMAGE", OP_FRESNEL: "FRESNEL",
             OP_LAYER_WEIGHT: "LAYER_WEIGHT", OP_TRANSFORM: "TRANSFORM",
             OP_WAVELENGTH: "WAVELENGTH", OP_IMAGE_PROJECTED: "IMAGE_PROJECTED",
-            OP_NORMAL_MAP: "NORMAL_MAP", OP_BUMP: "BUMP"}
+            OP_NORMAL_MAP: "NORMAL_MAP", OP_BUMP: "BUMP", OP_TANGENT: "TANGENT"}
 
 NORMAL_MAP_SPACES = {"TANGENT": 0, "OBJECT": 1, "WORLD": 2, "BLENDER_OBJECT": 3,
                      "BLENDER_WORLD": 4}
 """Normal Map node space -> OP_NORMAL_MAP's int (Cycles' NodeNormalMapSpace order)."""
+
+TANGENT_MODES = {"X": 0, "Y": 1, "Z": 2, "UV_MAP": 3}
+"""OP_TANGENT's int (core.shading.normals.tangent): radial about the object's X / Y / Z
+axis from Generated (Cycles' NODE_TANGENT_RADIAL), or the UV map's tangent as it is."""
 
 # --- OP_INPUT sources (ints column 1); all write 3 registers, scalars in the first -------
 (SOURCE_POSITION, SOURCE_NORMAL, SOURCE_TRUE_NORMAL, SOURCE_INCOMING, SOURCE_BACKFACING,
  SOURCE_GENERATED, SOURCE_OBJECT, SOURCE_OBJECT_NORMAL, SOURCE_UV, SOURCE_OBJECT_LOCATION,
  SOURCE_OBJECT_RANDOM, SOURCE_ATTRIBUTE_COLOR, SOURCE_ATTRIBUTE_ALPHA, SOURCE_OBJECT_COLOR,
  SOURCE_OBJECT_INDEX, SOURCE_TANGENT, SOURCE_TANGENT_SIGN, SOURCE_NORMAL_TO_WORLD,
- SOURCE_BUMP_DPDX, SOURCE_BUMP_DPDY, SOURCE_OBJECT_ALPHA, SOURCE_MATERIAL_INDEX) = range(22)
-SOURCE_COUNT = 22
+ SOURCE_BUMP_DPDX, SOURCE_BUMP_DPDY, SOURCE_OBJECT_ALPHA, SOURCE_MATERIAL_INDEX,
+ SOURCE_LIGHT_PATH) = range(23)
+SOURCE_COUNT = 23
 BUMP_WIDTH_UNIT = 1e-6
 """OP_INPUT's int 3 is the bump offset (0: at the point, 1: at P + w dPdx, 2: at P + w
 dPdy: the Bump node's Height subgraph is compiled three times), int 4 the filter width w
@@ -139,7 +148,9 @@ vectors dPdx, dPdy (ShadingInputs.bump_points)."""
 # SOURCE_TANGENT / SOURCE_TANGENT_SIGN (index: the tangent map, ShadingInputs.tangents):
 # the interpolated MikkTSpace tangent (world space, unnormalised) and bitangent sign (0:
 # no tangent there); SOURCE_NORMAL_TO_WORLD (index 0-2): row i of the object's normal
-# transform inv(A)^T (ShadingInputs.normal_to_world).
+# transform inv(A)^T (ShadingInputs.normal_to_world). SOURCE_LIGHT_PATH (index: the Light
+# Path output, core.shading.light_path column): the ray that reached the point
+# (ShadingInputs.light_path).
 
 # --- output targets ----------------------------------------------------------------------
 TARGET_CLOSURE = 0    # closure parameter slot (core.scene.closures)
@@ -225,6 +236,13 @@ class ShaderProgram:
                                                        and 0 <= row[3] <= 3):
                 raise ValueError(f"{who}: instruction {i} ({OP_NAMES[op]}) has image slot "
                                  f"{row[1]}, interpolation {row[2]}, extension {row[3]}")
+            if op == OP_INPUT and row[1] == SOURCE_LIGHT_PATH and not \
+                    0 <= row[2] < light_path.COUNT:
+                raise ValueError(f"{who}: instruction {i} reads Light Path output {row[2]} "
+                                 f"outside [0, {light_path.COUNT})")
+            if op == OP_TANGENT and not 0 <= row[1] < len(TANGENT_MODES):
+                raise ValueError(f"{who}: instruction {i} ({OP_NAMES[op]}) has unknown "
+                                 f"mode {row[1]}")
             if op == OP_NORMAL_MAP and not 0 <= row[1] < len(NORMAL_MAP_SPACES):
                 raise ValueError(f"{who}: instruction {i} ({OP_NAMES[op]}) has unknown "
                                  f"space {row[1]}")

@@ -24,7 +24,8 @@ from photon_map.core.shading.interpreter import evaluate  # noqa: E402
 from photon_map.photon_engine.export_shader import compile_sockets  # noqa: E402
 from photon_map.photon_engine.export_images import ProgramImageTable  # noqa: E402
 from photon_map.photon_engine.export import object_info, read_attributes, read_mesh, \
-    read_uv_maps  # noqa: E402
+    read_tangents, read_uv_maps  # noqa: E402
+from photon_map.core.shading import light_path  # noqa: E402
 from photon_map.photon_engine.export_shader import AttributeNames, UVMapNames  # noqa: E402
 from photon_map.photon_engine.export_camera import camera_view  # noqa: E402
 
@@ -126,13 +127,28 @@ def _interpolate(local, corners, obj) -> np.ndarray:
     return out
 
 
-def plane_inputs(plane, g, offset=(0.0, 0.0), attributes=(), uv_maps=()) -> ShadingInputs:
+def plane_tangents(plane, obj, names) -> np.ndarray:
+    """(G, N, 4): the exporter's MikkTSpace tangents of the UV maps ``names`` of ``plane``
+    at the object-space points ``obj`` (N, 3), interpolated as ``plane_attributes`` and
+    taken to the world by the plane's linear part (as ``export`` does)."""
+    local = read_mesh(plane.data)
+    tan = _interpolate(local, read_tangents(plane.data, list(names), local, plane.name, []),
+                       obj)
+    tan[..., :3] = tan[..., :3] @ np.array(plane.matrix_world, np.float64)[:3, :3].T
+    return tan
+
+
+def plane_inputs(plane, g, offset=(0.0, 0.0), attributes=(), uv_maps=(),
+                 tangent_maps=()) -> ShadingInputs:
     """The surface points of ``plane``'s pixels (PIXELS x PIXELS, row 0 at the top),
     shifted by ``offset`` pixels: world position, normal +Z, incoming +Z, generated and
     object coordinates, the active render UV map interpolated (an affine fit of the
     plane's corners) then the named ``uv_maps`` as the exporter reads them, the
     exporter's Object Info of the plane's depsgraph instance, the mesh attributes
-    ``attributes`` (names) as the exporter reads them."""
+    ``attributes`` (names) as the exporter reads them, the tangents of ``tangent_maps``,
+    the object's normal transform, and the Light Path context of the camera's rays (the
+    orthographic camera straight above: Ray Length its height above the plane less the
+    near clip distance, as both renderers start camera rays at the near plane)."""
     px = CELL / PIXELS
     lx, ly, _ = plane.location
     i = np.arange(PIXELS)
@@ -153,6 +169,8 @@ def plane_inputs(plane, g, offset=(0.0, 0.0), attributes=(), uv_maps=()) -> Shad
     up = np.tile([0.0, 0.0, 1.0], (len(P), 1))
     onrm = up @ M[:3, :3]  # Cycles' object_inverse_normal_transform: M^T n
     onrm /= np.linalg.norm(onrm, axis=1)[:, None]
+    cam = bpy.context.scene.camera
+    length = cam.location.z - float(plane.location.z) - cam.data.clip_start
     depsgraph = bpy.context.evaluated_depsgraph_get()
     for inst in depsgraph.object_instances:  # an instance is valid only in its step
         if inst.object.name == plane.name:
@@ -169,7 +187,11 @@ def plane_inputs(plane, g, offset=(0.0, 0.0), attributes=(), uv_maps=()) -> Shad
                                    plane.data.materials[0].pass_index)),
                                uv=np.concatenate([uv[None].astype(np.float32),
                                                   plane_uv_maps(plane, obj, uv_maps)]),
-                               attributes=plane_attributes(plane, obj, attributes))
+                               attributes=plane_attributes(plane, obj, attributes),
+                               tangents=plane_tangents(plane, obj, tangent_maps),
+                               normal_to_world=np.broadcast_to(
+                                   np.linalg.inv(M[:3, :3]).T, (len(P), 3, 3)),
+                               light_path=light_path.camera([length])[0])
 
 
 def turn_mesh(plane, rotation):
@@ -185,7 +207,8 @@ def turn_mesh(plane, rotation):
 
 def compile_planes(planes):
     """[(plane, ShaderCompile of its Emission colour, the ProgramImages its Image
-    Textures sample, the attribute names it reads, the UV maps it names)], and every
+    Textures sample, the attribute names it reads, the UV maps it names, the UV maps
+    whose tangents it reads)], and every
     warning (the image table's and the exporter's UV map reader's too)."""
     out, warnings = [], []
     view = camera_view(bpy.context.evaluated_depsgraph_get())
@@ -193,16 +216,17 @@ def compile_planes(planes):
         mat = plane.data.materials[0]
         em = next(n for n in mat.node_tree.nodes if n.bl_idname == "ShaderNodeEmission")
         table = ProgramImageTable(warnings)
-        names, uv_maps = AttributeNames(), UVMapNames()
+        names, uv_maps, tangent_maps = AttributeNames(), UVMapNames(), AttributeNames()
         result = compile_sockets(mat, [(em.inputs["Color"], pg.TARGET_EMISSION, 0, 0)],
                                  uv_maps=uv_maps, images=table, attributes=names,
-                                 view=view)
+                                 view=view, tangent_maps=tangent_maps)
         warnings += result.warnings
         if uv_maps.names:
             local = read_mesh(plane.data)
             read_uv_maps(plane.data, uv_maps.names, local, f"object '{plane.name}'",
                          uv_maps, warnings)
-        out.append((plane, result, table.images(), names.names, uv_maps.names))
+        out.append((plane, result, table.images(), names.names, uv_maps.names,
+                    tangent_maps.names))
     return out, warnings
 
 
@@ -214,12 +238,12 @@ def photon_map_image(planes, g, offset=(0.0, 0.0), compiled=None):
     else:
         warnings = []
     img = np.zeros((g * PIXELS, g * PIXELS, 3), np.float32)
-    for k, (plane, result, images, names, uv_maps) in enumerate(compiled):
+    for k, (plane, result, images, names, uv_maps, tangent_maps) in enumerate(compiled):
         if result.program is None:
             values = np.tile(np.array(result.constant[0], np.float32), (PIXELS * PIXELS, 1))
         else:
-            values = evaluate(result.program, plane_inputs(plane, g, offset, names, uv_maps),
-                              images)
+            values = evaluate(result.program, plane_inputs(plane, g, offset, names, uv_maps,
+                                                            tangent_maps), images)
         row, col = divmod(k, g)
         img[row * PIXELS:(row + 1) * PIXELS, col * PIXELS:(col + 1) * PIXELS] = \
             values.reshape(PIXELS, PIXELS, 3)
