@@ -118,9 +118,9 @@ def _gather_kernel(vp_pos, vp_ng, vp_ns, vp_wo, vp_mat, radius, ph_pos, ph_flux,
                    vp_texel, vp_tan, vp_front, vp_lam, vp_bsdf, phi, count):
     """phi[i] = sum f(wo, w_p) Phi_p and count[i] = M over this pass's photons within
     radius[i] of visible point i. Lambert points (vp_bsdf[i] False): photons of the visible
-    side (n_g . w_p > 0), f = albedo / pi + the material's rough glossy lobe. Points whose
-    diffuse-like lobes are not Lambert (Oren-Nayar, sheen, Translucent): f is the closures'
-    f_d + f_glossy at the photon's direction (``closure.hit_lobes`` / ``parts_at``, row
+    side (n_g . w_p > 0), f = albedo / pi (+ the legacy table's glossy lobe). Points whose
+    diffuse-like lobes are not Lambert (Oren-Nayar, sheen, Translucent) or sit beside a
+    rough lobe (vp_bsdf[i] True): f is the closures' f_d + f_glossy at the photon's direction (``closure.hit_lobes`` / ``parts_at``, row
     vp_row[i] of tab, texel, tangent, front, wavelength lam nm), photons of both sides
     counting (a lobe that transmits sees the far side's), as
     ``estimate._bsdf_estimate_kernel`` weighs the photon-mapping integrator's photons."""
@@ -168,12 +168,13 @@ def _gather_kernel(vp_pos, vp_ng, vp_ns, vp_wo, vp_mat, radius, ph_pos, ph_flux,
 
 
 def gather_photons(vp_pos, vp_ng, vp_ns, vp_wo, vp_mat, radius, ph_pos, ph_flux, ph_dir, mats,
-                   vp_albedo, hits: BsdfHits, non_lambert, vp_lam):
+                   vp_albedo, hits: BsdfHits, bsdf_points, vp_lam):
     """Phi (V, 3) float64 and M (V,) int64 of step 3 for V visible points and one pass's
     photons (positions, flux, directions (P, 3) float32); mats: ``bsdf.material_table``;
     vp_albedo (V, 3): the points' (textured) diffuse albedo; hits: the points' closures
-    (``estimate.BsdfHits``: rows, texel, tangent, front); non_lambert (M,) bool per
-    material (``closure.lobe_masks``): those points weigh each photon by their closures
+    (``estimate.BsdfHits``: rows, texel, tangent, front); bsdf_points (M,) bool per
+    material (non-Lambert diffuse-like lobes, or a diffuse lobe beside a rough one:
+    ``closure.lobe_masks``): those points weigh each photon by their closures
     (``_gather_kernel``); vp_lam (V,) float64 their wavelengths in nm (0: RGB)."""
     v = vp_pos.shape[0]
     phi = np.zeros((v, 3))
@@ -191,7 +192,7 @@ def gather_photons(vp_pos, vp_ng, vp_ns, vp_wo, vp_mat, radius, ph_pos, ph_flux,
                    np.ascontiguousarray(hits.texel, np.float64), hits.tangents(),
                    np.ascontiguousarray(hits.front, np.bool_),
                    np.ascontiguousarray(vp_lam, np.float64),
-                   np.ascontiguousarray(non_lambert[vp_mat], np.bool_), phi, count)
+                   np.ascontiguousarray(bsdf_points[vp_mat], np.bool_), phi, count)
     return phi, count
 
 
@@ -346,9 +347,13 @@ class PassRenderer:
         if self.media is not None:
             self.media.single_scattering = self.shadow_rays is not None
         self.beam_k = int(settings.global_k)
-        # Diffuse-like lobes that are not Lambert (Oren-Nayar, sheen, Translucent): their
-        # visible points weigh photons by the closures (_gather_kernel)
-        self.non_lambert = closure.lobe_masks(prepared.closures)["non_lambert"]
+        # Visible points that weigh photons by their closures (_gather_kernel): diffuse-like
+        # lobes that are not Lambert (Oren-Nayar, sheen, Translucent), and a diffuse lobe
+        # beside a rough one (a Principled BSDF's base under its specular layer): the
+        # legacy Lambert + specular table has neither the layer's reflection nor the
+        # base's loss to it (measured: a glossy Principled floor 10-25 % dark).
+        lobes = closure.lobe_masks(prepared.closures)
+        self.bsdf_points = lobes["non_lambert"] | (lobes["diffuse"] & lobes["rough"])
         self._radii = radius_schedule(self.r1, self.alpha, 1)
 
     def radius(self, k: int) -> float:
@@ -441,7 +446,7 @@ class PassRenderer:
             phi, count = gather_photons(vps.position, vps.ng, vps.ns, vps.wo, vps.material,
                                         np.full(vps.pixel.size, r), pos, flux, wdir,
                                         prepared.materials, vps.albedo, vp_closures,
-                                        self.non_lambert, vps.lam)
+                                        self.bsdf_points, vps.lam)
             s = np.flatnonzero(count > 0)
             image[vps.pixel[s]] += vps.weight[s] * phi[s] / (np.pi * r * r)
             stored = int(pos.shape[0])

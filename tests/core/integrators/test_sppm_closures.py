@@ -1,6 +1,7 @@
 """The progressive mode (core/integrators/sppm.py) with closures beyond Lambert: diffuse-like
-lobes that are not Lambert (Oren-Nayar, sheen, Translucent) weigh each gathered photon by
-their BSDF, photons of both sides counting; against the photon-mapping integrator's shadow
+lobes that are not Lambert (Oren-Nayar, sheen, Translucent), and a diffuse lobe beside a
+rough one (Principled), weigh each gathered photon by their BSDF, photons of both sides
+counting; against the photon-mapping integrator's shadow
 rays (different code, no photons), on scenes where direct light is the whole answer."""
 
 import numpy as np
@@ -20,6 +21,10 @@ CLOSURES = {
     "oren_nayar": dict(kind=cl.CLOSURE_DIFFUSE, params=dict(color=(0.8, 0.6, 0.4),
                                                             roughness=1.0)),
     "sheen": dict(kind=cl.CLOSURE_SHEEN, params=dict(color=(0.8, 0.6, 0.4), roughness=0.3)),
+    # A Lambert base beside a rough lobe: the Principled BSDF's dark base under its specular
+    # layer (the legacy table, which these points read before, has no such layer)
+    "principled": dict(kind=cl.CLOSURE_PRINCIPLED, params=dict(color=(0.2, 0.15, 0.1),
+                                                               roughness=0.3)),
 }
 
 
@@ -42,7 +47,8 @@ def plane_scene(name, behind):
     return Scene(mesh, mats, lights, cam).validate()
 
 
-CASES = [("translucent", True), ("oren_nayar", False), ("sheen", False)]
+CASES = [("translucent", True), ("oren_nayar", False), ("sheen", False),
+         ("principled", False)]
 
 
 @pytest.mark.parametrize("name,behind", CASES, ids=[f"{n}{'-behind' if b else ''}"
