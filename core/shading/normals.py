@@ -33,15 +33,18 @@ def normal_map(space, invert_green, cx, cy, cz, strength, tx, ty, tz, sign, nx, 
     space: 0 tangent, 1 object, 2 world, 3 Blender object, 4 Blender world
     (``program.NORMAL_MAP_SPACES``); invert_green 1 for Blender 5's DirectX convention
     (the green axis points the other way: Cycles' invert_green); (cx, cy, cz) the colour; strength; (tx, ty, tz) the
-    interpolated MikkTSpace tangent and sign its bitangent sign (world space; sign 0: no
-    tangent, the normal is returned unchanged as Cycles does without the attribute);
+    interpolated MikkTSpace tangent A t_o (A the object's linear transform, not
+    normalised) and sign its bitangent sign (world space, flipped by a mirroring
+    transform; sign 0: no tangent, the normal is returned unchanged as Cycles does without
+    the attribute);
     (nx, ny, nz) the shading normal facing the viewer (Cycles' sd->N) and back 1 when the
     hit is on the back face; m the object's normal transform inv(A)^T, rows.
 
     Tangent space: the colour 2 (c - 0.5) scaled by the strength in the tangent plane
-    (z mixed towards 1 for strength < 1), on the frame (T, sign N x T, N) with N the
-    smooth normal on the face's own side (sd->N unflipped), then flipped back for a back
-    face. Object / world space: the colour as a normal (object: through the normal
+    (z mixed towards 1 for strength < 1), on the object-space frame (T, sign N x T, N)
+    with N the smooth normal on the face's own side (sd->N unflipped), taken to the world
+    by the normal transform m (as Cycles: so a non-uniformly scaled object's bumps flatten
+    along its stretch), then flipped back for a back face. Object / world space: the colour as a normal (object: through the normal
     transform); Blender's conventions negate y and z; strength interpolates linearly
     from sd->N. A zero or non-finite result gives sd->N.
     """
@@ -53,19 +56,45 @@ def normal_map(space, invert_green, cx, cy, cz, strength, tx, ty, tz, sign, nx, 
     if space == 0:
         if sign == 0.0:
             return nx, ny, nz
-        # Cycles builds the frame with the normal before its back-face flip.
+        # Cycles mixes in object space, then applies the normal transform M = inv(A)^T:
+        # under a non-uniform scale that differs from mixing in the world. The tangent
+        # here is A t_o (not normalised), so t_o = M^T t; the normal (before its
+        # back-face flip, as Cycles builds the frame) goes back by M^-1 = A^T, whose
+        # columns are the cross products of M's rows over det M; a mirroring transform
+        # (det < 0) flipped the exported bitangent sign, which object space undoes.
         bx, by, bz = flip * nx, flip * ny, flip * nz
+        det = (m00 * (m11 * m22 - m12 * m21) - m01 * (m10 * m22 - m12 * m20)
+               + m02 * (m10 * m21 - m11 * m20))
+        if det == 0.0 or not math.isfinite(det):
+            return nx, ny, nz
+        ux = m00 * tx + m10 * ty + m20 * tz
+        uy = m01 * tx + m11 * ty + m21 * tz
+        uz = m02 * tx + m12 * ty + m22 * tz
+        wx = ((m11 * m22 - m12 * m21) * bx + (m21 * m02 - m22 * m01) * by
+              + (m01 * m12 - m02 * m11) * bz)
+        wy = ((m12 * m20 - m10 * m22) * bx + (m22 * m00 - m20 * m02) * by
+              + (m02 * m10 - m00 * m12) * bz)
+        wz = ((m10 * m21 - m11 * m20) * bx + (m20 * m01 - m21 * m00) * by
+              + (m00 * m11 - m01 * m10) * bz)
+        if det < 0.0:  # adj(M) / det: only the direction matters, not the length
+            wx, wy, wz, sign = -wx, -wy, -wz, -sign
+        wx, wy, wz, ok = _safe_normalize(wx, wy, wz)
+        if not ok:
+            return nx, ny, nz
         cx *= strength
         cy *= strength
         s = min(max(strength, 0.0), 1.0)
         cz = 1.0 + (cz - 1.0) * s
-        # B = sign * cross(normal, tangent)
-        qx = sign * (by * tz - bz * ty)
-        qy = sign * (bz * tx - bx * tz)
-        qz = sign * (bx * ty - by * tx)
-        ox = cx * tx + cy * qx + cz * bx
-        oy = cx * ty + cy * qy + cz * by
-        oz = cx * tz + cy * qz + cz * bz
+        # B = sign * cross(normal, tangent), object space
+        qx = sign * (wy * uz - wz * uy)
+        qy = sign * (wz * ux - wx * uz)
+        qz = sign * (wx * uy - wy * ux)
+        px = cx * ux + cy * qx + cz * wx
+        py = cx * uy + cy * qy + cz * wy
+        pz = cx * uz + cy * qz + cz * wz
+        ox = m00 * px + m01 * py + m02 * pz
+        oy = m10 * px + m11 * py + m12 * pz
+        oz = m20 * px + m21 * py + m22 * pz
         ox, oy, oz, ok = _safe_normalize(ox, oy, oz)
         ox, oy, oz = flip * ox, flip * oy, flip * oz
         linear = False
