@@ -94,7 +94,19 @@ def test_textured_emission_seen_matches_cycles(make):
     np.testing.assert_allclose(ours.mean((0, 1)), cycles.mean((0, 1)), rtol=0.01)
 
 
-def leaf_scene():
+def checker_alpha(tree):
+    """A Checker of opacity 0.8 / 0.2 (its colour's luminance): the leaf's default Alpha."""
+    checker = node(tree, "ShaderNodeTexChecker")
+    checker.inputs["Scale"].default_value = 2.0
+    checker.inputs["Color1"].default_value = (0.8, 0.8, 0.8, 1.0)
+    checker.inputs["Color2"].default_value = (0.2, 0.2, 0.2, 1.0)
+    return checker.outputs["Color"]
+
+
+def leaf_scene(alpha=checker_alpha):
+    """A 2 m leaf (Principled, no specular) at z = 1 over an 8 m grey floor, under a sun
+    45 degrees from the vertical (its shadow at y in [1, 3]), seen from above by a 4 m
+    orthographic camera; alpha(tree) -> the socket linked to the leaf's Alpha."""
     scene = scenes.reset()
     scenes.set_resolution(RES, RES)
     floor_mat, tree, out = _material("Floor")
@@ -106,11 +118,7 @@ def leaf_scene():
     bsdf = node(tree, "ShaderNodeBsdfPrincipled")
     bsdf.inputs["Specular IOR Level"].default_value = 0.0
     link(tree, bsdf.outputs[0], out.inputs["Surface"])
-    checker = node(tree, "ShaderNodeTexChecker")
-    checker.inputs["Scale"].default_value = 2.0
-    checker.inputs["Color1"].default_value = (0.8, 0.8, 0.8, 1.0)
-    checker.inputs["Color2"].default_value = (0.2, 0.2, 0.2, 1.0)
-    link(tree, checker.outputs["Color"], bsdf.inputs["Alpha"])
+    link(tree, alpha(tree), bsdf.inputs["Alpha"])
     scenes.add_plane(size=2.0, location=(0.0, 0.0, 1.0), material=leaf_mat, name="Leaf")
     sun = scenes.add_light('SUN', power=3.0, rotation=(math.radians(45.0), 0.0, 0.0))
     sun.data.angle = 0.0

@@ -21,6 +21,7 @@ bpy = pytest.importorskip("bpy")
 
 from tests.blender import cycles_reference as cr, scenes  # noqa: E402
 from tests.blender import shader_scenes as ss  # noqa: E402
+from tests.blender.test_shader_emission_alpha import leaf_scene  # noqa: E402
 from tests.blender.test_shader_nodes import check, link, node, setdef, to_color  # noqa: E402
 
 pytestmark = [pytest.mark.blender, pytest.mark.api]
@@ -230,23 +231,11 @@ def test_is_shadow_ray_alpha_casts_a_partial_shadow_like_cycles():
     """Principled Alpha = 1 - 0.75 Is Shadow Ray on a leaf at z = 1 under a 45-degree sun:
     the camera sees it opaque; its shadow on the floor (y in [1, 3]) is 0.75 of the sun
     in both renderers."""
-    scene = scenes.reset()
-    scenes.set_resolution(RES, RES)
-    floor_mat, tree, out = _material("Floor")
-    d = node(tree, "ShaderNodeBsdfDiffuse")
-    d.inputs["Color"].default_value = (0.8, 0.8, 0.8, 1.0)
-    link(tree, d.outputs[0], out.inputs["Surface"])
-    scenes.add_plane(size=8.0, material=floor_mat, name="Floor")
-    leaf_mat, tree, out = _material("Leaf")
-    bsdf = node(tree, "ShaderNodeBsdfPrincipled")
-    bsdf.inputs["Specular IOR Level"].default_value = 0.0
-    link(tree, bsdf.outputs[0], out.inputs["Surface"])
-    lp = node(tree, "ShaderNodeLightPath")
-    link(tree, scaled(tree, lp.outputs["Is Shadow Ray"], -0.75, 1.0), bsdf.inputs["Alpha"])
-    scenes.add_plane(size=2.0, location=(0.0, 0.0, 1.0), material=leaf_mat, name="Leaf")
-    sun = scenes.add_light('SUN', power=3.0, rotation=(math.radians(45.0), 0.0, 0.0))
-    sun.data.angle = 0.0
-    scenes.add_camera(location=(0.0, 0.0, 5.0), look_at=(0.0, 0.0, 0.0), ortho_scale=4.0)
+    def shadow_alpha(tree):
+        lp = node(tree, "ShaderNodeLightPath")
+        return scaled(tree, lp.outputs["Is Shadow Ray"], -0.75, 1.0)
+
+    scene = leaf_scene(shadow_alpha)
     cycles = cr.render_cycles(scene, 16)
     ours = cr.render_photon_map(scene, 16)["Combined"][..., :3]
     c = (np.arange(RES) + 0.5) / RES * 4.0 - 2.0
