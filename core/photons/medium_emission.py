@@ -20,10 +20,17 @@ first surface hits and first collisions (the preview's indirect map, SPPM's
 shadow-ray-direct map) and no caustic map takes them (their light -> specular -> diffuse
 paths land in the global map, blurred like indirect light).
 
-Not a source: the World's volume emission (infinite volume: no finite power to share;
-reported by name in the photon pass's decisions). V comes from the divergence theorem
-over the boundary triangles, exact for the closed meshes media are; an open boundary is
-reported by the exporter.
+The World's volume emission (docs/volumes.md, "World volume emission") fills all space,
+which has no finite power; its photons come from the **scene's bounding sphere**
+(``PreparedScene.centre`` / ``radius``, the geometry's sphere 1 % wider, the region the
+sun's and the world background's photons already start on): power 4 pi epsilon
+(4/3 pi R^3), positions uniform in the ball. Light the World's volume emits farther out
+lights nothing (in an absorbing World medium it is attenuated by at least exp(-sigma_t d)
+over the distance d from the sphere to a surface); camera rays still see the emission
+along their whole length. Photons that start inside an opaque closed object land on its
+inner faces, which no estimate reads (photons count only from the front of a surface).
+V of a mesh medium comes from the divergence theorem over the boundary triangles, exact
+for the closed meshes media are; an open boundary is reported by the exporter.
 
 Random numbers: direction from a scrambled Sobol pair over the source's photons
 (``sampling.stratified2``), candidate positions from counter hashes of (seed, map,
@@ -71,9 +78,12 @@ def volume(tri) -> float:
     return abs(float(np.einsum("ij,ij->i", t[:, 0], np.cross(t[:, 1], t[:, 2])).sum())) / 6.0
 
 
-def sources(medium: Medium | None) -> tuple[list[Source], list[str]]:
+def sources(medium: Medium | None, centre=None, radius: float = 0.0
+            ) -> tuple[list[Source], list[str]]:
     """The emissive media of a scene as photon sources (power (3,) W = 4 pi epsilon V) and
-    the decisions' lines for emissive media that are not sources (the World's)."""
+    the decisions' lines about them. The World's volume emission is a source over the
+    scene's bounding sphere (``centre`` (3,) metres, ``radius`` metres; module doc); without
+    a sphere (radius 0) it is named in the notes and emits no photons."""
     out, notes = [], []
     if medium is None or not medium.emits:
         return out, notes
@@ -82,11 +92,16 @@ def sources(medium: Medium | None) -> tuple[list[Source], list[str]]:
         if not np.any(eps > 0):
             continue
         if r == medium.world:
-            notes.append(f"World volume emission of '{medium.names[r]}': not a photon source "
-                         f"(unsupported: an infinite medium has no finite power); it is seen "
-                         f"along camera rays only and lights nothing")
-            continue
-        v = volume(medium.boundary[medium.boundary_medium == r])
+            if centre is None or not radius > 0.0:
+                notes.append(f"World volume emission of '{medium.names[r]}': no photons (the "
+                             f"scene has no geometry to bound it); seen along camera rays only")
+                continue
+            v = 4.0 / 3.0 * np.pi * float(radius) ** 3
+            notes.append(f"World volume emission of '{medium.names[r]}': photons from the "
+                         f"scene's bounding sphere (radius {float(radius):.4g} m, "
+                         f"{v:.4g} m^3); light it emits farther out lights nothing")
+        else:
+            v = volume(medium.boundary[medium.boundary_medium == r])
         power = 4.0 * np.pi * eps * v
         if np.any(power > 0):
             out.append(Source(SOURCE_MEDIUM - r, power, f"emissive medium '{medium.names[r]}'"))
@@ -94,18 +109,18 @@ def sources(medium: Medium | None) -> tuple[list[Source], list[str]]:
 
 
 def emit(source: Source, medium: Medium, n_total: int, first: int, count: int, *,
-         seed: int, map_id: int, source_slot: int) -> tuple[Emitted, int]:
+         seed: int, map_id: int, source_slot: int, centre=None,
+         radius: float = 0.0) -> tuple[Emitted, int]:
     """Photons [first, first + count) of the n_total photons of one emissive medium
     (module doc); returns (Emitted float64, how many were dropped after MAX_ROUNDS
-    rejection rounds, flux 0)."""
+    rejection rounds, flux 0). The World's medium takes the scene's bounding sphere
+    (``centre`` (3,), ``radius`` metres, as ``sources``)."""
     r = medium_row(source.index)
     o = np.zeros((count, 3))
     d = np.zeros((count, 3))
     f = np.zeros((count, 3))
     if count == 0:
         return Emitted(o, d, f), 0
-    tri = medium.boundary[medium.boundary_medium == r].reshape(-1, 3).astype(np.float64)
-    lo, hi = tri.min(axis=0), tri.max(axis=0)
     idx = np.arange(first, first + count, dtype=np.int64)
     pix = np.full(count, map_id * 4096 + source_slot, np.int64)
     u1, u2 = sampling.stratified2(seed, pix, idx, n_total,
@@ -115,6 +130,18 @@ def emit(source: Source, medium: Medium, n_total: int, first: int, count: int, *
     d[:] = np.stack([s * np.cos(2.0 * np.pi * u2), s * np.sin(2.0 * np.pi * u2), z], axis=1)
     # Per photon, its own counter: the candidate of round k is the same whatever the chunk
     key = (np.int64(map_id) * 4096 + source_slot) * (1 << 40) + idx
+    if r == medium.world:
+        # Uniform in the ball: radius R cbrt(u), direction uniform (no rejection)
+        u = [sampling.uniform(seed, key, np.zeros(count, np.int64),
+                              sampling.stream(sampling.MEDIUM_EMISSION, 1 + j)) for j in range(3)]
+        zz = 1.0 - 2.0 * u[1]
+        ss = np.sqrt(np.maximum(0.0, 1.0 - zz * zz))
+        w = np.stack([ss * np.cos(2.0 * np.pi * u[2]), ss * np.sin(2.0 * np.pi * u[2]), zz], 1)
+        o[:] = np.asarray(centre, np.float64) + (float(radius) * np.cbrt(u[0]))[:, None] * w
+        f[:] = source.power / n_total
+        return Emitted(o, d, f), 0
+    tri = medium.boundary[medium.boundary_medium == r].reshape(-1, 3).astype(np.float64)
+    lo, hi = tri.min(axis=0), tri.max(axis=0)
     pending = np.arange(count)
     for k in range(MAX_ROUNDS):
         if pending.size == 0:

@@ -266,7 +266,8 @@ def _trace_map(prepared, sources, counts, targets_per_source, mode, store_rule, 
             from_medium = medium_emission.is_medium(src.index)
             if from_medium:
                 em, dropped = medium_emission.emit(src, prepared.medium, n_src, first, count,
-                                                   seed=seed, map_id=map_id, source_slot=slot)
+                                                   seed=seed, map_id=map_id, source_slot=slot,
+                                                   centre=prepared.centre, radius=prepared.radius)
                 counters["medium_dropped"] = counters.get("medium_dropped", 0) + dropped
             else:
                 em = emission.emit(src, prepared.light_set, prepared.emissive, prepared.world,
@@ -345,7 +346,7 @@ def photon_sources(prepared: PreparedScene) -> list:
     spheres = prepared.objects if prepared.objects.count else None
     return (emission.source_powers(prepared.light_set, prepared.emissive, prepared.world,
                                    prepared.centre, prepared.radius, spheres, True)
-            + medium_emission.sources(prepared.medium)[0])
+            + medium_emission.sources(prepared.medium, prepared.centre, prepared.radius)[0])
 
 
 def trace_stored_photons(prepared: PreparedScene, sources: list, n_photons: int, *, seed: int,
@@ -450,7 +451,8 @@ def trace_photons(prepared: PreparedScene, settings: RenderSettings,
                for i in range(ls.count) if i not in {s.index for s in sources}]
     for name in skipped:
         decisions.append(f"light '{name}': no photons, zero power or no geometry in reach")
-    decisions.extend(medium_emission.sources(prepared.medium)[1])
+    decisions.extend(medium_emission.sources(prepared.medium, prepared.centre,
+                                             prepared.radius)[1])
 
     skip = dict(skip or {})
     # A scattering medium receives photons (volume photons) even without a diffuse surface.
