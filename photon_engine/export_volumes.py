@@ -7,7 +7,9 @@ svm_closure.h (and EEVEE's node_volume_* shaders, which follow it):
 - Principled Volume (Color C, Density rho, Anisotropy g, Absorption Color A, Emission
   Strength S, Emission Color E): sigma_s = C rho,
   sigma_a = max(1 - C, 0) max(1 - sqrt(A), 0) rho, emission S E (W/(m^3 sr), not scaled by
-  the density); Blackbody Intensity > 0 is reported (not supported yet);
+  the density), plus the blackbody emission (``blackbody_emission``: Blackbody Intensity B,
+  Temperature T, Blackbody Tint K: K x sigma_SB 1e-6 / pi x mix(1, T^4, B) x the Blackbody
+  node's colour of T, Cycles' svm_node_principled_volume; constant inputs only);
 - Emission on a Volume output: emission Strength x Color;
 - Add Shader sums the media, Mix Shader weighs them by (1 - Fac, Fac); the anisotropy of a
   sum is the sigma_s-weighted mean of its lobes' g (Cycles keeps the lobes apart: exact
@@ -31,9 +33,37 @@ import numpy as np
 
 from ..core.scene.media import WORLD
 from ..core.shading import program as pg
+from ..core.shading.color import blackbody_rec709
 from . import compat
 from .export_nodes import follow_reroutes
-from .export_shader import compile_sockets
+from .export_shader import REC709_TO_SCENE_LINEAR, compile_sockets
+
+
+CLOSURE_WEIGHT_CUTOFF = 1e-5
+"""Cycles' CLOSURE_WEIGHT_CUTOFF: a Blackbody Intensity or intensity below it adds nothing."""
+
+STEFAN_BOLTZMANN = 5.670373e-8
+"""W/(m^2 K^4), the value Cycles' svm_node_principled_volume uses."""
+
+
+def blackbody_emission(intensity: float, temperature: float, tint) -> np.ndarray:
+    """A Principled Volume's blackbody emission (3,) float64 W/(m^3 sr), Cycles' definition
+    (svm_node_principled_volume): Blackbody Intensity ``intensity`` (its 1 is "physically
+    accurate"), ``temperature`` kelvin (clamped at 0), Blackbody Tint ``tint`` (3,):
+    tint x sigma_SB 1e-6 / pi x mix(1, T^4, intensity) x the Blackbody node's colour of T
+    (``core.shading.color.blackbody_rec709``, taken to scene linear by the Blackbody
+    node's matrix). Not clamped, as in Cycles: below about 1300 K the colour's blue (below
+    800 K its green too) is negative and subtracts from the node's Emission Strength x
+    Emission Color; the caller clamps the node's sum at 0 (a medium's emission cannot be
+    negative)."""
+    if not intensity > CLOSURE_WEIGHT_CUTOFF:
+        return np.zeros(3)
+    t = max(float(temperature), 0.0)
+    scale = STEFAN_BOLTZMANN * 1e-6 / np.pi * ((1.0 - intensity) + intensity * t ** 4)
+    if not scale > CLOSURE_WEIGHT_CUTOFF:
+        return np.zeros(3)
+    rgb = np.asarray(REC709_TO_SCENE_LINEAR, np.float64) @ np.asarray(blackbody_rec709(t))
+    return np.asarray(tint, np.float64)[:3] * scale * rgb
 
 
 class _Medium:
@@ -121,9 +151,11 @@ def _read(sock, owner, warnings, depth=0, linked=None) -> _Medium:
         m.g_weight = float(np.mean(m.sigma_s)) * _value(node, "Anisotropy", owner, warnings)
         strength = max(_value(node, "Emission Strength", owner, warnings), 0.0)
         m.emission = strength * np.maximum(_value(node, "Emission Color", owner, warnings, 3), 0.0)
-        if _value(node, "Blackbody Intensity", owner, warnings) > 0.0:
-            warnings.append(f"{owner}: Blackbody Intensity of node '{node.name}' is not "
-                            f"supported yet; no blackbody emission")
+        bb = _value(node, "Blackbody Intensity", owner, warnings)
+        if bb > CLOSURE_WEIGHT_CUTOFF:
+            m.emission = np.maximum(m.emission + blackbody_emission(
+                bb, _value(node, "Temperature", owner, warnings),
+                _value(node, "Blackbody Tint", owner, warnings, 3)), 0.0)
     elif kind == "ShaderNodeEmission":
         strength = max(_value(node, "Strength", owner, warnings), 0.0)
         m.emission = strength * np.maximum(_value(node, "Color", owner, warnings, 3), 0.0)
