@@ -25,7 +25,10 @@ sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
 
 from core import spectral  # noqa: E402
 from core.materials import dispersion  # noqa: E402
-from core.media import free_flight, phase, single_scatter  # noqa: E402
+from core import sampling  # noqa: E402
+from core.media import free_flight, phase, regions, single_scatter, tracking  # noqa: E402
+from core.media.density import DensityFields  # noqa: E402
+from core.scene import shapes  # noqa: E402
 from core.photons import beam  # noqa: E402
 from core.integrators import photon_mapping  # noqa: E402
 from core.scene.media import Media  # noqa: E402
@@ -142,17 +145,94 @@ def fog(photons: int):
     print(f"bytes per volume photon: {beam.VolumePhotonMap(np.zeros((4, 3)), np.ones((4, 3)), np.tile([0, 0, 1.0], (4, 1)), np.ones(4)).nbytes / 4:.0f}")
 
 
+SPARSE_CENTRE, SPARSE_R, SPARSE_RHO, SPARSE_SIGMA = np.array([0.3, 0.0, -0.1]), 0.3, 20.0, 2.0
+
+
+def sparse_density(points, field=None):
+    """A sparse field in the box [-1, 1]^3: rho = 20 (1 - |p - c|^2 / 0.3^2) inside a
+    0.3 m ball at c = (0.3, 0, -0.1), 0 elsewhere (1.4 % of the box)."""
+    q = np.asarray(points, np.float64) - SPARSE_CENTRE
+    return SPARSE_RHO * np.maximum(0.0, 1.0 - (q * q).sum(axis=1) / SPARSE_R ** 2)
+
+
+def sparse_optical_depth(x, z):
+    """The exact optical depth along +y through the ball at (x, z): sigma rho0 (4/3)
+    (R^2 - r^2)^(3/2) / R^2, r the distance of the line from the ball's centre."""
+    r2 = (x - SPARSE_CENTRE[0]) ** 2 + (z - SPARSE_CENTRE[2]) ** 2
+    return SPARSE_SIGMA * SPARSE_RHO * 4.0 / 3.0 * np.maximum(SPARSE_R ** 2 - r2, 0.0) ** 1.5 \
+        / SPARSE_R ** 2
+
+
+def sparse_medium():
+    """regions.Medium of the sparse field (absorbing, sigma_a 2/m at rho 1) in a 2 m box."""
+    box = shapes.box([-1.0] * 3, [1.0] * 3)
+    media = Media.from_list([{"bounds": 0, "name": "Puff", "boundary": box.corners,
+                              "sigma_a": np.full(3, SPARSE_SIGMA), "density_texture": 0}])
+    fields = DensityFields({0: sparse_density}, {0: (np.full(3, -1.0), np.full(3, 1.0))},
+                           ("Puff",))
+    return regions.Medium(media, 2.0, 1, fields, seed=1)
+
+
+def sparse(rays: int):
+    """Ratio tracking (``Medium.transmittance``) and delta tracking of ``rays`` rays along
+    +y through the sparse box: time, tentative collisions per ray, and the transmittance
+    against exp(-optical depth)."""
+    rng = np.random.default_rng(3)
+    xz = rng.uniform(-1, 1, (rays, 2))
+    o = np.column_stack([xz[:, 0], np.full(rays, -3.0), xz[:, 1]])
+    d = np.tile([0.0, 1.0, 0.0], (rays, 1))
+    med = sparse_medium()
+    exact = np.exp(-sparse_optical_depth(xz[:, 0], xz[:, 1]))
+    T, dt = timed(lambda: med.transmittance(o, d, np.full(rays, 10.0)))
+    st = med.stretches(o, d, np.full(rays, 10.0))
+    het = np.flatnonzero(st.field >= 0)
+    calls = []
+
+    def counting(points, field):
+        calls.append(len(points))
+        return (med.fields.along(st.field[het], st.majorant[het]) if hasattr(med.fields, "along")
+                else med.fields)(points, field)
+    fld = np.arange(het.size) if hasattr(med.fields, "along") else st.field[het]
+    start = time.perf_counter()
+    tracking.ratio_tracking_batch(counting, o[st.ray[het]], d[st.ray[het]], st.t0[het], st.t1[het],
+                                  fld, st.het_a[het] + st.het_s[het], st.majorant[het], 1,
+                                  sampling.stream(sampling.MEDIUM_TRANSMITTANCE))
+    t_ratio = time.perf_counter() - start
+    ratio_points = sum(calls)
+    calls.clear()
+    start = time.perf_counter()
+    _, _, w = tracking.delta_tracking_batch(counting, o[st.ray[het]], d[st.ray[het]], st.t0[het],
+                                            st.t1[het], fld, 0.0, 0.0, st.het_a[het], st.het_s[het],
+                                            st.majorant[het], 1, sampling.stream(
+                                                sampling.MEDIUM_TRACKING, 0, 0, 0))
+    t_delta = time.perf_counter() - start
+    print(f"sparse heterogeneous box ({rays} rays, majorant {med.fields.majorant[0]:.4g}, "
+          f"stretch majorants mean {st.majorant[het].mean():.4g}): "
+          f"Medium.transmittance {dt:.2f} s ({rays / dt / 1e3:.1f} k rays/s); "
+          f"ratio tracking {ratio_points / rays:.2f} density evaluations per ray, {t_ratio:.2f} s; "
+          f"delta tracking {sum(calls) / rays:.2f} per ray, {t_delta:.2f} s; "
+          f"mean T {T[:, 0].mean():.5f} +- {T[:, 0].std() / np.sqrt(rays):.5f}, exact "
+          f"{exact.mean():.5f}; delta tracking's passing weight {w[:, 0].mean():.5f}")
+    med.close()
+
+
 def main():
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--photons", type=int, default=400_000)
     p.add_argument("--rays", type=int, default=20_000)
     p.add_argument("--fog-photons", type=int, default=100_000)
+    p.add_argument("--only", choices=["sparse"], default=None,
+                   help="run one benchmark only")
     a = p.parse_args()
+    if a.only == "sparse":
+        sparse(a.rays)
+        return
     fog(a.fog_photons)
     slab(a.photons, a.rays)
     inscatter()
     flights()
     spectra()
+    sparse(a.rays)
 
 
 if __name__ == "__main__":

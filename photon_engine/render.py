@@ -124,6 +124,10 @@ def _render(engine, depsgraph):
     except BaseException:
         writer.abort()
         raise
+    # Render-time warnings (a heterogeneous medium's density clipped at its majorant, in
+    # either pass): reported like the export's, not only in the log
+    for warning in output.stats.get("medium_warnings", ()):
+        engine.report({'WARNING'}, f"Photon Map: {warning}")
     elapsed = time.perf_counter() - started
     state = "Cancelled" if output.cancelled else "Done"
     if settings.integrator == "progressive":

@@ -566,6 +566,9 @@ def render(scene: Scene, settings: RenderSettings | None = None,
         "triangles": scene.mesh.triangle_count, "lights": scene.lights.count,
         "emissive_triangles": prepared.emissive.count,
     })
+    if prepared.medium is not None and prepared.medium.fields is not None:
+        # Density clipping over both passes, for Blender's report (photon_engine/render.py)
+        stats["medium_warnings"] = prepared.medium.fields.warnings()
     return RenderOutput(passes=passes, stats=stats, cancelled=cancelled, photon_maps=used)
 
 

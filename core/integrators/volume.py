@@ -273,7 +273,8 @@ def _split_heterogeneous(vt: VolumeTerms, st, s_o, s_d, s_len, s_thr, pixel, sam
     seg = st.ray[het]
     index = pixel[seg] * np.int64(1 << 24) + sample[seg] * np.int64(64) + (het - st.start[seg])
     walk, t, T, _ = tracking.ratio_tracking_points(
-        m.fields, s_o[het], s_d[het], 0.0, s_len[het], st.field[het], st.het_a[het]
+        m.fields.along(st.field[het], st.majorant[het]), s_o[het], s_d[het], 0.0, s_len[het],
+        np.arange(het.size), st.het_a[het]
         + st.het_s[het], st.majorant[het], vt.seed,
         sampling.stream(sampling.MEDIUM_TRACKING, 4095, min(depth, 4095)), index=index)
     # Pieces per heterogeneous stretch: 1 + its tentative collisions

@@ -8,22 +8,29 @@ shading are both rank 2) as ``evaluate(points (K, 3) float64 render-frame metres
 
 **The majorant.** Null-collision tracking needs sigma_bar >= sigma_t(x) on every segment it
 walks; an underestimate biases the result. A program is not bounded analytically (a Noise
-texture's range depends on its detail, roughness and distortion), so the bound is measured:
-the program on a GRID^3 lattice of points spanning the medium's world box (cell centres and
-the box's corners), its maximum times SAFETY. Between lattice points a smooth texture can
-exceed the sampled maximum, which SAFETY covers for features larger than a cell; where a
-tracked point still exceeds it, the density is clipped to the majorant (a bias, bounded by
-what was clipped) and counted in ``clipped`` / ``clipped_max``, which the render reports as
-a warning naming the medium. A negative program value is taken as 0 (Cycles clamps the
+texture's range depends on its detail, roughness and distortion), so the bound is measured,
+**per cell of a GRID^3 grid** over the medium's world box (``MajorantGrid``): the program at
+every cell's 8 corners and centre, the cell's maximum dilated by one cell (the maximum of
+its 27 neighbours: a feature between lattice points of a neighbouring cell is covered),
+times SAFETY. A segment is tracked with the largest value of the cells it crosses
+(``segment_majorant``, a 3-D DDA): in a sparse medium the rays through its empty cells
+make no null collisions. Between lattice points a smooth texture can exceed the sampled
+maximum, which SAFETY and the dilation cover for features larger than a cell; where a
+tracked point still exceeds its cell's value, the density is clipped to it (a bias, bounded
+by what was clipped) and counted in ``clipped`` / ``clipped_max``, which the render reports
+as a warning naming the medium (in the log and in Blender's report). A negative program value is taken as 0 (Cycles clamps the
 density at 0 too: ``fmaxf(density, 0.0f)`` in svm_node_principled_volume).
 """
 
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
+
+from .. import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
 
 GRID = 24
-"""Lattice points per axis of the majorant's measurement (24^3 = 13,824 evaluations)."""
+"""Cells per axis of the majorant grid (25^3 corners + 24^3 centres = 29,449 evaluations)."""
 
 SAFETY = 1.5
 """The measured maximum is multiplied by this to give the majorant."""
@@ -42,8 +49,9 @@ class DensityFields:
         self.names = tuple(names)
         self.clipped = {m: 0 for m in self.evaluators}
         self.clipped_max = {m: 0.0 for m in self.evaluators}
-        self.majorant = {m: measure_majorant(self._raw(m), *boxes[m])
-                         for m in self.evaluators}
+        self.grids = {m: MajorantGrid.measure(self._raw(m), *boxes[m]) for m in self.evaluators}
+        # The medium's bound over its whole box (the decisions' figure)
+        self.majorant = {m: float(g.cells.max()) for m, g in self.grids.items()}
 
     def _raw(self, m: int):
         """rho of medium m at world points (K, 3) -> (K,) float64, not clipped."""
@@ -62,23 +70,154 @@ class DensityFields:
         out = np.zeros(p.shape[0])
         for m in np.unique(f):
             sel = np.flatnonzero(f == m)
-            v = self._raw(int(m))(p[sel])
-            maj = self.majorant[int(m)]
-            over = v > maj
-            if over.any():
-                self.clipped[int(m)] += int(over.sum())
-                self.clipped_max[int(m)] = max(self.clipped_max[int(m)], float(v.max()))
-                v = np.minimum(v, maj)
-            out[sel] = v
+            out[sel] = self._clipped(int(m), p[sel], self.grids[int(m)].at(p[sel]))
         return out
+
+    def _clipped(self, m: int, points, bound) -> np.ndarray:
+        """rho of medium m at points (K, 3) clipped to bound (K,), the clipping counted."""
+        v = self._raw(m)(points)
+        over = v > bound
+        if over.any():
+            self.clipped[m] += int(over.sum())
+            self.clipped_max[m] = max(self.clipped_max[m], float(v[over].max()))
+            v = np.minimum(v, bound)
+        return v
+
+    def segment_majorant(self, field, origins, directions, t0, t1) -> np.ndarray:
+        """(N,) float64: the majorant of N segments o + t d, t in [t0, t1] metres (finite),
+        of media field (N,) int64: the largest grid value of the cells each crosses."""
+        f = np.asarray(field, np.int64).reshape(-1)
+        out = np.zeros(f.shape[0])
+        o = np.ascontiguousarray(origins, np.float64).reshape(-1, 3)
+        d = np.ascontiguousarray(directions, np.float64).reshape(-1, 3)
+        a = np.ascontiguousarray(np.broadcast_to(np.asarray(t0, np.float64), f.shape))
+        b = np.ascontiguousarray(np.broadcast_to(np.asarray(t1, np.float64), f.shape))
+        for m in np.unique(f):
+            sel = np.flatnonzero(f == m)
+            g = self.grids[int(m)]
+            res = np.empty(sel.size)
+            _segment_max_kernel(g.cells, g.lo, g.size, o[sel], d[sel], a[sel], b[sel], res)
+            out[sel] = res
+        return out
+
+    def along(self, field, majorant):
+        """The density of N tracked segments as the trackers call it: a function
+        (points (K, 3), k (K,) int64 segment index) -> rho (K,) of medium field[k], clipped
+        to the point's cell value and to the segment's majorant[k] (the two agree but where
+        a point on a cell's face falls on the other side of the DDA; counted as clipping)."""
+        f = np.asarray(field, np.int64).reshape(-1)
+        maj = np.asarray(majorant, np.float64).reshape(-1)
+
+        def rho(points, k):
+            p = np.asarray(points, np.float64).reshape(-1, 3)
+            k = np.asarray(k, np.int64).reshape(-1)
+            out = np.zeros(p.shape[0])
+            fk = f[k]
+            for m in np.unique(fk):
+                sel = np.flatnonzero(fk == m)
+                bound = np.minimum(self.grids[int(m)].at(p[sel]), maj[k[sel]])
+                out[sel] = self._clipped(int(m), p[sel], bound)
+            return out
+        return rho
 
     def warnings(self) -> list[str]:
         """One message per medium whose majorant a tracked point exceeded."""
         return [f"medium '{self.names[m]}': the density reached {self.clipped_max[m]:.4g} at "
-                f"{n} tracked points, above its majorant {self.majorant[m]:.4g} (measured on a "
-                f"{GRID}^3 lattice x {SAFETY}); clipped there (biased: the texture has "
-                f"features finer than the lattice)"
+                f"{n} tracked points, above the majorant of their cells (at most "
+                f"{self.majorant[m]:.4g}; measured per cell of a {GRID}^3 grid x {SAFETY}); "
+                f"clipped there (biased: the texture has features finer than the grid)"
                 for m, n in self.clipped.items() if n]
+
+
+class MajorantGrid:
+    """Per-cell majorants of one density over the box [lo, hi] (module doc): cells
+    (G, G, G) float64, lo (3,) metres, size (3,) metres per cell."""
+
+    def __init__(self, cells, lo, size):
+        self.cells = np.ascontiguousarray(cells, np.float64)
+        self.lo = np.asarray(lo, np.float64)
+        self.size = np.asarray(size, np.float64)
+
+    @classmethod
+    def measure(cls, rho, lo, hi, grid: int = GRID, safety: float = SAFETY) -> "MajorantGrid":
+        """rho(points (K, 3)) -> (K,) at every cell's corners and centre, per cell the
+        maximum, dilated by one cell, times ``safety``."""
+        lo = np.asarray(lo, np.float64)
+        hi = np.asarray(hi, np.float64)
+        size = np.maximum(hi - lo, 1e-12) / grid
+        corner_axes = [lo[k] + np.arange(grid + 1) * size[k] for k in range(3)]
+        centre_axes = [lo[k] + (np.arange(grid) + 0.5) * size[k] for k in range(3)]
+        pc = np.stack(np.meshgrid(*corner_axes, indexing="ij"), -1).reshape(-1, 3)
+        pm = np.stack(np.meshgrid(*centre_axes, indexing="ij"), -1).reshape(-1, 3)
+        vc = rho(pc).reshape((grid + 1,) * 3)
+        cells = rho(pm).reshape((grid,) * 3)
+        for dx in (0, 1):
+            for dy in (0, 1):
+                for dz in (0, 1):
+                    cells = np.maximum(cells, vc[dx:dx + grid, dy:dy + grid, dz:dz + grid])
+        pad = np.pad(cells, 1)
+        dil = cells.copy()
+        for dx in range(3):
+            for dy in range(3):
+                for dz in range(3):
+                    dil = np.maximum(dil, pad[dx:dx + grid, dy:dy + grid, dz:dz + grid])
+        return cls(safety * dil, lo, size)
+
+    def at(self, points) -> np.ndarray:
+        """(K,) the value of the cell holding each point (K, 3) metres (clamped to the
+        grid: a point just outside the box reads its nearest cell)."""
+        g = np.array(self.cells.shape)
+        i = np.clip(np.floor((np.asarray(points, np.float64) - self.lo) / self.size),
+                    0, g - 1).astype(np.int64)
+        return self.cells[i[:, 0], i[:, 1], i[:, 2]]
+
+
+@njit(cache=True, error_model="numpy")
+def _segment_max_kernel(cells, lo, size, o, d, t0, t1, out):
+    """The largest cell value along each segment (Amanatides-Woo DDA over the cells from
+    the point at t0 to the point at t1, indices clamped to the grid)."""
+    g0, g1, g2 = cells.shape
+    gmax = np.array([g0 - 1, g1 - 1, g2 - 1])
+    for i in range(o.shape[0]):
+        cell = np.empty(3, np.int64)
+        step = np.empty(3, np.int64)
+        t_next = np.empty(3)
+        t_delta = np.empty(3)
+        for k in range(3):
+            p = o[i, k] + t0[i] * d[i, k]
+            c = int(np.floor((p - lo[k]) / size[k]))
+            c = min(max(c, 0), gmax[k])
+            cell[k] = c
+            if d[i, k] > 0.0:
+                step[k] = 1
+                t_next[k] = t0[i] + (lo[k] + (c + 1) * size[k] - p) / d[i, k]
+                t_delta[k] = size[k] / d[i, k]
+            elif d[i, k] < 0.0:
+                step[k] = -1
+                t_next[k] = t0[i] + (lo[k] + c * size[k] - p) / d[i, k]
+                t_delta[k] = -size[k] / d[i, k]
+            else:
+                step[k] = 0
+                t_next[k] = np.inf
+                t_delta[k] = np.inf
+        best = cells[cell[0], cell[1], cell[2]]
+        for _ in range(g0 + g1 + g2 + 3):
+            k = 0
+            if t_next[1] < t_next[k]:
+                k = 1
+            if t_next[2] < t_next[k]:
+                k = 2
+            if not (t_next[k] < t1[i]):
+                break
+            c = cell[k] + step[k]
+            if c < 0 or c > gmax[k]:
+                break
+            cell[k] = c
+            t_next[k] += t_delta[k]
+            v = cells[cell[0], cell[1], cell[2]]
+            if v > best:
+                best = v
+        out[i] = best
 
 
 def measure_majorant(rho, lo, hi, grid: int = GRID, safety: float = SAFETY) -> float:

@@ -60,7 +60,7 @@ class Stretches(NamedTuple):
     Heterogeneous media (docs/volumes.md): sigma_a, sigma_s above are the stretch's
     homogeneous part; field (S,) int64 the heterogeneous medium row active there (-1 none,
     at most one), het_a, het_s (S, 3) its coefficients at density 1, majorant (S,) its
-    density's bound; before and through then include ratio-tracking estimates (unbiased,
+    density's bound on the stretch (the largest majorant-grid cell it crosses); before and through then include ratio-tracking estimates (unbiased,
     not exact) of its transmittance.
     """
 
@@ -221,11 +221,15 @@ class Medium:
                 if not np.all(np.isfinite(t1[het])):
                     raise SceneError(f"a ray escapes through the heterogeneous media "
                                      f"{self.name}; only closed meshes may vary in density")
+                # Each stretch's majorant: the largest of the grid cells it crosses
+                maj[het] = self.fields.segment_majorant(fld[het], o[ray[het]], d[ray[het]],
+                                                        t0[het], t1[het])
                 # Each walk's stream is keyed by its segment's origin and direction bits
                 # and its row: the same for the same call whatever runs before or beside it
                 # (photon chunks may run in threads)
-                T = ratio_tracking_batch(self.fields, o[ray[het]], d[ray[het]], t0[het],
-                                         t1[het], fld[het], ha[het] + hs[het], maj[het], self.seed,
+                T = ratio_tracking_batch(self.fields.along(fld[het], maj[het]), o[ray[het]],
+                                         d[ray[het]], t0[het], t1[het], np.arange(het.size),
+                                         ha[het] + hs[het], maj[het], self.seed,
                                          sampling.stream(sampling.MEDIUM_TRANSMITTANCE),
                                          index=_walk_keys(o[ray[het]], d[ray[het]], het))
                 factor = np.ones((s, 3))

@@ -157,8 +157,10 @@ def flight_through(medium, st, o, d, pid, seed: int, map_id: int, bounce: int):
         r = st.ray[sel]
         dim = sampling.stream(sampling.MEDIUM_TRACKING, map_id, min(bounce, 4095), int(k) % 4096)
         oo = np.asarray(o, np.float64)[r] + st.t0[sel, None] * np.asarray(d, np.float64)[r]
-        t, sc, w = delta_tracking_batch(medium.fields, oo, np.asarray(d, np.float64)[r], 0.0,
-                                        st.t1[sel] - st.t0[sel], st.field[sel], st.sigma_a[sel],
+        t, sc, w = delta_tracking_batch(medium.fields.along(st.field[sel], st.majorant[sel]),
+                                        oo, np.asarray(d, np.float64)[r], 0.0,
+                                        st.t1[sel] - st.t0[sel], np.arange(sel.size),
+                                        st.sigma_a[sel],
                                         st.sigma_s[sel], st.het_a[sel], st.het_s[sel],
                                         st.majorant[sel], seed, dim, index=pid[r])
         pre[sel], pre_t[sel], pre_s[sel], pre_w[sel] = True, t, sc, w
