@@ -537,8 +537,12 @@ class _Geometry:
                         f"'{self.names[obj]}' are not a closed mesh ({open_edges} open edges); "
                         f"a ray that crosses it once stays in the medium for the rest of its "
                         f"way, as in Cycles")
-                media.append({**row, "bounds": int(obj), "name": name,
-                              "boundary": verts[tris[faces]].astype(np.float32)})
+                boundary = verts[tris[faces]].astype(np.float32)
+                own = {k: v for k, v in row.items() if k != "homogeneous_part"}
+                media.append({**own, "bounds": int(obj), "name": name, "boundary": boundary})
+                if "homogeneous_part" in row:  # the rest of an Add / Mix beside a varying density
+                    media.append({**row["homogeneous_part"], "bounds": int(obj),
+                                  "name": f"{name} (homogeneous part)", "boundary": boundary})
         if left_out:  # faces of volume-only materials on objects with other slots too
             keep = ~np.isin(mats, list(left_out))
             tris, normals, uvs = tris[keep], normals[keep], uvs[keep]

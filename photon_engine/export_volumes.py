@@ -19,8 +19,11 @@ Volume Scatter or Volume Absorption with its Density linked gets a density progr
 (``export_shader.compile_sockets`` with target TARGET_DENSITY: Noise, Gradient, ColorRamp,
 Math ... through Texture Coordinate Object / Generated or the Geometry Position), its
 coefficients at density 1 (core/scene/media.py); Cycles clamps the density at 0 as the
-renderer does. Any other linked input (Color, Absorption Color, a Density under an Add or
-Mix Shader, the World's Density) is reported by node and input and its own value used. The World's Volume fills all space (``world_medium``); a
+renderer does. Since the sixth slice the varying node may sit under Add / Mix Shaders:
+its coefficients (times the Mix factors above it) make the heterogeneous row and the rest
+of the sum a homogeneous row ``homogeneous_part`` in the same object (export.py). Any
+other linked input (Color, Absorption Color, a second varying Density in the same material,
+the World's Density) is reported by node and input and its own value used. The World's Volume fills all space (``world_medium``); a
 mesh material's Volume fills the inside of every object using it (``material_medium``;
 export.py makes one medium per object and material, bounded by that object's faces of the
 material, and leaves a volume-only material's faces out of the surfaces: they are null
@@ -102,40 +105,51 @@ def _value(node, name, owner, warnings, size=None):
     return float(v)
 
 
-def _density(node, owner, warnings, linked):
-    """The node's Density: 1 when it is linked and ``linked`` (a list) collects the socket
-    (the medium is heterogeneous), else its own value (a link reported)."""
+def _density(node, owner, warnings, linked) -> tuple[float, bool]:
+    """The node's Density and whether it varies: (1, True) when it is linked and
+    ``linked`` (a list, None: never) is still empty: the socket is appended (the medium is
+    heterogeneous); else (its own value, False), a link reported (a second varying density
+    in the same material among them)."""
     sock = node.inputs.get("Density")
     if linked is not None and sock is not None and sock.is_linked \
             and follow_reroutes(sock) is not None:
-        linked.append(sock)
-        return 1.0
-    return max(_value(node, "Density", owner, warnings), 0.0)
+        if not linked:
+            linked.append(sock)
+            return 1.0, True
+        warnings.append(f"{owner}: input 'Density' of node '{node.name}' is linked, and "
+                        f"another volume node's Density already varies (one varying density "
+                        f"per material is supported); using its own value")
+        return max(float(sock.default_value), 0.0), False
+    return max(_value(node, "Density", owner, warnings), 0.0), False
 
 
-def _read(sock, owner, warnings, depth=0, linked=None) -> _Medium:
-    """The medium of a Volume socket; ``linked``: a list that takes the Density socket of
-    the output's own volume node when it is linked (depth 0 only; None: never)."""
+def _read(sock, owner, warnings, depth=0, linked=None, weight=1.0) -> _Medium:
+    """The medium of a Volume socket. ``linked``: a list (None: no varying density) that
+    takes the first volume node whose Density is linked, anywhere under Add / Mix Shaders:
+    [its Density socket, its medium at density 1 times ``weight``, the product of the Mix
+    factors above it]; that node then adds nothing to the returned (homogeneous) medium."""
     m = _Medium()
     out = follow_reroutes(sock) if sock is not None else None
     if out is None or depth > 32:
         return m
     node = out.node
     kind = node.bl_idname
+    varies = False
     if kind == "ShaderNodeAddShader":
-        m.add(_read(node.inputs[0], owner, warnings, depth + 1), 1.0)
-        m.add(_read(node.inputs[1], owner, warnings, depth + 1), 1.0)
+        for k in (0, 1):
+            m.add(_read(node.inputs[k], owner, warnings, depth + 1, linked, weight), 1.0)
     elif kind == "ShaderNodeMixShader":
         fac = float(np.clip(_value(node, "Fac", owner, warnings), 0.0, 1.0))
-        m.add(_read(node.inputs[1], owner, warnings, depth + 1), 1.0 - fac)
-        m.add(_read(node.inputs[2], owner, warnings, depth + 1), fac)
+        m.add(_read(node.inputs[1], owner, warnings, depth + 1, linked, weight * (1.0 - fac)),
+              1.0 - fac)
+        m.add(_read(node.inputs[2], owner, warnings, depth + 1, linked, weight * fac), fac)
     elif kind == "ShaderNodeVolumeAbsorption":
         c = _value(node, "Color", owner, warnings, 3)
-        rho = _density(node, owner, warnings, linked if depth == 0 else None)
+        rho, varies = _density(node, owner, warnings, linked)
         m.sigma_a = np.maximum(1.0 - c, 0.0) * rho
     elif kind == "ShaderNodeVolumeScatter":
         c = np.maximum(_value(node, "Color", owner, warnings, 3), 0.0)
-        rho = _density(node, owner, warnings, linked if depth == 0 else None)
+        rho, varies = _density(node, owner, warnings, linked)
         m.sigma_s = c * rho
         m.g_weight = float(np.mean(m.sigma_s)) * _value(node, "Anisotropy", owner, warnings)
         phase = getattr(node, "phase", "HENYEY_GREENSTEIN")
@@ -144,7 +158,7 @@ def _read(sock, owner, warnings, depth=0, linked=None) -> _Medium:
                             f"supported yet; using Henyey-Greenstein")
     elif kind == "ShaderNodeVolumePrincipled":
         c = np.maximum(_value(node, "Color", owner, warnings, 3), 0.0)
-        rho = _density(node, owner, warnings, linked if depth == 0 else None)
+        rho, varies = _density(node, owner, warnings, linked)
         a = np.sqrt(np.maximum(_value(node, "Absorption Color", owner, warnings, 3), 0.0))
         m.sigma_s = c * rho
         m.sigma_a = np.maximum(1.0 - c, 0.0) * np.maximum(1.0 - a, 0.0) * rho
@@ -162,6 +176,13 @@ def _read(sock, owner, warnings, depth=0, linked=None) -> _Medium:
     else:
         warnings.append(f"{owner}: node '{node.name}' ({kind}) on the Volume output is not "
                         f"supported; ignored")
+    if varies:
+        # The varying node's own row (its weight applied here: the callers scale only
+        # what this returns)
+        het = _Medium()
+        het.add(m, weight)
+        linked.append(het)
+        return _Medium()
     return m
 
 
@@ -202,17 +223,29 @@ def material_medium(mat, warnings: list[str]) -> dict | None:
         return None
     linked = []
     m = _read(sock, f'Material "{mat.name}"', warnings, linked=linked)
-    row = {"sigma_a": m.sigma_a, "sigma_s": m.sigma_s, "anisotropy": m.anisotropy,
-           "emission": m.emission, "name": mat.name}
-    if linked:
-        comp = compile_sockets(mat, [(linked[0], pg.TARGET_DENSITY, 0, 0)])
-        warnings.extend(comp.warnings)
-        if comp.program is None:  # the graph folds to a constant density
-            rho = max(float(comp.constant[0][0]), 0.0)
-            row["sigma_a"], row["sigma_s"] = m.sigma_a * rho, m.sigma_s * rho
-        else:
-            row["density_program"] = comp.program
+    if not linked:
+        return _row(m, mat.name)
+    het = linked[1]
+    comp = compile_sockets(mat, [(linked[0], pg.TARGET_DENSITY, 0, 0)])
+    warnings.extend(comp.warnings)
+    if comp.program is None:  # the graph folds to a constant density
+        rho = max(float(comp.constant[0][0]), 0.0)
+        het.sigma_a, het.sigma_s, het.g_weight = het.sigma_a * rho, het.sigma_s * rho, \
+            het.g_weight * rho  # the emission does not scale with the density
+        m.add(het, 1.0)
+        return _row(m, mat.name)
+    row = _row(het, mat.name)
+    row["density_program"] = comp.program
+    if np.any(m.sigma_a > 0) or np.any(m.sigma_s > 0) or np.any(m.emission > 0):
+        # The rest of an Add / Mix: a homogeneous medium in the same object (export.py
+        # makes it a row of its own; overlapping media add, as in Cycles' volume stack)
+        row["homogeneous_part"] = _row(m, mat.name)
     return row
+
+
+def _row(m: _Medium, name: str) -> dict:
+    return {"sigma_a": m.sigma_a, "sigma_s": m.sigma_s, "anisotropy": m.anisotropy,
+            "emission": m.emission, "name": name}
 
 
 def scene_has_medium(scene) -> bool:

@@ -103,21 +103,39 @@ class Medium:
         # The render seed: the ratio-tracking walks of ``stretches`` follow it
         self.seed = int(seed)
         mesh_rows = np.flatnonzero(media.bounds != WORLD)
-        if mesh_rows.size > MAX_MESH_MEDIA:
-            raise SceneError(f"{mesh_rows.size} media inside meshes; at most {MAX_MESH_MEDIA} "
-                             f"are supported")
-        # Bit b of a stretch's mask: mesh medium mesh_rows[b]
         self.mesh_rows = mesh_rows
+        tri = np.ascontiguousarray(media.boundary, np.float32)
+        self.boundary = tri
+        self.boundary_medium = np.asarray(media.boundary_medium, np.int64)
+        # Bit b of a stretch's mask: the mesh media bit_rows[b]. Rows bounded by the same
+        # triangles (a varying density and the homogeneous rest of its Add / Mix,
+        # photon_engine/export_volumes.py) share a bit, and their triangles are walked
+        # once: coincident triangles would hide each other from ``_crossings``.
         bit_of = np.full(media.count, -1, np.int64)
-        bit_of[mesh_rows] = np.arange(mesh_rows.size)
+        walked = np.ones(tri.shape[0], bool)
+        first_of = {}
+        self.bit_rows: list[list[int]] = []
+        for r in mesh_rows:
+            own = np.flatnonzero(self.boundary_medium == r)
+            key = tri[own].tobytes()
+            if key in first_of:
+                bit_of[r] = first_of[key]
+                walked[own] = False
+                self.bit_rows[first_of[key]].append(int(r))
+            else:
+                first_of[key] = bit_of[r] = len(self.bit_rows)
+                self.bit_rows.append([int(r)])
+        if len(self.bit_rows) > MAX_MESH_MEDIA:
+            raise SceneError(f"{len(self.bit_rows)} media inside meshes; at most "
+                             f"{MAX_MESH_MEDIA} are supported")
+        self.bit_of = bit_of
         self.sigma_a = media.sigma_a.astype(np.float64)
         self.sigma_s = media.sigma_s.astype(np.float64)
         self.emission = media.emission.astype(np.float64)
         self.g = media.anisotropy.astype(np.float64)
-        tri = np.ascontiguousarray(media.boundary, np.float32)
-        self.boundary = tri
-        self.boundary_medium = np.asarray(media.boundary_medium, np.int64)
-        self.tri_bit = np.ascontiguousarray(bit_of[media.boundary_medium], np.int64)
+        if not walked.all():
+            tri = np.ascontiguousarray(tri[walked])
+        self.tri_bit = np.ascontiguousarray(bit_of[self.boundary_medium[walked]], np.int64)
         e1 = tri[:, 1].astype(np.float64) - tri[:, 0]
         e2 = tri[:, 2].astype(np.float64) - tri[:, 0]
         self.tri_normal = np.ascontiguousarray(np.cross(e1, e2))
@@ -187,11 +205,11 @@ class Medium:
         first-crossing rule along its unit direction (N, 3) (module doc; the rule every
         stretch walk from that origin along that direction applies)?"""
         o = np.ascontiguousarray(origins, np.float64).reshape(-1, 3)
-        bit = np.flatnonzero(self.mesh_rows == row)
-        if bit.size == 0 or o.shape[0] == 0:
+        bit = int(self.bit_of[row]) if 0 <= row < self.bit_of.shape[0] else -1
+        if bit < 0 or o.shape[0] == 0:
             return np.zeros(o.shape[0], bool)
         ct, cb, cf = self._crossings(o, np.ascontiguousarray(directions, np.float64).reshape(-1, 3))
-        mine = (cb == bit[0]) & np.isfinite(ct)
+        mine = (cb == bit) & np.isfinite(ct)
         first = np.argmax(mine, axis=1)
         return mine.any(axis=1) & ~cf[np.arange(o.shape[0]), first]
 
@@ -245,8 +263,8 @@ class Medium:
         fld, ha, hs, maj = np.full(k, -1, np.int64), np.zeros((k, 3)), np.zeros((k, 3)), np.zeros(k)
         for j, key in enumerate(keys):
             rows = [self.world] if self.world >= 0 else []
-            rows += [int(self.mesh_rows[b]) for b in range(self.mesh_rows.size)
-                     if (int(key) >> b) & 1]
+            rows += [r for b in range(len(self.bit_rows)) if (int(key) >> b) & 1
+                     for r in self.bit_rows[b]]
             for r in rows:
                 if self.het[r]:
                     if fld[j] >= 0:

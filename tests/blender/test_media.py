@@ -138,3 +138,46 @@ def test_a_fog_render_has_the_volume_passes_and_combined_is_their_sum():
                 ("Emission", "Environment", "Direct", "Specular", "Caustics", "Indirect",
                  "Volume Direct", "Volume Indirect") if name in passes)
     np.testing.assert_allclose(passes["Combined"][..., :3], total, rtol=1e-5, atol=1e-7)
+
+
+def test_a_varying_density_under_a_mix_shader_is_a_heterogeneous_row_beside_the_rest():
+    """Mix Shader (Fac 0.25) of a Principled Volume whose Density a Noise drives and a
+    Volume Absorption: the Principled's coefficients at density 1 x 0.75 with the density
+    program, and the absorption x 0.25 as a homogeneous row in the same object (overlapping
+    media add, as in Cycles' volume stack); nothing reported."""
+    _lit()
+    mat = bpy.data.materials.new("Mixed Smoke")
+    tree = scenes.ensure_node_tree(mat)
+    for node in list(tree.nodes):
+        if node.type != 'OUTPUT_MATERIAL':
+            tree.nodes.remove(node)
+    out = next(n for n in tree.nodes if n.type == 'OUTPUT_MATERIAL')
+    smoke = tree.nodes.new('ShaderNodeVolumePrincipled')
+    smoke.inputs["Color"].default_value = (0.6, 0.6, 0.6, 1.0)
+    smoke.inputs["Anisotropy"].default_value = 0.3
+    noise = tree.nodes.new('ShaderNodeTexNoise')
+    tree.links.new(noise.outputs["Fac"], smoke.inputs["Density"])
+    absorb = tree.nodes.new('ShaderNodeVolumeAbsorption')
+    absorb.inputs["Color"].default_value = (0.5, 0.5, 0.0, 1.0)
+    absorb.inputs["Density"].default_value = 0.8
+    mix = tree.nodes.new('ShaderNodeMixShader')
+    mix.inputs["Fac"].default_value = 0.25
+    tree.links.new(smoke.outputs[0], mix.inputs[1])
+    tree.links.new(absorb.outputs[0], mix.inputs[2])
+    tree.links.new(mix.outputs[0], out.inputs["Volume"])
+    bpy.ops.mesh.primitive_cube_add(size=1.0, location=(0.0, 0.0, 0.6))
+    bpy.context.active_object.name = "Box"
+    bpy.context.active_object.data.materials.append(mat)
+    result = export()
+    assert result.warnings == []
+    media = result.scene.media
+    assert media.names == ("Mixed Smoke in Box", "Mixed Smoke in Box (homogeneous part)")
+    assert media.density_texture.tolist() == [0, -1] and len(media.programs) == 1
+    assert media.bounds[0] == media.bounds[1]
+    np.testing.assert_array_equal(media.boundary[media.boundary_medium == 0],
+                                  media.boundary[media.boundary_medium == 1])
+    np.testing.assert_allclose(media.sigma_s[0], [0.45, 0.45, 0.45], rtol=1e-6)  # 0.6 x 0.75
+    np.testing.assert_allclose(media.sigma_a[0], [0.3, 0.3, 0.3], rtol=1e-6)     # 0.4 x 0.75
+    np.testing.assert_allclose(media.anisotropy[0], 0.3, rtol=1e-6)
+    np.testing.assert_allclose(media.sigma_a[1], [0.1, 0.1, 0.2], rtol=1e-6)     # x 0.8 x 0.25
+    np.testing.assert_allclose(media.sigma_s[1], 0.0)

@@ -151,3 +151,26 @@ def test_ratio_tracking_follows_the_render_seed():
         prep.close()
     np.testing.assert_array_equal(out[0], out[1])
     assert not np.array_equal(out[0], out[2])
+
+
+def test_a_varying_density_beside_a_homogeneous_medium_in_the_same_mesh_adds():
+    """An Add / Mix of a varying density and a homogeneous medium exports as two rows in
+    the same object (photon_engine/export_volumes.py): the ramp box (rho = x + 1, optical
+    depth 2 sigma_het along x) and a homogeneous sigma_hom over the same boundary: the mean
+    transmittance along x = exp(-(2 sigma_het + 2 sigma_hom)) within 4 standard errors."""
+    lo, hi = np.array([-1.0, -1.0, -1.0]), np.array([1.0, 1.0, 1.0])
+    corners = shapes.box(lo, hi).corners
+    het, hom = np.array([0.1, 0.3, 0.6]), np.array([0.2, 0.0, 0.05])
+    media = Media.from_list([{"bounds": 0, "name": "Ramp", "boundary": corners,
+                              "sigma_a": het, "density_texture": 0},
+                             {"bounds": 0, "name": "Ramp (homogeneous part)",
+                              "boundary": corners, "sigma_a": hom}],
+                            programs=(_gradient_program(),))
+    prep = prepared_mod.prepare(_scene(media), 1)
+    n = 100_000
+    T = prep.medium.transmittance(np.tile([-3, 0.2, 0.1], (n, 1)), np.tile([1.0, 0, 0], (n, 1)),
+                                  np.full(n, 10.0))
+    exact = np.exp(-2.0 * het - 2.0 * hom)
+    mean, se = T.mean(axis=0), T.std(axis=0) / np.sqrt(n)
+    assert np.all(np.abs(mean - exact) < 4 * se + 1e-9), (mean, exact)
+    prep.close()
