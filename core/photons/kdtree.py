@@ -11,6 +11,8 @@ Locate: the k nearest photons with a max-heap whose top, once the heap is full, 
 search radius ("ajuster la distance maximale"). Results are ordered by (float32 squared
 distance ``dx*dx + dy*dy + dz*dz``, index), inclusive of the radius; pruning is exact in
 float32 arithmetic, so a brute-force oracle with the same rule gives identical results.
+``nearest_compatible_kernel``: the first of the k nearest whose normal agrees with the
+query's (the radiance cache's lookup), without writing the k neighbours out.
 
 Speed: the bottom levels are scanned like buckets; queries are visited in Morton order,
 each thread's previous query lending its k-th distance as a first search radius
@@ -460,6 +462,46 @@ def nearest_kernel(tree, axis, depth, queries, order, k, r2, growth, out_idx, ou
             for s in range(c, k):
                 out_idx[q, s] = -1
                 out_d2[q, s] = np.inf
+
+
+@njit(parallel=True, cache=True, nogil=True)
+def nearest_compatible_kernel(tree, axis, depth, queries, normals, order, k, r2, growth,
+                              site_normals, min_cos, out):
+    """For each query q: among its k nearest points (``nearest_kernel``'s order: (squared
+    distance, index), within r2), the first point j with a side s whose normal
+    site_normals[j, s] agrees with normals[q]: cos >= min_cos (cosine with normals[q]
+    normalised, site normals taken as unit). out[q] = j * S + s (S sides), or -1.
+
+    queries (M, 3) float32 metres, normals (M, 3) float64 non-zero, order (M,) int64 (any
+    permutation: the results do not depend on it), site_normals (N, S, 3) float64 in the
+    tree's order; out (M,) int64. One search of k points, no (M, k) arrays: the radiance
+    cache's lookup (core/integrators/gather.py), where each site holds both sides of a
+    surface point.
+    """
+    m = order.shape[0]
+    sides = site_normals.shape[1]
+    for b in prange((m + QUERY_BLOCK - 1) // QUERY_BLOCK):
+        heap, fbuf, ubuf, stack_i, stack_f, prev = knn_scratch(k)
+        for t in range(b * QUERY_BLOCK, min(m, (b + 1) * QUERY_BLOCK)):
+            q = order[t]
+            c = knn_search_coherent(tree, axis, depth, queries[q, 0], queries[q, 1],
+                                    queries[q, 2], k, r2, growth, heap, fbuf, ubuf,
+                                    stack_i, stack_f, prev)
+            sort_heap(heap, c)
+            n0, n1, n2 = normals[q, 0], normals[q, 1], normals[q, 2]
+            inv = 1.0 / math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+            pick = -1
+            for r in range(c):
+                j, _ = heap_entry(heap, r, fbuf, ubuf)
+                for s in range(sides):
+                    cs = (site_normals[j, s, 0] * n0 + site_normals[j, s, 1] * n1
+                          + site_normals[j, s, 2] * n2) * inv
+                    if cs >= min_cos:
+                        pick = j * sides + s
+                        break
+                if pick >= 0:
+                    break
+            out[q] = pick
 
 
 # --------------------------------------------------------------------------- query order
