@@ -531,6 +531,55 @@ def _morton_kernel(points, lo, scale):
     return codes
 
 
+@njit(cache=True, nogil=True)
+def _bounds_kernel(points):
+    """(lo (3,) float64, extent float): the per-axis minimum of (M >= 1, 3) points and
+    the largest per-axis max - min, in float64 (numpy's two axis reductions took ~40 %
+    of ``query_order`` on a render's batches)."""
+    lo = np.empty(3)
+    hi = np.empty(3)
+    for c in range(3):
+        lo[c] = points[0, c]
+        hi[c] = points[0, c]
+    for i in range(1, points.shape[0]):
+        for c in range(3):
+            v = points[i, c]
+            if v < lo[c]:
+                lo[c] = v
+            elif v > hi[c]:
+                hi[c] = v
+    extent = 0.0
+    for c in range(3):
+        extent = max(extent, hi[c] - lo[c])
+    return lo, extent
+
+
+@njit(cache=True, nogil=True)
+def radix_argsort(codes):
+    """(M,) int64 permutation sorting (M,) uint64 ``codes`` ascending, stable (equal codes
+    keep their order): ``np.argsort(codes, kind="stable")``, by six passes of 11 bits
+    (about twice as fast on a render's batches of ~40k Morton codes)."""
+    m = codes.shape[0]
+    idx = np.arange(m, dtype=np.int64)
+    tmp = np.empty(m, np.int64)
+    count = np.empty(2049, np.int64)
+    mask = np.uint64(2047)
+    for shift in range(0, 64, 11):
+        sh = np.uint64(shift)
+        count[:] = 0
+        for i in range(m):
+            count[((codes[idx[i]] >> sh) & mask) + 1] += 1
+        for b in range(2048):
+            count[b + 1] += count[b]
+        for i in range(m):
+            j = idx[i]
+            digit = (codes[j] >> sh) & mask
+            tmp[count[digit]] = j
+            count[digit] += 1
+        idx, tmp = tmp, idx
+    return idx
+
+
 def query_order(points: np.ndarray) -> np.ndarray:
     """(M,) int64 permutation visiting (M, 3) points along a Z-order (Morton) curve.
 
@@ -539,7 +588,6 @@ def query_order(points: np.ndarray) -> np.ndarray:
     m = points.shape[0]
     if m < 2 * QUERY_BLOCK:
         return np.arange(m, dtype=np.int64)
-    lo = points.min(axis=0).astype(np.float64)
-    extent = float((points.max(axis=0) - lo).max())
+    lo, extent = _bounds_kernel(points)
     scale = 2097151.0 / extent if extent > 0 else 0.0
-    return np.argsort(_morton_kernel(points, lo, scale), kind="stable").astype(np.int64)
+    return radix_argsort(_morton_kernel(points, lo, scale))
