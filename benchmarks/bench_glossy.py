@@ -3,7 +3,7 @@ is worth its cost at diffuse hits reached through a glossy bounce.
 
     .venv/bin/python benchmarks/bench_glossy.py [--size 64] [--samples 8]
 
-1. Lobes per hit: ``bsdf.sample_bsdf`` and ``bsdf.eval_bsdf`` in one numba loop over 2 M
+1. Lobes per hit: ``closure.sample_bsdf`` and ``closure.eval_bsdf`` in one numba loop over 2 M
    hits, ns per call, for Lambert, GGX (visible normals), Lambert + GGX and smooth glass,
    against Lambert alone.
 2. After a glossy bounce: a closed room (red / green walls, white floor and ceiling) with
@@ -28,7 +28,7 @@ from numba import njit
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
 
 from core.integrators import photon_mapping  # noqa: E402
-from core.materials import bsdf, closure  # noqa: E402
+from core.materials import closure  # noqa: E402
 from core.scene import shapes  # noqa: E402
 from core.scene.contract import LIGHT_AREA, Lights, Materials, Scene  # noqa: E402
 from core.settings import RenderSettings  # noqa: E402
@@ -41,12 +41,12 @@ def _lobe_loop(tab, m, u, which):
         z = 0.2 + 0.8 * u[i, 0]
         s = np.sqrt(1 - z * z)
         if which == 0:
-            r = bsdf.sample_bsdf(tab, m, 1.0, 1.0, 1.0, s, 0.0, z, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0,
+            r = closure.sample_bsdf(tab, m, 1.0, 1.0, 1.0, s, 0.0, z, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0,
                                  1.0, 0.0, 0.0, True, u[i, 1], u[i, 2], u[i, 3])
             acc += r[3]
         else:
-            r = bsdf.eval_bsdf(tab, m, 1.0, 1.0, 1.0, s, 0.0, z, -s * u[i, 1], s * u[i, 2], z,
-                               0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 1.0, 0.0, 0.0)
+            r = closure.eval_bsdf(tab, m, 1.0, 1.0, 1.0, s, 0.0, z, -s * u[i, 1], s * u[i, 2], z,
+                                  0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 1.0, 0.0, 0.0, True)
             acc += r[0]
     return acc
 

@@ -1,11 +1,13 @@
 """Rays per second: the renderer against raw Embree on the same scene, in the same run.
 
     .venv/bin/python benchmarks/bench_rays.py [--triangles 260000] [--size 256] [--samples 16]
+                                              [--direct-only]
 
 The scene: diffuse spheres (tessellated to about --triangles triangles) in a closed box,
-lit by an area light and a point light, no specular bounces: so every ray is a camera ray
-or a shadow ray. The baseline is what DESIGN.md calls the ceiling: embreex's
-``EmbreeScene.run`` on 2 M incoherent rays (random origins in the box, random directions),
+lit by an area light and a point light, no specular bounces: so every ray counted is a
+camera ray, a shadow ray or a final-gather ray (--direct-only: indirect light and caustics
+off, camera and shadow rays only; the photon pass is timed apart, not counted). The baseline
+is what DESIGN.md calls the ceiling: embreex's ``EmbreeScene.run`` on 2 M incoherent rays (random origins in the box, random directions),
 split in halves over two threads. The goal for the ratio renderer / raw is >= 0.5 (the
 rest is shading). A second figure replays exactly the renderer's own batches through raw
 embreex: the share of the render's time that is Embree. Every measurement is repeated
@@ -134,13 +136,17 @@ def main() -> None:
     ap.add_argument("--rays", type=int, default=2_000_000)
     ap.add_argument("--rounds", type=int, default=3,
                     help="repeat every measurement and keep the best (the machine is shared)")
+    ap.add_argument("--direct-only", action="store_true",
+                    help="indirect light and caustics off: camera and shadow rays only")
     ap.add_argument("--profile", action="store_true", help="profile one render with pyinstrument")
     args = ap.parse_args()
 
     scene = build_scene(args.triangles, args.size)
     print(f"scene: {scene.mesh.triangle_count} triangles, {args.size}x{args.size} px, "
           f"{args.samples} spp, {scene.lights.count} lights, best of {args.rounds} rounds")
-    settings = RenderSettings(samples=args.samples, max_specular_depth=0, threads=2)
+    settings = RenderSettings(samples=args.samples, max_specular_depth=0, threads=2,
+                              **({"indirect_mode": "off", "caustics": False}
+                                 if args.direct_only else {}))
     integrator.render(build_scene(1000, 8), RenderSettings(samples=1))  # compile / load kernels
 
     raw, render_time, replay_time, stats = {}, np.inf, np.inf, None

@@ -44,6 +44,7 @@ import math
 import time
 from dataclasses import dataclass, field
 
+import numba
 import numpy as np
 from numba import njit, prange
 
@@ -57,7 +58,8 @@ from . import camera_paths, volume
 from ..media import regions
 from ..materials import closure
 from ..photons.estimate import BsdfHits, radiance_estimate, radiance_estimate_sides
-from ..photons.photon_map import PhotonMap
+from ..photons import encoding, kdtree
+from ..photons.photon_map import PhotonMap, squared_radius
 
 
 CACHE_FRACTION = 0.25
@@ -67,8 +69,9 @@ CACHE_POINTS_PER_DISC = 50.0
 apart. The cached estimate is smooth at the scale r, so a denser cache only costs k-NN
 searches; with the automatic radius this is CACHE_FRACTION x stored photons at k = 50
 and falls as 1/k above it."""
-CACHE_NEIGHBOURS = 4
-"""Cache entries examined per gather hit (the nearest with a compatible normal is used)."""
+CACHE_NEIGHBOURS = 2
+"""Cache points examined per gather hit, each with its two sides (the nearest side with a
+compatible normal is used)."""
 CACHE_MIN_COS = 0.5
 """A cache entry serves a gather hit when their normals agree this well (cos)."""
 
@@ -79,15 +82,27 @@ CACHE_MIN_COS = 0.5
 class RadianceCache:
     """Outgoing diffuse radiance precomputed at points on the diffuse surfaces.
 
-    points: a PhotonMap over the cache points whose "flux" is E / pi (W/(m^2 sr) per unit
-    albedo) on the side of its "direction", the surface normal of that side (each surface
-    point has one entry per side); the lookup multiplies by the gather hit's own albedo. Final gathering reads the nearest entry with
-    a compatible normal (k = CACHE_NEIGHBOURS lookups instead of a k = global_k estimate,
-    several times faster); a hit with none within the radius gets the full estimate.
+    tree (C, 3) float32 metres, axis (C,) uint8, depth: the points' left-balanced kd-tree
+    (core/photons/kdtree.py), heap order; normals (C, 2, 3) float64: the unit surface
+    normal of each point's two sides (front, back = -front); radiance (C, 2, 3) float64:
+    E / pi (W/(m^2 sr) per unit albedo) on that side. Both go through the photon map's
+    encoding (core/photons/encoding.py: one flux scale for both sides), as when the cache
+    was a PhotonMap of 2 C entries. The lookup multiplies by the gather hit's own albedo.
+    Final gathering reads the nearest side with a compatible normal among the
+    CACHE_NEIGHBOURS nearest points (one k-nearest search per hit instead of a k =
+    global_k estimate, several times faster); a hit with none within the radius gets the
+    full estimate.
     """
 
-    points: PhotonMap
+    tree: np.ndarray
+    axis: np.ndarray
+    depth: int
+    normals: np.ndarray
+    radiance: np.ndarray
     radius: float
+
+    def __len__(self):
+        return self.tree.shape[0]
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
@@ -161,35 +176,19 @@ def build_radiance_cache(terms: "PhotonTerms", prepared: PreparedScene,
     if sides is None:
         return None
     front, back = sides
-    cache = RadianceCache(PhotonMap(np.concatenate([pos, pos]).astype(np.float32),
-                                    np.concatenate([front, back]),
-                                    np.concatenate([nrm, -nrm])), terms.global_radius)
+    # One tree over the m points (each side's entry shares its point's position): half
+    # the points, half the neighbours searched per lookup.
+    tree, source, axis = kdtree.balance(pos)
+    scale = encoding.flux_scale(np.concatenate([front, back]))
+    radiance = np.stack([encoding.decode_flux(encoding.encode_flux(f[source], scale), scale)
+                         for f in (front, back)], axis=1).astype(np.float64)
+    normals = np.stack([encoding.decode_direction(encoding.encode_direction(v[source]))
+                        for v in (nrm, -nrm)], axis=1).astype(np.float64)
+    cache = RadianceCache(tree, axis, kdtree.tree_depth(m), normals, radiance,
+                          terms.global_radius)
     terms.stats["cache_points"] = 2 * m
     terms.stats["time_cache"] = time.perf_counter() - t0
     return cache
-
-
-@njit(cache=True, parallel=True, error_model="numpy")
-def _cache_lookup_kernel(idx, cache_dirs, cache_rad, normals, min_cos, out, found):
-    """The first (nearest) entry whose normal agrees with the hit's normal."""
-    for i in prange(idx.shape[0]):
-        found[i] = False
-        out[i, 0] = 0.0
-        out[i, 1] = 0.0
-        out[i, 2] = 0.0
-        n0, n1, n2 = normals[i, 0], normals[i, 1], normals[i, 2]
-        inv = 1.0 / math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
-        for s in range(idx.shape[1]):
-            j = idx[i, s]
-            if j < 0:
-                break
-            c = (cache_dirs[j, 0] * n0 + cache_dirs[j, 1] * n1 + cache_dirs[j, 2] * n2) * inv
-            if c >= min_cos:
-                out[i, 0] = cache_rad[j, 0]
-                out[i, 1] = cache_rad[j, 1]
-                out[i, 2] = cache_rad[j, 2]
-                found[i] = True
-                break
 
 
 def cached_radiance(terms: "PhotonTerms", points, normals, albedo) -> np.ndarray:
@@ -199,12 +198,17 @@ def cached_radiance(terms: "PhotonTerms", points, normals, albedo) -> np.ndarray
     radius. points, normals (M, 3) metres / non-zero geometric normals facing the viewer."""
     cache = terms.cache
     m = points.shape[0]
-    out = np.empty((m, 3))
-    found = np.empty(m, bool)
-    k = min(CACHE_NEIGHBOURS, len(cache.points))
-    idx, _ = cache.points.nearest(np.ascontiguousarray(points, np.float32), k, cache.radius)
-    _cache_lookup_kernel(idx, terms.cache_dirs, terms.cache_radiance,
-                         np.ascontiguousarray(normals, np.float64), CACHE_MIN_COS, out, found)
+    q = np.ascontiguousarray(points, np.float32)
+    k = min(CACHE_NEIGHBOURS, len(cache))
+    pick = np.empty(m, np.int64)
+    with numba.parallel_chunksize(1):
+        kdtree.nearest_compatible_kernel(
+            cache.tree, cache.axis, cache.depth, q, np.ascontiguousarray(normals, np.float64),
+            kdtree.query_order(q), k, squared_radius(cache.radius), kdtree.search_growth(k),
+            cache.normals, CACHE_MIN_COS, pick)
+    found = pick >= 0
+    out = np.zeros((m, 3))
+    out[found] = cache.radiance.reshape(-1, 3)[pick[found]]
     out *= albedo
     missing = np.flatnonzero(~found)
     if missing.size:
@@ -239,8 +243,6 @@ class PhotonTerms:
     mode: str
     gather_rays: int
     cache: RadianceCache | None = None
-    cache_dirs: np.ndarray | None = None      # (C, 3) float64 decoded cache normals
-    cache_radiance: np.ndarray | None = None  # (C, 3) float64 decoded cache radiance
     bsdf_materials: np.ndarray | None = None  # (M,) bool diffuse-like lobes not Lambert
     back_share: np.ndarray | None = None      # (M,) float64 gather rays on the far side
     volume_map: object = None
@@ -253,9 +255,6 @@ class PhotonTerms:
 
     def use_cache(self, cache: RadianceCache | None) -> None:
         self.cache = cache
-        if cache is not None:
-            self.cache_dirs = cache.points.directions.astype(np.float64)
-            self.cache_radiance = cache.points.flux.astype(np.float64)
 
     @property
     def active(self) -> bool:

@@ -11,6 +11,8 @@ Locate: the k nearest photons with a max-heap whose top, once the heap is full, 
 search radius ("ajuster la distance maximale"). Results are ordered by (float32 squared
 distance ``dx*dx + dy*dy + dz*dz``, index), inclusive of the radius; pruning is exact in
 float32 arithmetic, so a brute-force oracle with the same rule gives identical results.
+``nearest_compatible_kernel``: the first of the k nearest whose normal agrees with the
+query's (the radiance cache's lookup), without writing the k neighbours out.
 
 Speed: the bottom levels are scanned like buckets; queries are visited in Morton order,
 each thread's previous query lending its k-th distance as a first search radius
@@ -462,6 +464,46 @@ def nearest_kernel(tree, axis, depth, queries, order, k, r2, growth, out_idx, ou
                 out_d2[q, s] = np.inf
 
 
+@njit(parallel=True, cache=True, nogil=True)
+def nearest_compatible_kernel(tree, axis, depth, queries, normals, order, k, r2, growth,
+                              site_normals, min_cos, out):
+    """For each query q: among its k nearest points (``nearest_kernel``'s order: (squared
+    distance, index), within r2), the first point j with a side s whose normal
+    site_normals[j, s] agrees with normals[q]: cos >= min_cos (cosine with normals[q]
+    normalised, site normals taken as unit). out[q] = j * S + s (S sides), or -1.
+
+    queries (M, 3) float32 metres, normals (M, 3) float64 non-zero, order (M,) int64 (any
+    permutation: the results do not depend on it), site_normals (N, S, 3) float64 in the
+    tree's order; out (M,) int64. One search of k points, no (M, k) arrays: the radiance
+    cache's lookup (core/integrators/gather.py), where each site holds both sides of a
+    surface point.
+    """
+    m = order.shape[0]
+    sides = site_normals.shape[1]
+    for b in prange((m + QUERY_BLOCK - 1) // QUERY_BLOCK):
+        heap, fbuf, ubuf, stack_i, stack_f, prev = knn_scratch(k)
+        for t in range(b * QUERY_BLOCK, min(m, (b + 1) * QUERY_BLOCK)):
+            q = order[t]
+            c = knn_search_coherent(tree, axis, depth, queries[q, 0], queries[q, 1],
+                                    queries[q, 2], k, r2, growth, heap, fbuf, ubuf,
+                                    stack_i, stack_f, prev)
+            sort_heap(heap, c)
+            n0, n1, n2 = normals[q, 0], normals[q, 1], normals[q, 2]
+            inv = 1.0 / math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+            pick = -1
+            for r in range(c):
+                j, _ = heap_entry(heap, r, fbuf, ubuf)
+                for s in range(sides):
+                    cs = (site_normals[j, s, 0] * n0 + site_normals[j, s, 1] * n1
+                          + site_normals[j, s, 2] * n2) * inv
+                    if cs >= min_cos:
+                        pick = j * sides + s
+                        break
+                if pick >= 0:
+                    break
+            out[q] = pick
+
+
 # --------------------------------------------------------------------------- query order
 
 @njit(cache=True, nogil=True, inline="always")
@@ -489,6 +531,55 @@ def _morton_kernel(points, lo, scale):
     return codes
 
 
+@njit(cache=True, nogil=True)
+def _bounds_kernel(points):
+    """(lo (3,) float64, extent float): the per-axis minimum of (M >= 1, 3) points and
+    the largest per-axis max - min, in float64 (numpy's two axis reductions took ~40 %
+    of ``query_order`` on a render's batches)."""
+    lo = np.empty(3)
+    hi = np.empty(3)
+    for c in range(3):
+        lo[c] = points[0, c]
+        hi[c] = points[0, c]
+    for i in range(1, points.shape[0]):
+        for c in range(3):
+            v = points[i, c]
+            if v < lo[c]:
+                lo[c] = v
+            elif v > hi[c]:
+                hi[c] = v
+    extent = 0.0
+    for c in range(3):
+        extent = max(extent, hi[c] - lo[c])
+    return lo, extent
+
+
+@njit(cache=True, nogil=True)
+def radix_argsort(codes):
+    """(M,) int64 permutation sorting (M,) uint64 ``codes`` ascending, stable (equal codes
+    keep their order): ``np.argsort(codes, kind="stable")``, by six passes of 11 bits
+    (about twice as fast on a render's batches of ~40k Morton codes)."""
+    m = codes.shape[0]
+    idx = np.arange(m, dtype=np.int64)
+    tmp = np.empty(m, np.int64)
+    count = np.empty(2049, np.int64)
+    mask = np.uint64(2047)
+    for shift in range(0, 64, 11):
+        sh = np.uint64(shift)
+        count[:] = 0
+        for i in range(m):
+            count[((codes[idx[i]] >> sh) & mask) + 1] += 1
+        for b in range(2048):
+            count[b + 1] += count[b]
+        for i in range(m):
+            j = idx[i]
+            digit = (codes[j] >> sh) & mask
+            tmp[count[digit]] = j
+            count[digit] += 1
+        idx, tmp = tmp, idx
+    return idx
+
+
 def query_order(points: np.ndarray) -> np.ndarray:
     """(M,) int64 permutation visiting (M, 3) points along a Z-order (Morton) curve.
 
@@ -497,7 +588,6 @@ def query_order(points: np.ndarray) -> np.ndarray:
     m = points.shape[0]
     if m < 2 * QUERY_BLOCK:
         return np.arange(m, dtype=np.int64)
-    lo = points.min(axis=0).astype(np.float64)
-    extent = float((points.max(axis=0) - lo).max())
+    lo, extent = _bounds_kernel(points)
     scale = 2097151.0 / extent if extent > 0 else 0.0
-    return np.argsort(_morton_kernel(points, lo, scale), kind="stable").astype(np.int64)
+    return radix_argsort(_morton_kernel(points, lo, scale))

@@ -1,9 +1,9 @@
 """core/photons/kdtree.py on its own, without PhotonMap: the balancing pieces (subtree
 sizes, median selection, widest axis, the balanced heap checked subtree by subtree) and
 the search kernels (``knn_search``, ``knn_search_coherent``, ``sort_heap``,
-``heap_entry``, ``nearest_kernel`` with any query order, ``query_order``) against brute
-force. tests/core/photons/test_photon_map.py checks the same rules through
-``PhotonMap.nearest``; here each function is called directly."""
+``heap_entry``, ``nearest_kernel`` with any query order, ``nearest_compatible_kernel``,
+``query_order``) against brute force. tests/core/photons/test_photon_map.py checks the
+same rules through ``PhotonMap.nearest``; here each function is called directly."""
 
 import numpy as np
 import pytest
@@ -261,6 +261,82 @@ def testnearest_kernel_does_not_depend_on_the_query_order(shape, rng):
         np.testing.assert_array_equal(d2, want[1])
 
 
+def compatible_brute(tree, queries, normals, k, r2, site_normals, min_cos):
+    """``nearest_compatible_kernel`` by brute force: the first of ``brute``'s k nearest
+    with a side whose cosine (query normal normalised) is >= min_cos, as j * S + s."""
+    idx, _ = brute(tree, queries, k, r2)
+    unit = normals / np.linalg.norm(normals, axis=1, keepdims=True)
+    want = np.full(queries.shape[0], -1, np.int64)
+    for q in range(queries.shape[0]):
+        for j in idx[q]:
+            if j < 0:
+                break
+            ok = np.flatnonzero(site_normals[j] @ unit[q] >= min_cos)
+            if ok.size:
+                want[q] = j * site_normals.shape[1] + ok[0]
+                break
+    return want
+
+
+def surface_sites(rng, n):
+    """n points on three planes of a unit cube with each side's unit normal (front, back),
+    and queries near the planes with normals of either side, tilted, or on another plane."""
+    axis = rng.integers(0, 3, n)
+    pts = rng.random((n, 3), dtype=np.float32)
+    pts[np.arange(n), axis] = 0.0
+    front = np.eye(3)[axis]
+    sites = np.stack([front, -front], axis=1)
+    m = 600
+    qa = rng.integers(0, 3, m)
+    queries = rng.random((m, 3), dtype=np.float32)
+    queries[np.arange(m), qa] = rng.normal(0.0, 0.01, m).astype(np.float32)
+    normals = np.eye(3)[rng.integers(0, 3, m)] * rng.choice([-2.0, 1.0], (m, 1))
+    normals += rng.normal(0.0, 0.4, (m, 3))
+    return pts, sites, queries, normals
+
+
+@pytest.mark.parametrize("k", [1, 2, 5])
+def test_nearest_compatible_kernel_equals_brute_force(k, rng):
+    pts, sites, queries, normals = surface_sites(rng, 3000)
+    tree, source, axis = balance(pts)
+    sites = np.ascontiguousarray(sites[source])
+    for radius in (0.01, 0.05, np.inf):
+        r2 = np.float32(min(radius * radius, 3.0e38))
+        want = compatible_brute(tree, queries, normals, k, r2, sites, 0.5)
+        for order in (query_order(queries), rng.permutation(queries.shape[0])):
+            out = np.empty(queries.shape[0], np.int64)
+            kdtree.nearest_compatible_kernel(tree, axis, tree_depth(tree.shape[0]), queries,
+                                             normals, order.astype(np.int64), k, r2,
+                                             search_growth(k), sites, 0.5, out)
+            np.testing.assert_array_equal(out, want, err_msg=f"k={k} radius={radius}")
+        assert 0 < (want >= 0).sum() < want.size  # some hits, some misses
+
+
+def test_two_sided_sites_equal_two_entries_per_point(rng):
+    """The radiance cache keeps one site per surface point with both sides' normals; it
+    used to be a map of 2 N entries (each position twice, one normal each) searched for
+    the 2 k nearest. Without distance ties between distinct points (random float32
+    points) both give the same side of the same point."""
+    pts, sites, queries, normals = surface_sites(rng, 2000)
+    n = pts.shape[0]
+    tree, source, axis = balance(pts)
+    sites_t = np.ascontiguousarray(sites[source])
+    flat = np.vstack([pts, pts])
+    entries = np.concatenate([sites[:, 0], sites[:, 1]])[:, None, :]  # one side per entry
+    for k in (1, 2):
+        r2 = np.float32(0.04 ** 2)
+        out = np.empty(queries.shape[0], np.int64)
+        kdtree.nearest_compatible_kernel(tree, axis, tree_depth(n), queries, normals,
+                                         query_order(queries), k, r2, search_growth(k),
+                                         sites_t, 0.5, out)
+        old = compatible_brute(flat, queries, normals, 2 * k, r2, entries, 0.5)
+        # Entry e is point e % n, side e // n; the site j * 2 + s is point source[j], side s.
+        got_point = np.where(out >= 0, source[out // 2], -1)
+        got_side = np.where(out >= 0, out % 2, -1)
+        np.testing.assert_array_equal(got_point, np.where(old >= 0, old % n, -1))
+        np.testing.assert_array_equal(got_side, np.where(old >= 0, old // n, -1))
+
+
 def test_query_order_is_a_morton_permutation(rng):
     pts = rng.random((5000, 3), dtype=np.float32)
     order = query_order(pts)
@@ -271,6 +347,12 @@ def test_query_order_is_a_morton_permutation(rng):
     codes = kdtree._morton_kernel(pts, lo, scale)
     sorted_codes = codes[order]
     assert np.all(sorted_codes[1:] >= sorted_codes[:-1])
+    # The radix sort is numpy's stable argsort, ties (repeated codes) included.
+    np.testing.assert_array_equal(order, np.argsort(codes, kind="stable"))
+    shifts = rng.integers(0, 64, 3000).astype(np.uint64)
+    many = rng.integers(0, 2**63, 3000, dtype=np.uint64) >> shifts
+    many = np.concatenate([many, many[:500], np.zeros(7, np.uint64)])
+    np.testing.assert_array_equal(kdtree.radix_argsort(many), np.argsort(many, kind="stable"))
     # Consecutive queries are neighbours: the mean step is far below a random order's
     # (measured 0.077 against 0.66).
     step = np.linalg.norm(np.diff(pts[order], axis=0), axis=1).mean()
