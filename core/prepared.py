@@ -43,7 +43,7 @@ from .materials import bsdf, closure
 from .materials.textures import SurfaceTextures
 from .media import regions
 from .media.density import DensityFields
-from .scene import geometry
+from .scene import closures as cl, geometry
 from .shading import interpreter, light_path, normals
 from .shading import program as pg
 from .shading.inputs import ShadingInputs
@@ -450,7 +450,12 @@ class HitShader:
         as Cycles does (``object_normal_transform``: inv(A)^T t). Elsewhere the direction
         does not change the BSDF and every hit gets ``closure.DEFAULT_TANGENT``, so
         isotropic scenes sample exactly as before. On the object's Z axis the radial
-        tangent is 0 and ``closure.frame`` falls back to another axis."""
+        tangent is 0 and ``closure.frame`` falls back to another axis.
+
+        A linked Tangent input (the closure's ``TANGENT`` slots, world space, written by
+        the program or folded into the row) replaces the radial tangent: the row's first
+        closure with a non-zero one gives it (one tangent per hit, as one shading normal;
+        Cycles gives each closure its own)."""
         n = prim.shape[0]
         out = closure.default_tangents(n)
         if n == 0:
@@ -463,6 +468,16 @@ class HitShader:
         _, g = self.object_point(obj, np.asarray(pos, np.float64)[sel] + self.origin)
         t_obj = np.stack([-(g[:, 1] - 0.5), g[:, 0] - 0.5, np.zeros(sel.size)], axis=1)
         out[sel] = np.einsum("nji,nj->ni", self.to_object[obj][:, :3, :3], t_obj)
+        given = tab.params[:, cl.TANGENT:cl.TANGENT + 3]
+        has = np.any(given != 0.0, axis=1) & np.all(np.isfinite(given), axis=1)
+        if has.any():
+            first, count = tab.first[rows[sel]], tab.count[rows[sel]]
+            todo = np.ones(sel.size, bool)
+            for j in range(int(count.max()) if count.size else 0):  # closures per row
+                c = np.minimum(first + j, has.shape[0] - 1)
+                take = todo & (j < count) & has[c]
+                out[sel[take]] = given[c[take]]
+                todo &= ~take
         return out
 
     def closures_at(self, prim, u, v, d, mat, path=None
