@@ -130,3 +130,37 @@ def test_geometry_pointiness_matches_cycles():
           f"percentile {np.percentile(err, 99):.2e}, max {err.max():.2e}")
     assert b.max() - b.min() > 0.05
     assert np.percentile(err, 99) < 1e-3
+
+
+def test_an_instancer_attribute_reads_the_collection_instance_parent():
+    """A plane in a collection instanced by two empties (each covering half the view):
+    Instancer "tint" reads each empty's property, not the plane's own, in both
+    renderers."""
+    scene, planes, g = ss.layout([("instanced", attribute("INSTANCER", "tint"))])
+    plane = planes[0]
+    scene.collection.objects.unlink(plane)
+    plane["tint"] = (0.9, 0.1, 0.1)  # the fallback: not read by an instance
+    inner = bpy.data.collections.new("Inner")
+    inner.objects.link(plane)
+    tints = [(0.2, 0.7, 0.4), (0.5, 0.3, 0.8)]
+    for k, tint in enumerate(tints):
+        empty = bpy.data.objects.new(f"Empty{k}", None)
+        empty.instance_type = 'COLLECTION'
+        empty.instance_collection = inner
+        empty.location = (-0.5 + k, 0.0, 0.0)
+        empty.scale = (0.5, 1.0, 1.0)
+        empty["tint"] = tint
+        scene.collection.objects.link(empty)
+    cycles = ss.render_cycles(scene)
+    exported = export(scene)
+    assert not [w for w in exported.warnings if "not found" in w], exported.warnings
+    scenes.use_photon_map(scene, samples=1, global_photons=1000, caustic_photons=100,
+                          final_gather_rays=1)
+    ours = scenes.render_passes(scene)["Combined"][..., :3].astype(np.float64)
+    h, w, _ = ours.shape
+    for k, tint in enumerate(tints):
+        s = np.s_[3:h - 3, 3 + k * w // 2:(k + 1) * w // 2 - 3]
+        a, b = ours[s].reshape(-1, 3), cycles[s].reshape(-1, 3)
+        print(f"instance {k}: ours {a.mean(0).round(5)}, Cycles {b.mean(0).round(5)}")
+        np.testing.assert_allclose(b, np.broadcast_to(tint, b.shape), atol=1e-3)
+        np.testing.assert_allclose(a, b, atol=1e-6)
