@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..materials import closure
 from ..passes import ProgressFn, StopFn
 from ..photons import estimate, tracing
 from ..prepared import PreparedScene
