@@ -43,7 +43,7 @@ from .materials import bsdf, closure
 from .materials.textures import SurfaceTextures
 from .media import regions
 from .media.density import DensityFields
-from .scene import geometry
+from .scene import closures as cl, geometry
 from .shading import interpreter, light_path, normals
 from .shading import program as pg
 from .shading.inputs import ShadingInputs
@@ -115,6 +115,7 @@ class PreparedScene:
     specular_objects: np.ndarray
     diffuse_area: float
     hit_shader: "HitShader"
+    lobes: dict | None = None  # program_lobe_masks: (M,) bool per closure.LOBE_MASKS key
     medium: regions.Medium | None = None
 
     def close(self) -> None:
@@ -450,7 +451,12 @@ class HitShader:
         as Cycles does (``object_normal_transform``: inv(A)^T t). Elsewhere the direction
         does not change the BSDF and every hit gets ``closure.DEFAULT_TANGENT``, so
         isotropic scenes sample exactly as before. On the object's Z axis the radial
-        tangent is 0 and ``closure.frame`` falls back to another axis."""
+        tangent is 0 and ``closure.frame`` falls back to another axis.
+
+        A linked Tangent input (the closure's ``TANGENT`` slots, world space, written by
+        the program or folded into the row) replaces the radial tangent: the row's first
+        closure with a non-zero one gives it (one tangent per hit, as one shading normal;
+        Cycles gives each closure its own)."""
         n = prim.shape[0]
         out = closure.default_tangents(n)
         if n == 0:
@@ -463,6 +469,16 @@ class HitShader:
         _, g = self.object_point(obj, np.asarray(pos, np.float64)[sel] + self.origin)
         t_obj = np.stack([-(g[:, 1] - 0.5), g[:, 0] - 0.5, np.zeros(sel.size)], axis=1)
         out[sel] = np.einsum("nji,nj->ni", self.to_object[obj][:, :3, :3], t_obj)
+        given = tab.params[:, cl.TANGENT:cl.TANGENT + 3]
+        has = np.any(given != 0.0, axis=1) & np.all(np.isfinite(given), axis=1)
+        if has.any():
+            first, count = tab.first[rows[sel]], tab.count[rows[sel]]
+            todo = np.ones(sel.size, bool)
+            for j in range(int(count.max()) if count.size else 0):  # closures per row
+                c = np.minimum(first + j, has.shape[0] - 1)
+                take = todo & (j < count) & has[c]
+                out[sel[take]] = given[c[take]]
+                todo &= ~take
         return out
 
     def closures_at(self, prim, u, v, d, mat, path=None
@@ -631,6 +647,62 @@ def diffuse_area(tri_vertices: np.ndarray, tri_material: np.ndarray,
                                       axis=1).sum())
 
 
+# What a programmed slot can hold, for the lobe masks: the values at which each kind of
+# lobe appears or vanishes (a colour of 0 or 1, a weight, metallic or transmission of 0 or
+# 1, a roughness of 0 (singular) or 1/2 (rough), an IOR of 1 or 1.5); the other slots
+# (the tangent, the rotation) change no lobe's presence.
+_PROBES = {cl.COLOR: (0.0, 1.0), cl.ROUGHNESS: (0.0, 0.5), cl.METALLIC: (0.0, 1.0),
+           cl.IOR: (1.0, 1.5), cl.SPECULAR_LEVEL: (0.0, 0.5),
+           cl.SPECULAR_TINT: (0.0, 1.0), cl.TRANSMISSION: (0.0, 1.0),
+           cl.COAT_WEIGHT: (0.0, 1.0), cl.COAT_ROUGHNESS: (0.0, 0.5),
+           cl.COAT_IOR: (1.0, 1.5), cl.COAT_TINT: (0.0, 1.0), cl.SHEEN_WEIGHT: (0.0, 1.0),
+           cl.SHEEN_ROUGHNESS: (0.0, 0.5), cl.SHEEN_TINT: (0.0, 1.0),
+           cl.ANISOTROPIC: (0.0, 1.0), cl.DIFFUSE_ROUGHNESS: (0.0, 0.5)}
+_MAX_COMBINATIONS = 256
+
+
+def program_lobe_masks(tab: closure.ClosureTable, programs) -> dict[str, np.ndarray]:
+    """``closure.lobe_masks`` of ``tab`` with each programmed material's masks the union
+    over what its program can produce, not its constant rows (whose programmed slots hold
+    a socket's hidden default, e.g. a black Base Color under a texture): every
+    combination of ``_PROBES`` values in the slots its TARGET_CLOSURE outputs write
+    (colours as one; more than 256 combinations: all low, all high, and each slot high
+    with the others low), the rows' constant weights kept (a TARGET_WEIGHT factor only
+    scales a weight down). programs: one ShaderProgram or None per material. Returns
+    (M,) bool arrays keyed by ``closure.LOBE_MASKS``."""
+    out = closure.lobe_masks(tab)
+    for m, prog in enumerate(programs or ()):
+        if prog is None:
+            continue
+        f = int(tab.first[m])
+        groups = {}  # (closure, first slot of the group) -> slots written
+        for _, target, c, slot in prog.outputs.tolist():
+            if target != pg.TARGET_CLOSURE:
+                continue
+            for start, (lo, _) in _PROBES.items():
+                width = 3 if start in (cl.COLOR, cl.SPECULAR_TINT, cl.COAT_TINT,
+                                       cl.SHEEN_TINT) else 1
+                if start <= slot < start + width:
+                    groups.setdefault((c, start), set()).add(slot)
+        if not groups:
+            continue
+        keys = sorted(groups)
+        if 2 ** len(keys) <= _MAX_COMBINATIONS:
+            picks = [[(b >> i) & 1 for i in range(len(keys))] for b in range(2 ** len(keys))]
+        else:
+            picks = [[0] * len(keys), [1] * len(keys)] + [
+                [int(i == j) for i in range(len(keys))] for j in range(len(keys))]
+        for pick in picks:
+            params = np.array(tab.params, copy=True)
+            for (c, start), high in zip(keys, pick):
+                for slot in groups[(c, start)]:
+                    params[f + c, slot] = _PROBES[start][high]
+            probe = tab._replace(params=params)
+            for key, present in zip(closure.LOBE_MASKS, closure.lobe_presence(probe, m)):
+                out[key][m] |= present
+    return out
+
+
 def prepare(scene: Scene, threads: int = 0, seed: int = 0) -> PreparedScene:
     """Build the PreparedScene of ``scene`` with ``threads`` workers (0 = every core);
     ``seed``: the render seed, which the media's ratio-tracking walks follow
@@ -639,7 +711,7 @@ def prepare(scene: Scene, threads: int = 0, seed: int = 0) -> PreparedScene:
     workers = use_threads(threads)
     mats = bsdf.material_table(scene.materials)
     closures = closure.table(scene.materials)
-    lobes = closure.lobe_masks(closures)
+    lobes = program_lobe_masks(closures, scene.materials.programs)
     has_diffuse = lobes["diffuse"]
     tri_vertices = np.ascontiguousarray(mesh.triangle_vertices(), np.float32)
     tri_material = np.ascontiguousarray(mesh.material_index, np.int32)
@@ -691,6 +763,6 @@ def prepare(scene: Scene, threads: int = 0, seed: int = 0) -> PreparedScene:
         objects=object_spheres(tri_vertices, mesh.object_index, n_obj),
         specular_objects=specular_objects,
         diffuse_area=diffuse_area(tri_vertices, tri_material, has_diffuse),
-        hit_shader=hit_shader,
+        hit_shader=hit_shader, lobes=lobes,
         medium=regions.renderable(scene.media, geometry.scene_extent(lo, hi), workers,
                                   density_fields(scene, hit_shader), seed=seed))

@@ -25,6 +25,7 @@ import numpy as np
 
 from ..core.scene.contract import Lights, Materials, Mesh, Scene, World
 from ..core.scene.media import Media
+from ..core.shading import program as pg
 from ..core.shading.hash import object_random_id
 from .export_camera import camera_view, export_camera, relative_camera, relative_matrix, \
     render_origin
@@ -32,7 +33,8 @@ from .export_errors import ExportError, NoCameraError  # noqa: F401  (re-exporte
 from .export_lights import light_row
 from .export_materials import ImageTable, default_row, read_material, read_world, volume_only
 from .export_images import ProgramImageTable
-from .export_shader import AttributeNames, UVMapNames
+from .export_shader import INSTANCER_ATTRIBUTE, OBJECT_ATTRIBUTE, PARAMETRIC_ATTRIBUTE, \
+    POINTINESS_ATTRIBUTE, AttributeNames, UVMapNames, rna_attribute
 from .export_volumes import material_medium, world_medium
 from .export_warnings import scene_warnings
 
@@ -68,6 +70,9 @@ def export_scene(depsgraph, camera=None, origin=None) -> ExportResult:
     camera = relative_camera(camera, origin)
     materials = _MaterialTable(warnings)
     materials.view = camera_view(depsgraph)  # the scene camera, also in the 3D viewport
+    # the Attribute node's View Layer type: the view layer's property, then the scene's
+    materials.attributes.layer = (getattr(depsgraph, "view_layer_eval", None),
+                                  getattr(depsgraph, "scene_eval", None))
     geometry = _Geometry(warnings)
     light_rows = []
     flagged = set()
@@ -90,7 +95,8 @@ def export_scene(depsgraph, camera=None, origin=None) -> ExportResult:
                 row["to_world"] = relative_matrix(row["to_world"], origin)
                 light_rows.append(row)
         else:
-            geometry.add(obj, inst.matrix_world, name, materials, object_info(inst))
+            geometry.add(obj, inst.matrix_world, name, materials, object_info(inst),
+                         instance_ids(inst))
 
     mesh, mesh_media = geometry.build(origin, materials.left_out, materials.volumes,
                                       materials.attributes.names,
@@ -121,6 +127,20 @@ def object_info(inst) -> np.ndarray:
     rand = np.float32(rid) * (np.float32(1.0) / np.float32(0xFFFFFFFF))
     color = tuple(obj.color)
     return np.array([*color[:3], rand, float(obj.pass_index), color[3]], np.float32)
+
+
+def instance_ids(inst) -> tuple[tuple, tuple]:
+    """The IDs the Attribute node's Object and Instancer types look a property up in, in
+    Cycles' order (lookup_instance_property): Object: the object, then its data;
+    Instancer: the particle system's settings and the instancing parent (for an
+    instance), then the object and its data."""
+    obj = inst.object
+    own = (obj, getattr(obj, "data", None))
+    above = ()
+    if inst.is_instance:
+        psys = getattr(inst, "particle_system", None)
+        above = (getattr(psys, "settings", None), inst.parent)
+    return own, above + own
 
 
 def _instance_name(inst) -> str:
@@ -323,6 +343,16 @@ def read_attributes(me, names, local: _LocalMesh, where: str, warnings) -> np.nd
     nt = local.triangles.shape[0]
     out = np.zeros((nt, 3, len(names), 4), np.float32)
     for a, name in enumerate(names):
+        if name.startswith((OBJECT_ATTRIBUTE, INSTANCER_ATTRIBUTE)):
+            continue  # a per-object value, written by _Geometry.build
+        if name == PARAMETRIC_ATTRIBUTE:  # the Geometry node's Parametric, per corner
+            out[:, :, a] = np.array([[1, 0, 0, 1], [0, 1, 0, 1], [0, 0, 0, 1]], np.float32)
+            continue
+        if name == POINTINESS_ATTRIBUTE:  # the Geometry node's Pointiness, per vertex
+            f = pointiness(me)
+            out[:, :, a, :3] = f[local.vertex_ids][..., None]
+            out[:, :, a, 3] = 1.0
+            continue
         key = name
         if not name:
             colors = getattr(me, "color_attributes", None)
@@ -359,6 +389,54 @@ def read_attributes(me, names, local: _LocalMesh, where: str, warnings) -> np.nd
             rgba[:, :width] = vals
         out[:, :, a] = rgba[dom]
     return out
+
+
+def pointiness(me) -> np.ndarray:
+    """(V,) float32: Cycles' Pointiness of each vertex of mesh ``me`` (blender/mesh.cpp
+    attr_create_pointiness): vertices at the same position welded; per welded vertex the
+    normal the mean of their normals, then acos(N . mean of the unit edge vectors from it)
+    / pi over its distinct edges, then blurred once: (own + the sum over the edge
+    neighbours) / (1 + their count). 0.5 on a flat region, more on a convex corner."""
+    nv = len(me.vertices)
+    if nv == 0:
+        return np.zeros(0, np.float32)
+    co = np.empty(nv * 3, np.float32)
+    me.vertices.foreach_get("co", co)
+    co = co.reshape(-1, 3)
+    nrm = np.empty(nv * 3, np.float32)
+    source = getattr(me, "vertex_normals", None)
+    if source is not None and len(source) == nv:
+        source.foreach_get("vector", nrm)
+    else:
+        me.vertices.foreach_get("normal", nrm)
+    nrm = nrm.reshape(-1, 3).astype(np.float64)
+    _, weld = np.unique(co, axis=0, return_inverse=True)
+    weld = weld.ravel()
+    k = int(weld.max()) + 1
+    acc = np.zeros((k, 3))
+    np.add.at(acc, weld, nrm)
+    n = acc / np.maximum(np.linalg.norm(acc, axis=1), 1e-30)[:, None]
+    pos = np.zeros((k, 3))
+    pos[weld] = co
+    ed = np.empty(len(me.edges) * 2, np.int32)
+    me.edges.foreach_get("vertices", ed)
+    e = np.sort(weld[ed.reshape(-1, 2)], axis=1)
+    e = np.unique(e[e[:, 0] != e[:, 1]], axis=0)
+    d = pos[e[:, 1]] - pos[e[:, 0]]
+    d /= np.maximum(np.linalg.norm(d, axis=1), 1e-30)[:, None]
+    edge_sum = np.zeros((k, 3))
+    np.add.at(edge_sum, e[:, 0], d)
+    np.add.at(edge_sum, e[:, 1], -d)
+    count = np.zeros(k)
+    np.add.at(count, e.ravel(), 1.0)
+    mean = edge_sum / np.maximum(count, 1.0)[:, None]
+    raw = np.where(count > 0, np.arccos(np.clip(np.einsum("ij,ij->i", n, mean), -1.0, 1.0))
+                   / np.pi, 0.0)
+    blur = raw.copy()
+    np.add.at(blur, e[:, 0], raw[e[:, 1]])
+    np.add.at(blur, e[:, 1], raw[e[:, 0]])
+    blur /= count + 1.0
+    return blur[weld].astype(np.float32)
 
 
 def read_tangents(me, names, local: _LocalMesh, where: str, warnings) -> np.ndarray:
@@ -456,9 +534,12 @@ class _Geometry:
         self.matrices: list[np.ndarray] = []   # per object: matrix_world (shader programs)
         self.texspaces: list[np.ndarray] = []  # per object: texture space location, size
         self.info: list[np.ndarray] = []       # per object: object_info rows
+        self.object_attributes: list[dict] = []  # per object: Object / Instancer values
 
-    def add(self, obj, matrix, name, materials: _MaterialTable, info=None) -> None:
-        """One instance of ``obj``; info its ``object_info`` row (None: zeros)."""
+    def add(self, obj, matrix, name, materials: _MaterialTable, info=None,
+            ids=((), ())) -> None:
+        """One instance of ``obj``; info its ``object_info`` row (None: zeros); ids the IDs
+        its Object and Instancer attributes are looked up in (``instance_ids``)."""
         m = np.array(matrix, np.float64)
         if not np.all(np.isfinite(m)):
             raise ExportError(f"object '{name}' has a non-finite transform (NaN or infinity "
@@ -490,6 +571,28 @@ class _Geometry:
             return
         self.names.append(name)
         self.matrices.append(m)
+        values = {}  # the Attribute node's Object / Instancer values of this instance
+        read = set()  # the attribute indices its own materials' programs read
+        for i in slots:
+            prog = materials.rows[i].get("program") if i < len(materials.rows) else None
+            if prog is not None:
+                ins = prog.instructions
+                attr = (ins[:, 0] == pg.OP_INPUT) & np.isin(
+                    ins[:, 1], (pg.SOURCE_ATTRIBUTE_COLOR, pg.SOURCE_ATTRIBUTE_ALPHA))
+                read.update(ins[attr, 2].tolist())
+        for j, att in enumerate(names):
+            for prefix, where in ((OBJECT_ATTRIBUTE, ids[0]), (INSTANCER_ATTRIBUTE, ids[1])):
+                if att.startswith(prefix) and j in read:
+                    rgba = rna_attribute(where, att[len(prefix):])
+                    if rgba is not None:
+                        values[att] = rgba
+                    else:
+                        msg = (f"Object '{name}': property '{att[len(prefix):]}' of an "
+                               f"Attribute node ({prefix[1:-1]}) not found; 0 is used, as "
+                               f"Cycles")
+                        if msg not in self._warnings:
+                            self._warnings.append(msg)
+        self.object_attributes.append(values)
         self.info.append(np.array([0, 0, 0, 0, 0, 1], np.float32) if info is None else info)
         me = obj.data
         self.texspaces.append(np.array([tuple(getattr(me, "texspace_location", (0, 0, 0))),
@@ -523,6 +626,12 @@ class _Geometry:
             parts.append(part)
         verts, tris, normals, uvs, mats, objs, attrs, tans, uv_maps = (
             np.concatenate(col) for col in zip(*parts))
+        for a, att in enumerate(attribute_names):  # per-object values at every corner
+            if att.startswith((OBJECT_ATTRIBUTE, INSTANCER_ATTRIBUTE)):
+                table = np.zeros((len(self.names), 4), np.float32)
+                for i, values in enumerate(self.object_attributes):
+                    table[i] = values.get(att, table[i])
+                attrs[:, :, a] = table[objs][:, None, :]
         verts -= np.asarray(origin, np.float64)
         media = []
         for mat_index, row in sorted((volumes or {}).items()):

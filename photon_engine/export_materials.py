@@ -256,7 +256,7 @@ PROGRAM_SLOTS = {
     "Sheen Weight": cl.SHEEN_WEIGHT, "Sheen Roughness": cl.SHEEN_ROUGHNESS,
     "Sheen Tint": cl.SHEEN_TINT, "Anisotropic": cl.ANISOTROPIC, "Anisotropy": cl.ANISOTROPIC,
     "Anisotropic Rotation": cl.ANISOTROPIC_ROTATION, "Rotation": cl.ANISOTROPIC_ROTATION,
-    "Diffuse Roughness": cl.DIFFUSE_ROUGHNESS,
+    "Diffuse Roughness": cl.DIFFUSE_ROUGHNESS, "Tangent": cl.TANGENT,
 }
 """BSDF input socket name -> the closure slot a shader program writes (``_program``)."""
 

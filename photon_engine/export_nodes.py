@@ -306,14 +306,15 @@ class NodeReader:
     def ignored_links(self, node, *names):
         """Report each input among ``names`` that is linked but not read. A linked
         "Normal" goes to the shader program instead when programs are compiled
-        (``linked`` is a list: export_materials._program makes it the shading normal);
-        Coat Normal and Tangent are reported: the shading normal and Cycles' default
-        tangent (radial about the object's Z axis, core ``HitShader.tangents``) are used."""
+        (``linked`` is a list: export_materials._program makes it the shading normal), so
+        does a linked "Tangent" (the closure's TANGENT slots, core ``HitShader.tangents``);
+        Coat Normal is reported: the shading normal is used."""
         for name in names:
             sock = node.inputs.get(name)
             if sock is not None and sock.is_linked and follow_reroutes(sock) is not None:
-                if name == "Normal" and self.linked is not None:
-                    self.linked.append((node, sock))  # the program's shading normal
+                if name in ("Normal", "Tangent") and self.linked is not None:
+                    # the program's shading normal; the closure's TANGENT slots
+                    self.linked.append((node, sock))
                     continue
                 what = "the shading normal" if "Normal" in name else "the radial tangent"
                 self.note_node(node, f'input "{name}" is linked; normal and tangent inputs '

@@ -56,11 +56,52 @@ class AttributeNames:
 
     def __init__(self, names=()):
         self.names: list[str] = list(names)
+        self.layer = ()  # the IDs a View Layer attribute is looked up in (view layer, scene)
 
     def index(self, name: str) -> int:
         if name not in self.names:
             self.names.append(name)
         return self.names.index(name)
+
+
+OBJECT_ATTRIBUTE = "@object/"
+INSTANCER_ATTRIBUTE = "@instancer/"
+"""Prefixes of the ``AttributeNames`` of the Attribute node's Object and Instancer types:
+a per-object value (``rna_attribute``) that export.py writes at every corner of the
+object's triangles (``Mesh.attributes``), so the core reads it like a mesh attribute."""
+PARAMETRIC_ATTRIBUTE = "@parametric"
+"""The Geometry node's Parametric output as a corner attribute (``export.read_attributes``
+writes (1, 0, 0), (0, 1, 0), (0, 0, 0) at each triangle's corners): interpolated over the
+triangle it is Cycles' (1 - u - v, u, 0) of the hit's barycentrics."""
+POINTINESS_ATTRIBUTE = "@pointiness"
+"""The Geometry node's Pointiness as a point attribute (``export.pointiness``)."""
+
+
+def rna_attribute(ids, name: str):
+    """(4,) float32 RGBA of the Attribute node's Object / Instancer / View Layer types, as
+    Cycles' lookup_property / lookup_instance_property: in each ID of ``ids`` in turn
+    (None skipped), the custom property ``["name"]`` then the RNA path ``name``; a float
+    or int is (v, v, v, 1), a float array of at most 4 fills (0, 0, 0, 1); anything else
+    (a bool, a string, an int array) is not found. None when no ID has it (Cycles: 0)."""
+    for id_ in ids:
+        if id_ is None:
+            continue
+        for path in (f'["{name}"]', name):
+            try:
+                value = id_.path_resolve(path)
+            except (ValueError, TypeError):
+                continue
+            if isinstance(value, (int, float)) and not isinstance(value, bool):
+                return np.array([value, value, value, 1.0], np.float32)
+            try:
+                items = [] if isinstance(value, str) else list(value)
+            except TypeError:
+                items = []
+            if 0 < len(items) <= 4 and all(isinstance(v, float) for v in items):
+                out = np.array([0.0, 0.0, 0.0, 1.0], np.float32)
+                out[:len(items)] = items
+                return out
+    return None
 
 
 class UVMapNames:
@@ -534,7 +575,9 @@ def _geometry(b, node, path):
             "Tangent": _tangent_out(b, pg.TANGENT_MODES["Z"], b.source(pg.SOURCE_GENERATED)),
             "True Normal": b.source(pg.SOURCE_TRUE_NORMAL),
             "Incoming": b.source(pg.SOURCE_INCOMING),
-            "Backfacing": b.source(pg.SOURCE_BACKFACING, 0, "f")}
+            "Backfacing": b.source(pg.SOURCE_BACKFACING, 0, "f"),
+            "Parametric": _attribute_outputs(b, PARAMETRIC_ATTRIBUTE)["Vector"],
+            "Pointiness": _attribute_outputs(b, POINTINESS_ATTRIBUTE)["Fac"]}
 
 
 def _object_info(b, node, path):
@@ -559,12 +602,29 @@ def _attribute_outputs(b, name):
 
 
 def _attribute(b, node, path):
-    """Attribute node, Geometry type (mesh attributes: ``export.read_attributes``)."""
-    if getattr(node, "attribute_type", "GEOMETRY") != "GEOMETRY":
-        b.warn(("attr", path, node.name), f"node '{node.name}': attribute type "
-               f"'{node.attribute_type}' is not supported (Geometry is)")
-        return {}
-    return _attribute_outputs(b, node.attribute_name)
+    """Attribute node: Geometry (mesh attributes, ``export.read_attributes``), Object and
+    Instancer (per-object values, ``OBJECT_ATTRIBUTE``), View Layer (one value per render,
+    a constant: the view layer's then the scene's property, ``rna_attribute``)."""
+    kind = getattr(node, "attribute_type", "GEOMETRY")
+    name = node.attribute_name
+    if kind == "GEOMETRY":
+        return _attribute_outputs(b, name)
+    if kind in ("OBJECT", "INSTANCER"):
+        prefix = OBJECT_ATTRIBUTE if kind == "OBJECT" else INSTANCER_ATTRIBUTE
+        return _attribute_outputs(b, prefix + name)
+    if kind == "VIEW_LAYER":
+        rgba = rna_attribute(b.attributes.layer, name)
+        if rgba is None:
+            b.warn(("attr", name), f"node '{node.name}': View Layer attribute '{name}' not "
+                   f"found on the view layer or the scene; 0 is used, as Cycles")
+            rgba = np.zeros(4, np.float32)
+        color = b.const(tuple(float(v) for v in rgba[:3]), "c")
+        return {"Color": color, "Vector": _Value(color.vreg, "v"),
+                "Fac": b.const(float(np.mean(rgba[:3])), "f"),
+                "Alpha": b.const(float(rgba[3]), "f")}
+    b.warn(("attr", path, node.name), f"node '{node.name}': attribute type '{kind}' is not "
+           f"supported; 0 is used")
+    return {}
 
 
 def _color_attribute(b, node, path):

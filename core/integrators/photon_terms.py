@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..materials import closure
 from ..passes import ProgressFn, StopFn
 from ..photons import estimate, tracing
 from ..prepared import PreparedScene
@@ -111,7 +110,7 @@ def run(prepared: PreparedScene, settings: RenderSettings, maps,
         global_k=st.global_k, caustic_radius=r_c, global_radius=r_g, filter=st.filter,
         mode=st.indirect_mode, gather_rays=max(1, st.final_gather_rays // st.samples))
     # Diffuse-like lobes that are not Lambert: the terms evaluate the BSDF there (gather.py)
-    lobes = closure.lobe_masks(prepared.closures)
+    lobes = prepared.lobes
     if np.any(lobes["non_lambert"] & used):
         terms.bsdf_materials = lobes["non_lambert"]
         terms.back_share = np.where(lobes["diffuse_transmits"], gather.BACK_SHARE, 0.0)

@@ -352,7 +352,7 @@ class PassRenderer:
         # beside a rough one (a Principled BSDF's base under its specular layer): the
         # legacy Lambert + specular table has neither the layer's reflection nor the
         # base's loss to it (measured: a glossy Principled floor 10-25 % dark).
-        lobes = closure.lobe_masks(prepared.closures)
+        lobes = prepared.lobes
         self.bsdf_points = lobes["non_lambert"] | (lobes["diffuse"] & lobes["rough"])
         self._radii = radius_schedule(self.r1, self.alpha, 1)
 

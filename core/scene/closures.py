@@ -75,7 +75,10 @@ DISTRIBUTION = 27          # DISTRIBUTION_* as a float
 FRESNEL_TYPE = 28          # FRESNEL_* as a float
 METAL_N = 29               # 3 slots
 METAL_K = 32               # 3 slots
-PARAM_COUNT = 35
+TANGENT = 35               # 3 slots: a linked Tangent input (world space, any length); 0 =
+                           # unlinked: Cycles' default, the radial tangent about the
+                           # object's Z axis (core.prepared.HitShader.tangents)
+PARAM_COUNT = 38
 
 
 def default_params() -> np.ndarray:
@@ -112,6 +115,7 @@ _SLOTS = {
     "diffuse_roughness": (DIFFUSE_ROUGHNESS, 1), "subsurface_weight": (SUBSURFACE_WEIGHT, 1),
     "thin_wall": (THIN_WALL, 1), "distribution": (DISTRIBUTION, 1),
     "fresnel_type": (FRESNEL_TYPE, 1), "metal_n": (METAL_N, 3), "metal_k": (METAL_K, 3),
+    "tangent": (TANGENT, 3),
 }
 PARAM_NAMES = tuple(_SLOTS)
 """The keyword names ``params()`` accepts, one per slot group."""

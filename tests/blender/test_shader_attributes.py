@@ -223,3 +223,20 @@ def test_named_uv_maps_cross_the_contract_to_the_hits():
         ins, _ = prepared.hit_shader.inputs(prim, u, v, d)
         assert ins.uv.shape == (2, 3, 2)
         np.testing.assert_allclose(ins.uv[1], second(ins.position), atol=1e-5)
+
+
+def test_geometry_parametric_matches_cycles():
+    """Geometry Parametric: (1 - u - v, u, 0) of the hit's barycentrics in each of the
+    plane's two triangles (the exporter's per-corner attribute), directly and on a plane
+    turned in its mesh (another corner order)."""
+    def parametric(tree, color):
+        geo = node(tree, "ShaderNodeNewGeometry")
+        link(tree, geo.outputs["Parametric"], color)
+
+    def turn(planes):
+        ss.turn_mesh(planes[1], (0.0, 0.0, 0.7))
+    specs = [("Parametric", parametric), ("Parametric turned", parametric)]
+    result = ss.compare(specs, setup=turn)
+    assert not result["warnings"]
+    figures = check(result, [n for n, _ in specs])
+    print({k: tuple(round(x, 6) for x in v) for k, v in figures.items()})

@@ -160,3 +160,19 @@ def test_a_program_writing_a_missing_closure_is_refused():
                                  name="bad")
     with pytest.raises(SceneError, match="closure 3"):
         scene(bad).validate()
+
+
+def test_the_lobe_masks_follow_what_the_program_can_produce():
+    """A floor whose Base Color is the program's (U) over a hidden constant colour of 0:
+    the constant row has no diffuse lobe, the program's hits do, so photons are stored
+    there (has_diffuse) and the picture does not depend on the hidden constant."""
+    dark = prepare(scene(uv_program(), colour=0.0))
+    with dark:
+        assert dark.has_diffuse[0] and dark.lobes["diffuse"][0]
+        assert not dark.lobes["rough"][0] and not dark.lobes["delta"][0]
+    st = SETTINGS.with_values(samples=2)
+    a = photon_mapping.render(scene(uv_program(), colour=0.0), st)
+    b = photon_mapping.render(scene(uv_program(), colour=0.9), st)
+    assert a.passes["indirect"].max() > 0
+    for name, image in b.passes.items():
+        np.testing.assert_allclose(a.passes[name], image, rtol=1e-6, atol=1e-7, err_msg=name)

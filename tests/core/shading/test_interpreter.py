@@ -132,7 +132,8 @@ def test_closure_params_write_the_slots_and_keep_the_constants(rng):
     rows = np.stack([closures.params(), closures.params(metallic=1.0)])
     got = closure_params(prog, inputs, rows)
     np.testing.assert_allclose(got["params"][:, 1, closures.ROUGHNESS], ab[:, 0], rtol=1e-6)
-    np.testing.assert_array_equal(got["params"][:, 0], np.broadcast_to(rows[0], (50, 35)))
+    np.testing.assert_array_equal(got["params"][:, 0],
+                                  np.broadcast_to(rows[0], (50, closures.PARAM_COUNT)))
     assert got["params"][0, 1, closures.METALLIC] == 1.0
     np.testing.assert_allclose(got["alpha"], ab[:, 1], rtol=1e-6)
     assert got["emission"] is None and got["normal"] is None
@@ -142,7 +143,8 @@ def test_closure_params_write_the_slots_and_keep_the_constants(rng):
     ([ins(99, [], [])], [], 2, "unknown opcode 99"),
     ([ins(pg.OP_MATH, [0, 0], [0, 1, 3, 4])], [[4, 1, 0, 0]], 5, "reads register 3 before"),
     ([ins(pg.OP_MATH, [0, 0], [0, 1, 0, 1])], [], 5, "writes constant register 1"),
-    ([ins(pg.OP_INPUT, [0], [3])], [[3, pg.TARGET_CLOSURE, 0, 35]], 6, "slot 35 outside"),
+    ([ins(pg.OP_INPUT, [0], [3])], [[3, pg.TARGET_CLOSURE, 0, closures.PARAM_COUNT]], 6,
+     f"slot {closures.PARAM_COUNT} outside"),
     ([ins(pg.OP_INPUT, [0], [4])], [], 6, "register 4 outside [0, 3]"),
     ([ins(pg.OP_INPUT, [42], [3])], [], 6, "unknown input source 42"),
     ([ins(pg.OP_RAMP, [0, 256, 1], [0, 3, 6])], [], 7, "RAMP"),
