@@ -36,6 +36,9 @@ k) alone:
    and photons of its own. So every photon is counted once: by the split point's diffuse
    part, or by a later point along the glossy path. Split points of the continuation
    split again, up to MAX_SPLITS; the last ones weigh photons by their whole closure.
+   Only with shadow-ray direct light: in standard SPPM (``progressive_direct="photons"``)
+   a point light's glossy reflection is carried by the photons at the point alone (no
+   path can hit it), so there the points gather with their whole closure as before.
    Why: a lobe of alpha 0.01 (Roughness 0.1) holds about 4 alpha^2 of the photons of a
    gather disc, one in 200 passes of K0 = 12; its estimate was a few bright spikes (the
    artist scene's glossy floor, docs/sppm.md). A sampled direction finds the
@@ -578,7 +581,10 @@ class PassRenderer:
                                                     vps.material, vps.path)
         tangent = prepared.hit_shader.tangents(vps.prim, vps.position, tab, rows)
         hits = BsdfHits(tab, rows, vps.texel, vps.wo, vps.ns, vps.front, tangent=tangent)
-        split = (narrow_points(hits, vps.ng, vps.lam) if level < MAX_SPLITS
+        # Standard SPPM (photon direct light) does not split: a glossy path cannot reach a
+        # point light, whose glossy reflection only the photons gathered here carry.
+        split = (narrow_points(hits, vps.ng, vps.lam)
+                 if level < MAX_SPLITS and self.shadow_rays is not None
                  else np.zeros(vps.pixel.size, bool))
         if self.shadow_rays is not None:
             # With programmed points, their own closures and the texel colour; else
@@ -625,11 +631,8 @@ class PassRenderer:
         if g.size == 0:
             return None
         src = sel[keep[g]]
-        # With photon direct light no shadow ray was cast at the point: the lights the path
-        # meets count in full (pdf 0 weighs nothing).
-        mis_pdf = pdf[g] if self.shadow_rays is not None else np.zeros(g.size)
         return camera_paths.PathStart(
-            v.pixel[src], o[g], d[g], thr[g], tr[g], lam[g], mis_pdf,
+            v.pixel[src], o[g], d[g], thr[g], tr[g], lam[g], pdf[g],
             np.ascontiguousarray(v.ns[src], np.float64),
             closure.transmitting(hits.closures, hits.material[src]),
             int(self.settings.light_samples), self.depth0(level + 1))
