@@ -395,11 +395,38 @@ class VisiblePoints:
     path: np.ndarray | None = None
 
 
+@dataclass
+class PathStart:
+    """Camera paths that go on from earlier vertices instead of the camera (the progressive
+    integrator's split visible points, core/integrators/sppm.py): J paths, each pixel at
+    most once. pixel (J,) int64 frame pixels; origins, directions (J, 3) float64 (the
+    origins offset off the surface); throughput (J, 3); transmitted (J,) bool, the
+    direction crossed the surface; lam (J,) float64 nm (0: RGB); pdf (J,) float64, the
+    solid-angle pdf the directions were sampled with (``follow_bsdf``): the lights, emitters
+    and world the first segment sees are weighed by the power heuristic against the
+    ``light_samples`` light samples of the direct light at the vertex left (its shading
+    normal ns (J, 3) and whether it transmits, sphere (J,) bool: ``world_weight``);
+    depth0: the first random-stream depth of these paths (past every depth the walks
+    before them used, so no pixel reuses a number)."""
+
+    pixel: np.ndarray
+    origins: np.ndarray
+    directions: np.ndarray
+    throughput: np.ndarray
+    transmitted: np.ndarray
+    lam: np.ndarray
+    pdf: np.ndarray
+    ns: np.ndarray
+    sphere: np.ndarray
+    light_samples: int
+    depth0: int
+
+
 def visible_points(prepared: PreparedScene, cam: Camera, seed: int, k: int, max_depth: int,
                    direct: np.ndarray,
                    features: denoise_features.FeatureAccumulator | None = None,
                    media: volume.VolumeTerms | None = None,
-                   stats: dict | None = None) -> VisiblePoints:
+                   stats: dict | None = None, start: PathStart | None = None) -> VisiblePoints:
     """Pass k's visible points (one jittered camera ray per pixel of ``cam``'s region, sample k),
     adding the radiance seen on the way (emitters, lights, background) to direct (P, 3)
     float64 (see core/integrators/sppm.py, step 1).
@@ -411,14 +438,23 @@ def visible_points(prepared: PreparedScene, cam: Camera, seed: int, k: int, max_
     media: the scene's media terms (core/integrators/volume.py) with this pass's volume
     photon map, or None (no medium): every segment of the paths adds its Volume Direct,
     beam estimate and emission to direct and attenuates what lies behind it (the visible
-    points' weights included); stats receives the volume counters."""
-    mats = prepared.materials
+    points' weights included); stats receives the volume counters.
+
+    start: walk on from these vertices (``PathStart``; SPPM's glossy continuation) instead
+    of from the camera: the same walk to the first diffuse lobe, its first segment's
+    lights, emission and world weighed against light sampling (MIS), random streams from
+    depth start.depth0 on, no denoising features; a medium is taken to start in vacuum."""
+    if start is not None:
+        return _walk(prepared, seed, k, max_depth, direct, None, media, stats,
+                     np.ascontiguousarray(start.pixel, np.int64), start.origins,
+                     start.directions, None, np.array(start.throughput, np.float64),
+                     np.array(start.transmitted, bool), np.array(start.lam, np.float64),
+                     start)
     frame = int(cam.width) * int(cam.height)
     # The Render Region's pixels only (all of them without one), by frame index: each
     # pixel's numbers are those of a whole-frame render (the frame's sequence, indexed).
     pixel = camera.region_pixels(cam)
     n = pixel.shape[0]
-    sample = np.full(n, k, np.int64)
     jitter = np.empty((frame, 2))
     sampling.progressive2(np.int64(seed), np.int64(k), np.int64(DIM_JITTER), jitter)
     jitter = jitter[pixel] if n < frame else jitter
@@ -428,11 +464,27 @@ def visible_points(prepared: PreparedScene, cam: Camera, seed: int, k: int, max_
         sampling.progressive2(np.int64(seed), np.int64(k), np.int64(DIM_LENS), lens)
         lens = lens[pixel] if n < frame else lens
     rays = camera.generate_rays(cam, pixel, jitter, lens)
-    origins, dirs, tmax = rays.origins, rays.directions, rays.tmax
+    return _walk(prepared, seed, k, max_depth, direct, features, media, stats, pixel,
+                 rays.origins, rays.directions, rays.tmax, np.ones((n, 3)), np.zeros(n, bool),
+                 np.zeros(n), None)  # lam: nm, 0 while RGB (picked at the first dispersive surface)
+
+
+def _walk(prepared: PreparedScene, seed: int, k: int, max_depth: int, direct, features, media,
+          stats, pixel, origins, dirs, tmax, thr, transmitted, lam,
+          start: PathStart | None) -> VisiblePoints:
+    """The walk of ``visible_points`` from rays (origins, dirs (n, 3), tmax (n,) or None)
+    of the frame pixels ``pixel`` (n,) int64, throughput thr (n, 3), transmitted (n,),
+    wavelengths lam (n,): from the camera (start None) or from ``start``'s vertices."""
+    mats = prepared.materials
+    n = pixel.shape[0]
+    sample = np.full(n, k, np.int64)
     rows = np.arange(n, dtype=np.int64)  # into pixel / sample; pixel[rows] into direct
-    thr = np.ones((n, 3))
-    transmitted = np.zeros(n, bool)
-    lam = np.zeros(n)  # nm, 0 while RGB (picked at the first dispersive surface)
+    d0 = 0 if start is None else int(start.depth0)  # the random streams' first depth
+    # MIS of the first segment after a BSDF-sampled vertex (start): pdf 0 weighs nothing
+    prev_pdf = np.zeros(n) if start is None else np.array(start.pdf, np.float64)
+    prev_ns = None if start is None else np.asarray(start.ns, np.float64)
+    prev_sphere = None if start is None else np.asarray(start.sphere, bool)
+    k_light = 1 if start is None else int(start.light_samples)
     dispersive = bool(np.any(prepared.closures.abbe > 0))
     world = prepared.world
     out = []
@@ -440,21 +492,23 @@ def visible_points(prepared: PreparedScene, cam: Camera, seed: int, k: int, max_
     # singular (a delta lobe) or glossy (a rough lobe followed by sampling), the
     # transmissions among them counted.
     lp_read = prepared.hit_shader.reads_light_path
-    last_delta, n_trans = np.ones(n, bool), np.zeros(n)
+    last_delta, n_trans = np.full(n, start is None), np.zeros(n)
     if media is not None:
         seen_media = np.zeros((n, 3))  # per row of pixel: the media's light
         n_inside = np.ones(n)  # the dielectric each path is in (volume.add_segments)
         stats = {} if stats is None else stats
-    for depth in range(max_depth + 1):
+    for local in range(max_depth + 1):
         if rows.shape[0] == 0:
             break
+        depth = d0 + local  # the random streams' depth
         first = depth == 0
         path = None
         if lp_read:  # Ray Length is set at the hits
+            bounces = local + (start is not None)
             path = light_path.camera(np.zeros(rows.shape[0])) if first else \
                 light_path.after_bounce(np.zeros(rows.shape[0]), np.where(
                     last_delta, light_path.BOUNCE_SINGULAR, light_path.BOUNCE_GLOSSY),
-                    transmitted, depth, glossy_depth=depth, transmission_depth=n_trans)
+                    transmitted, bounces, glossy_depth=bounces, transmission_depth=n_trans)
         hits = intersect(prepared, seed, origins, dirs, tmax, rows, pixel, sample,
                          lambda layer, depth=depth: sampling.stream(sampling.CUTOUT_CHOICE, depth,
                                                                     layer, sampling.PROGRESSIVE),
@@ -464,13 +518,19 @@ def visible_points(prepared: PreparedScene, cam: Camera, seed: int, k: int, max_
             thr = volume.add_segments(
                 media, origins, dirs, np.where(hits.prim >= 0, hits.t, np.inf), thr, rows,
                 pixel, sample, depth, seen_media, seen_media, seen_media, stats, n_inside)
+        weigh = start is not None and local == 0  # MIS against the vertex's light samples
         hit, miss, shown, light_l = lights_along(prepared, first, transmitted, origins, dirs, hits,
+                                                 prev_pdf if weigh else None, k_light,
                                                  medium=None if media is None else media.medium)
         if shown is not None:
             direct[pixel[rows[shown]]] += thr_light[shown] * light_l[shown]
         # Rays that escape see the world
         if np.any(world > 0) and np.any(miss) and (not first or prepared.scene.world.visible_to_camera):
-            direct[pixel[rows[miss]]] += thr[miss] * world
+            seen = thr[miss] * world
+            if weigh:
+                seen *= world_weight(prev_pdf[miss], prev_ns[miss], dirs[miss], k_light,
+                                     prev_sphere[miss])[:, None]
+            direct[pixel[rows[miss]]] += seen
         h = np.flatnonzero(hit)
         if h.size == 0:
             break
@@ -485,9 +545,13 @@ def visible_points(prepared: PreparedScene, cam: Camera, seed: int, k: int, max_
                                      prepared.tri_material, hits.prim[h], hits.u[h], hits.v[h],
                                      d, prepared.extent)
         # Emission seen (two-sided, like Cycles' emission closure)
-        direct[pixel[rows]] += thr * prepared.hit_shader.emission_at(
+        emission = prepared.hit_shader.emission_at(
             hits.prim[h], hits.u[h], hits.v[h], d, sp.material, mats["emission"][sp.material],
             path)
+        if weigh and prepared.emissive.count:
+            emission = emission * emission_weight(prepared, hits.prim[h], hits.t[h], d,
+                                                  prev_pdf[h], k_light)[:, None]
+        direct[pixel[rows]] += thr * emission
         albedo = prepared.surfaces.albedo(hits.prim[h], hits.u[h], hits.v[h], sp.material)
         # Shader programs: the visible point's diffuse albedo (its lobe choice reads the
         # per-hit closures below, its direct light sppm's own closures_at).
@@ -531,7 +595,7 @@ def visible_points(prepared: PreparedScene, cam: Camera, seed: int, k: int, max_
             out.append((pixel[rows[s]], sp.position[s], ng[s], ns[s], -d[s], sp.material[s], new_thr[s],
                         albedo[s], sp.eps[s], texel[s], hits.prim[h][s], hits.u[h][s],
                         hits.v[h][s], lam[s], front[s]) + ((path[s],) if lp_read else ()))
-        if depth == max_depth:
+        if local == max_depth:
             break
         g = np.flatnonzero(go_on)
         if media is not None:  # entering a dielectric at its front face, leaving at its back

@@ -22,6 +22,27 @@ k) alone:
    triangle and the world (``direct.shade``, the photon-map integrator's own estimator,
    ``light_samples`` per light and pass, sample index k of a set of
    ``progressive_passes``), added to D_k times beta_k.
+1b. Narrow glossy lobes (issue 13). A visible point whose closures have a rough glossy
+   lobe narrower than NARROW_ALPHA (GGX alpha; Roughness 0.45: ``narrow_points``) splits:
+   its diffuse-like part gathers photons as below (f = f_d), and its glossy part goes on
+   as the camera path: one direction sampled from the closures
+   (``camera_paths.follow_bsdf``, the sampler photons scatter by: weight f_glossy |cos| /
+   pdf, Russian roulette on the glossy share; a delta lobe sampled there ends it, the
+   point standing for the non-singular lobes) to the next diffuse lobe, where a new
+   visible point is made with weight beta_k times that (``camera_paths.visible_points``
+   with a ``PathStart``). The split point's direct light weighs its glossy part by the
+   power heuristic against that sampling, and the lights, emitters and world the path's
+   first segment meets take the complementary weight; the new point gets direct light
+   and photons of its own. So every photon is counted once: by the split point's diffuse
+   part, or by a later point along the glossy path. Split points of the continuation
+   split again, up to MAX_SPLITS; the last ones weigh photons by their whole closure.
+   Only with shadow-ray direct light: in standard SPPM (``progressive_direct="photons"``)
+   a point light's glossy reflection is carried by the photons at the point alone (no
+   path can hit it), so there the points gather with their whole closure as before.
+   Why: a lobe of alpha 0.01 (Roughness 0.1) holds about 4 alpha^2 of the photons of a
+   gather disc, one in 200 passes of K0 = 12; its estimate was a few bright spikes (the
+   artist scene's glossy floor, docs/sppm.md). A sampled direction finds the
+   surface behind the lobe at once, where the photons are diffuse-weighted and smooth.
 2. Photons. ``photons_per_pass`` photons are traced with the global map's rules
    (``tracing.trace_stored_photons``), stored at every diffuse hit except the first hit
    of a photon straight from its source (``scatter.STORE_NOT_DIRECT``: that light is the
@@ -32,7 +53,8 @@ k) alone:
        r_k^2 = r_1^2 prod_{j=1}^{k} (j + alpha) / (j + 1)        (~ k^(alpha - 1))
    For every visible point, over the photons of this pass with |x_p - x| <= r_k on its
    visible side (n_g . w_p > 0, the front-side test; n_g faces the camera ray):
-       Phi = sum_p f(w_o, w_p) Phi_p        (f = diffuse / pi + rough glossy lobe)
+       Phi = sum_p f(w_o, w_p) Phi_p        (f = diffuse / pi + wide glossy lobes;
+                                              split points: the diffuse part alone)
    (points whose diffuse-like lobes are not Lambert: f from their closures, photons of
    both sides counting; ``_gather_kernel``)
    and the pass's estimate is L_k = D_k + beta_k Phi / (pi r_k^2).
@@ -65,7 +87,8 @@ pass's radius; each visible point scans the neighbouring cells (numba, parallel 
 visible points, so no write races; exact: every photon within r_k is found once).
 Memory: one pass's photons plus two (P, 3) float64 sums, whatever the number of passes.
 
-Glossy-only surfaces (no diffuse lobe) store no photons and end camera paths (black).
+Glossy-only surfaces (no diffuse lobe: metals) store no photons; camera paths go on
+through them by BSDF sampling (``camera_paths.visible_points``).
 Textures: the visible points carry the textured diffuse albedo of their hit; camera paths
 pass cut-outs stochastically like the integrator's (core/materials/textures.py).
 """
@@ -81,7 +104,7 @@ from numba import njit, prange
 
 from .. import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
 from .. import sampling
-from ..materials import bsdf, closure
+from ..materials import bsdf, closure, microfacet
 from ..passes import ProgressFn, RenderOutput, StopFn, TileFn
 from ..photons.hash_grid import HashGrid, within
 from ..photons.store import STORE_ALL, STORE_NOT_DIRECT
@@ -103,6 +126,21 @@ INITIAL_PHOTONS = 12.0
 surface."""
 MAX_RING = 4
 """Largest number of cell rings a visible point scans in the photon grid."""
+NARROW_PHOTONS = 2.0
+"""A glossy lobe is narrow (its visible points split, module doc step 1b) when fewer than
+this many of the K0 = INITIAL_PHOTONS photons of a first-pass gather disc would arrive
+inside it."""
+NARROW_ALPHA = float(np.sqrt(NARROW_PHOTONS / (4.0 * INITIAL_PHOTONS)))
+"""The GGX alpha below which a lobe is narrow (0.204: Roughness 0.45). Photons reach a disc
+about cosine-distributed; half of a GGX lobe's mass lies within 2 alpha of its mirror
+direction, a cone holding a share sin^2(2 alpha) ~ 4 alpha^2 of cosine-distributed
+directions, so 4 alpha^2 K0 photons of a disc land in it: 2 at alpha 0.204. Below that the
+lobe's photon estimate is a handful of spikes per pass (Roughness 0.1, alpha 0.01: one
+photon in 200 passes), whereas a sampled direction finds the light behind it at once."""
+MAX_SPLITS = 3
+"""Camera-path continuations a pass follows from split points (a floor seen in a glossy
+floor...); the points of the last one weigh photons by their whole closure (no energy
+is dropped, only the noise of the old estimate is left there)."""
 
 DIRECT_MODES = ("shadow_rays", "photons")
 """How the progressive mode gets direct light (``RenderSettings.progressive_direct``):
@@ -115,7 +153,7 @@ hybrid against)."""
 @njit(cache=True, parallel=True, error_model="numpy")
 def _gather_kernel(vp_pos, vp_ng, vp_ns, vp_wo, vp_mat, radius, ph_pos, ph_flux, ph_dir, cells,
                    start, order, lo, inv_h, mask, vp_albedo, specular, alpha, tab, vp_row,
-                   vp_texel, vp_tan, vp_front, vp_lam, vp_bsdf, phi, count):
+                   vp_texel, vp_tan, vp_front, vp_lam, vp_bsdf, vp_split, phi, count):
     """phi[i] = sum f(wo, w_p) Phi_p and count[i] = M over this pass's photons within
     radius[i] of visible point i. Lambert points (vp_bsdf[i] False): photons of the visible
     side (n_g . w_p > 0), f = albedo / pi (+ the legacy table's glossy lobe). Points whose
@@ -123,7 +161,9 @@ def _gather_kernel(vp_pos, vp_ng, vp_ns, vp_wo, vp_mat, radius, ph_pos, ph_flux,
     rough lobe (vp_bsdf[i] True): f is the closures' f_d + f_glossy at the photon's direction (``closure.hit_lobes`` / ``parts_at``, row
     vp_row[i] of tab, texel, tangent, front, wavelength lam nm), photons of both sides
     counting (a lobe that transmits sees the far side's), as
-    ``estimate._bsdf_estimate_kernel`` weighs the photon-mapping integrator's photons."""
+    ``estimate._bsdf_estimate_kernel`` weighs the photon-mapping integrator's photons.
+    Split points (vp_split[i], ``narrow_points``): f is the closures' diffuse-like part
+    f_d alone, their glossy part being the camera path's that goes on from there."""
     for i in prange(vp_pos.shape[0]):
         px, py, pz = vp_pos[i, 0], vp_pos[i, 1], vp_pos[i, 2]
         r2 = radius[i] * radius[i]
@@ -132,7 +172,8 @@ def _gather_kernel(vp_pos, vp_ng, vp_ns, vp_wo, vp_mat, radius, ph_pos, ph_flux,
         a1 = 0.0
         a2 = 0.0
         c = 0
-        use_bsdf = vp_bsdf[i]
+        use_bsdf = vp_bsdf[i] or vp_split[i]
+        glossy = 0.0 if vp_split[i] else 1.0  # split: the glossy part is the path's
         gx, gy, gz = vp_ng[i, 0], vp_ng[i, 1], vp_ng[i, 2]
         if use_bsdf:
             L, F = closure.hit_lobes(tab, vp_row[i], vp_texel[i, 0], vp_texel[i, 1],
@@ -149,9 +190,9 @@ def _gather_kernel(vp_pos, vp_ng, vp_ns, vp_wo, vp_mat, radius, ph_pos, ph_flux,
                 c += 1
                 d0, d1, d2, g0, g1, g2, _ = closure.parts_at(L, F, wx, wy, wz, gx, gy, gz,
                                                              True, False)
-                a0 += (d0 + g0) * ph_flux[k, 0]
-                a1 += (d1 + g1) * ph_flux[k, 1]
-                a2 += (d2 + g2) * ph_flux[k, 2]
+                a0 += (d0 + glossy * g0) * ph_flux[k, 0]
+                a1 += (d1 + glossy * g1) * ph_flux[k, 1]
+                a2 += (d2 + glossy * g2) * ph_flux[k, 2]
                 continue
             # Front-side test: the photon arrived on the side the camera sees.
             if gx * wx + gy * wy + gz * wz <= 0.0:
@@ -167,15 +208,57 @@ def _gather_kernel(vp_pos, vp_ng, vp_ns, vp_wo, vp_mat, radius, ph_pos, ph_flux,
         count[i] = c
 
 
+@njit(cache=True, parallel=True, error_model="numpy")
+def _narrow_kernel(tab, rows, texel, wo, ns, ng, tan, front, lam, alpha_max, out):
+    """out[i]: point i's closures (row rows[i] of tab) have a rough (non-singular)
+    microfacet lobe of weight > 0 whose alpha sqrt(ax ay) is below alpha_max."""
+    for i in prange(rows.shape[0]):
+        L, _ = closure.hit_lobes(tab, rows[i], texel[i, 0], texel[i, 1], texel[i, 2],
+                                 wo[i, 0], wo[i, 1], wo[i, 2], ns[i, 0], ns[i, 1], ns[i, 2],
+                                 ng[i, 0], ng[i, 1], ng[i, 2], tan[i, 0], tan[i, 1], tan[i, 2],
+                                 front[i], lam[i])
+        found = False
+        for j in range(L.shape[0]):
+            t = int(L[j, closure.T])
+            if t != closure.L_GGX and t != closure.L_DIELECTRIC and t != closure.L_THIN_T:
+                continue
+            if max(L[j, closure.W], max(L[j, closure.W + 1], L[j, closure.W + 2])) <= 0.0:
+                continue
+            ax, ay = L[j, closure.AX], L[j, closure.AY]
+            if not microfacet.is_singular(ax, ay) and np.sqrt(ax * ay) < alpha_max:
+                found = True
+        out[i] = found
+
+
+def narrow_points(hits: BsdfHits, ng, lam, alpha_max: float = None) -> np.ndarray:
+    """(V,) bool: the visible points whose closures (``hits``; ng (V, 3) their geometric
+    normals, lam (V,) float64 their wavelengths in nm) have a rough glossy lobe narrower
+    than alpha_max (default NARROW_ALPHA): the points that split (module doc, step 1b)."""
+    v = hits.material.shape[0]
+    out = np.zeros(v, bool)
+    if v:
+        _narrow_kernel(hits.closures, np.ascontiguousarray(hits.material, np.int32),
+                       np.ascontiguousarray(hits.texel, np.float64),
+                       np.ascontiguousarray(hits.outgoing, np.float64),
+                       np.ascontiguousarray(hits.shading_normal, np.float64),
+                       np.ascontiguousarray(ng, np.float64), hits.tangents(),
+                       np.ascontiguousarray(hits.front, np.bool_),
+                       np.ascontiguousarray(lam, np.float64),
+                       float(NARROW_ALPHA if alpha_max is None else alpha_max), out)
+    return out
+
+
 def gather_photons(vp_pos, vp_ng, vp_ns, vp_wo, vp_mat, radius, ph_pos, ph_flux, ph_dir, mats,
-                   vp_albedo, hits: BsdfHits, bsdf_points, vp_lam):
+                   vp_albedo, hits: BsdfHits, bsdf_points, vp_lam, split=None):
     """Phi (V, 3) float64 and M (V,) int64 of step 3 for V visible points and one pass's
     photons (positions, flux, directions (P, 3) float32); mats: ``bsdf.material_table``;
     vp_albedo (V, 3): the points' (textured) diffuse albedo; hits: the points' closures
     (``estimate.BsdfHits``: rows, texel, tangent, front); bsdf_points (M,) bool per
     material (non-Lambert diffuse-like lobes, or a diffuse lobe beside a rough one:
     ``closure.lobe_masks``): those points weigh each photon by their closures
-    (``_gather_kernel``); vp_lam (V,) float64 their wavelengths in nm (0: RGB)."""
+    (``_gather_kernel``); vp_lam (V,) float64 their wavelengths in nm (0: RGB); split
+    (V,) bool or None: the points whose glossy part a camera path carries on
+    (``narrow_points``), which weigh photons by their diffuse-like part only."""
     v = vp_pos.shape[0]
     phi = np.zeros((v, 3))
     count = np.zeros(v, np.int64)
@@ -192,8 +275,26 @@ def gather_photons(vp_pos, vp_ng, vp_ns, vp_wo, vp_mat, radius, ph_pos, ph_flux,
                    np.ascontiguousarray(hits.texel, np.float64), hits.tangents(),
                    np.ascontiguousarray(hits.front, np.bool_),
                    np.ascontiguousarray(vp_lam, np.float64),
-                   np.ascontiguousarray(bsdf_points[vp_mat], np.bool_), phi, count)
+                   np.ascontiguousarray(bsdf_points[vp_mat], np.bool_),
+                   np.zeros(v, np.bool_) if split is None else np.ascontiguousarray(split, np.bool_),
+                   phi, count)
     return phi, count
+
+
+@dataclass
+class _Points:
+    """One level of a pass's visible points: the points (``camera_paths.VisiblePoints``),
+    their closures (``BsdfHits``) and which of them split ((V,) bool)."""
+
+    vps: camera_paths.VisiblePoints
+    hits: BsdfHits
+    split: np.ndarray
+
+
+def dim_split(level: int, j: int) -> int:
+    """The random dimension of the continuation from split points of ``level``: j = 0 the
+    direction (each pixel's Sobol sequence over the passes), 1 the lobe, 2 the roulette."""
+    return sampling.stream(sampling.SPECULAR_CHOICE, level, sampling.PROGRESSIVE + 9, j)
 
 
 # --- the radius schedule --------------------------------------------------------------------
@@ -229,7 +330,7 @@ def pass_blocks(passes: int, block: int) -> list[tuple[int, int]]:
 def _new_stats() -> dict:
     return {"photons_emitted": 0, "photons_stored": [], "photons_alive_max": 0,
             "photon_bytes_max": 0, "visible_points": [], "rays_photon": 0, "rays_shadow": 0,
-            "time_camera": 0.0, "time_photons": 0.0, "time_gather": 0.0}
+            "time_camera": 0.0, "time_photons": 0.0, "time_gather": 0.0, "glossy_points": 0}
 
 
 def merge_stats(a: dict, b: dict) -> dict:
@@ -355,6 +456,10 @@ class PassRenderer:
         lobes = prepared.lobes
         self.bsdf_points = lobes["non_lambert"] | (lobes["diffuse"] & lobes["rough"])
         self._radii = radius_schedule(self.r1, self.alpha, 1)
+        # Each continuation walks at most split_depth bounces, so that every depth of the
+        # camera walk and of MAX_SPLITS continuations fits the random streams' 4096.
+        depth = int(settings.max_specular_depth)
+        self.split_depth = max(0, min(depth, (4095 - depth) // MAX_SPLITS - 1))
 
     def radius(self, k: int) -> float:
         """Pass k's gather radius r_k (metres)."""
@@ -392,6 +497,7 @@ class PassRenderer:
         image = np.zeros((self.width * self.height, 3))
         t0 = time.perf_counter()
         vps = None
+        levels = []  # _Points of the visible points and of each glossy continuation
         traced = None
         if self.media is not None and self.has_geometry:
             # The beam estimate runs along the camera segments, so this pass's photons
@@ -414,41 +520,37 @@ class PassRenderer:
                                     ("denoising_normal", acc.normal)):
                     total = features.setdefault(name, np.zeros_like(image))
                     total[frame] += value
-            if vps.pixel.size:
-                tab, rows = prepared.hit_shader.closures_at(vps.prim, vps.u, vps.v, -vps.wo,
-                                                            vps.material, vps.path)
-                tangent = prepared.hit_shader.tangents(vps.prim, vps.position, tab, rows)
-                vp_closures = BsdfHits(tab, rows, vps.texel, vps.wo, vps.ns, vps.front,
-                                       tangent=tangent)
-            if vps.pixel.size and self.shadow_rays is not None:
-                # With programmed points, their own closures and the texel colour; else
-                # the material's and shade's texel from the albedo (as before programs).
-                programmed = rows is not vps.material
-                points = direct_light.ShadingPoints(
-                    vps.position, vps.ng, vps.ns, -vps.wo, rows, vps.eps, vps.weight,
-                    vps.albedo, vps.pixel, texel=vps.texel if programmed else None,
-                    closures=tab, front=vps.front,
-                    wavelength=vps.lam if np.any(vps.lam > 0) else None, tangent=tangent)
-                before = int(self.shadow_rays.stats.get("rays_shadow", 0))
-                direct_light.shade(self.shadow_rays, points, vps.pixel,
-                                   np.full(vps.pixel.size, k, np.int64), 0, image)
-                st["rays_shadow"] += int(self.shadow_rays.stats.get("rays_shadow", 0)) - before
+            # Visible points, then (step 1b) the glossy paths that go on from the split ones
+            level, cur = 0, vps
+            while cur.pixel.size:
+                points = self.shade_points(cur, k, level, image, st)
+                levels.append(points)
+                start = self.split_paths(points, k, level)  # None at MAX_SPLITS
+                if start is None:
+                    break
+                level += 1
+                cur = camera_paths.visible_points(prepared, scene.camera, seed, k,
+                                                  self.split_depth, image, None, self.media, st,
+                                                  start)
+                st["glossy_points"] += int(cur.pixel.size)
         elif np.any(prepared.world > 0) and scene.world.visible_to_camera:
             image += prepared.world
         t1 = time.perf_counter()
         stored = 0
-        if vps is not None and vps.pixel.size:
+        if levels:
             if traced is None:
                 traced = self.trace_pass(k, st)
             pos, flux, wdir = traced[:3]
             t2 = time.perf_counter()
             r = self.radius(k)
-            phi, count = gather_photons(vps.position, vps.ng, vps.ns, vps.wo, vps.material,
-                                        np.full(vps.pixel.size, r), pos, flux, wdir,
-                                        prepared.materials, vps.albedo, vp_closures,
-                                        self.bsdf_points, vps.lam)
-            s = np.flatnonzero(count > 0)
-            image[vps.pixel[s]] += vps.weight[s] * phi[s] / (np.pi * r * r)
+            for p in levels:  # within a level each pixel has one point at most
+                v = p.vps
+                phi, count = gather_photons(v.position, v.ng, v.ns, v.wo, v.material,
+                                            np.full(v.pixel.size, r), pos, flux, wdir,
+                                            prepared.materials, v.albedo, p.hits,
+                                            self.bsdf_points, v.lam, p.split)
+                s = np.flatnonzero(count > 0)
+                image[v.pixel[s]] += v.weight[s] * phi[s] / (np.pi * r * r)
             stored = int(pos.shape[0])
             st["photon_bytes_max"] = max(st["photon_bytes_max"],
                                          pos.nbytes + flux.nbytes + wdir.nbytes)
@@ -468,6 +570,77 @@ class PassRenderer:
         st["time_photons"] += t2 - t1
         st["time_gather"] += t3 - t2
         return image
+
+    def shade_points(self, vps: camera_paths.VisiblePoints, k: int, level: int, image,
+                     st: dict) -> "_Points":
+        """Visible points' closures, which of them split (``narrow_points``, not at the last
+        level) and their direct light by shadow rays (the glossy part weighed by MIS
+        against the continuation where they split), added to image (P, 3)."""
+        prepared = self.prepared
+        tab, rows = prepared.hit_shader.closures_at(vps.prim, vps.u, vps.v, -vps.wo,
+                                                    vps.material, vps.path)
+        tangent = prepared.hit_shader.tangents(vps.prim, vps.position, tab, rows)
+        hits = BsdfHits(tab, rows, vps.texel, vps.wo, vps.ns, vps.front, tangent=tangent)
+        # Standard SPPM (photon direct light) does not split: a glossy path cannot reach a
+        # point light, whose glossy reflection only the photons gathered here carry.
+        split = (narrow_points(hits, vps.ng, vps.lam)
+                 if level < MAX_SPLITS and self.shadow_rays is not None
+                 else np.zeros(vps.pixel.size, bool))
+        if self.shadow_rays is not None:
+            # With programmed points, their own closures and the texel colour; else
+            # the material's and shade's texel from the albedo (as before programs).
+            programmed = rows is not vps.material
+            points = direct_light.ShadingPoints(
+                vps.position, vps.ng, vps.ns, -vps.wo, rows, vps.eps, vps.weight,
+                vps.albedo, vps.pixel, texel=vps.texel if programmed else None,
+                mis=split, closures=tab, front=vps.front,
+                wavelength=vps.lam if np.any(vps.lam > 0) else None, tangent=tangent)
+            before = int(self.shadow_rays.stats.get("rays_shadow", 0))
+            direct_light.shade(self.shadow_rays, points, vps.pixel,
+                               np.full(vps.pixel.size, k, np.int64), level, image)
+            st["rays_shadow"] += int(self.shadow_rays.stats.get("rays_shadow", 0)) - before
+        return _Points(vps, hits, split)
+
+    def split_paths(self, points: "_Points", k: int, level: int):
+        """The camera paths that go on from the split points of ``points`` (step 1b): one
+        BSDF sample each (``camera_paths.follow_bsdf``: the glossy part of f |cos| / pdf,
+        Russian roulette on its share); a delta lobe sampled there ends the path (the point
+        stands for the non-singular lobes). A ``camera_paths.PathStart``, or None."""
+        sel = np.flatnonzero(points.split)
+        if sel.size == 0:
+            return None
+        prepared, v, hits = self.prepared, points.vps, points.hits
+        seed = int(self.settings.seed)
+        pix, smp = v.pixel[sel], np.full(sel.size, k, np.int64)
+        # the direction stratified over the passes (each pixel's own Sobol sequence)
+        frame = np.empty((self.width * self.height, 2))
+        sampling.progressive2(np.int64(seed), np.int64(k), np.int64(dim_split(level, 0)), frame)
+        u1, u2 = frame[pix, 0], frame[pix, 1]
+        u_lobe = sampling.uniform(seed, pix, smp, dim_split(level, 1))
+        u_rr = sampling.uniform(seed, pix, smp, dim_split(level, 2))
+        rows = np.ascontiguousarray(hits.material[sel], np.int32)
+        keep, o, d, thr, tr, pdf, delta, lam = camera_paths.follow_bsdf(
+            prepared, np.ascontiguousarray(v.position[sel], np.float64),
+            np.ascontiguousarray(v.ng[sel], np.float64), np.ascontiguousarray(v.ns[sel], np.float64),
+            np.ascontiguousarray(-v.wo[sel], np.float64), np.ascontiguousarray(v.front[sel], np.bool_),
+            rows, np.ascontiguousarray(v.eps[sel], np.float64),
+            np.ascontiguousarray(v.texel[sel], np.float64), np.ascontiguousarray(v.weight[sel], np.float64),
+            np.ascontiguousarray(v.lam[sel], np.float64), u_lobe, u1, u2, u_rr,
+            closures=hits.closures, tangent=hits.tangents()[sel])
+        g = np.flatnonzero(~delta)
+        if g.size == 0:
+            return None
+        src = sel[keep[g]]
+        return camera_paths.PathStart(
+            v.pixel[src], o[g], d[g], thr[g], tr[g], lam[g], pdf[g],
+            np.ascontiguousarray(v.ns[src], np.float64),
+            closure.transmitting(hits.closures, hits.material[src]),
+            int(self.settings.light_samples), self.depth0(level + 1))
+
+    def depth0(self, level: int) -> int:
+        """The first random-stream depth of the paths of continuation ``level`` >= 1 (past
+        the camera walk's 0 .. max_specular_depth and the continuations before it)."""
+        return int(self.settings.max_specular_depth) + 1 + (level - 1) * (self.split_depth + 1)
 
     def trace_pass(self, k: int, st: dict):
         """Pass k's photons: (positions, flux, directions (M, 3) float32, the volume photons
