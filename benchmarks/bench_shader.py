@@ -7,7 +7,7 @@ against constant inputs (no program: the closure rows broadcast per point), in o
 
 Prints nanoseconds per hit point and the ratio; threads as numba's default (both cores).
 
-    .venv/bin/python benchmarks/bench_shader.py --render [--width 160] [--samples 4]
+    .venv/bin/python benchmarks/bench_shader.py --render [--width 160] [--samples 4] [--photons 50000]
 
 renders the demo box (bench_photons.demo_scene) twice in one run, its walls Principled
 BSDFs: with the wood program on every wall (the shader programs at every hit:
@@ -132,8 +132,8 @@ def textured_demo(program, width):
 
 
 def render_benchmark(args) -> None:
-    settings = RenderSettings(samples=args.samples, global_photons=50_000,
-                              caustic_photons=50_000)
+    settings = RenderSettings(samples=args.samples, global_photons=args.photons,
+                              caustic_photons=args.photons)
     prog, nodes = wood_program()
     scenes = {"procedural": textured_demo(prog, args.width),
               "constant": textured_demo(None, args.width)}
@@ -187,6 +187,7 @@ def main() -> None:
     ap.add_argument("--render", action="store_true", help="time renders of the demo box")
     ap.add_argument("--width", type=int, default=160)
     ap.add_argument("--samples", type=int, default=4)
+    ap.add_argument("--photons", type=int, default=50_000, help="global and caustic each")
     args = ap.parse_args()
     if args.render:
         render_benchmark(args)
