@@ -231,6 +231,9 @@ class HitShader:
                        else np.asarray(mesh.origin, np.float64))
         self.bumped = np.array([p is not None and _reads_bump(p) for p in progs],
                                bool).reshape(mats.count)
+        # materials running the same program (equal instructions, constants, tables and
+        # outputs; -1: none) share one evaluation at a batch's hits (``shade``)
+        self.program_group = _program_groups(progs)
         # some used material's program reads the Light Path node: the callers then fill
         # the hits' context (core/shading/light_path.py; else they pass None, zeros)
         self.reads_light_path = bool(np.any(used & np.array(
@@ -512,20 +515,19 @@ class HitShader:
         done = 0
         next_closure = n_cl
         bent = ns
+        values = self._group_values(ins, mat[hit])
         for m in np.unique(mat[hit]):
             sel = np.flatnonzero(mat[hit] == m)
             f, k = int(tab.first[m]), int(tab.count[m])
-            sub = _subset(ins, sel)
-            out = interpreter.closure_params(self.programs[m], sub,
-                                             tab.params[f:f + k].astype(np.float32),
-                                             self.images)
+            out = interpreter.closure_values(self.programs[m], values[sel],
+                                             tab.params[f:f + k].astype(np.float32))
             if out["normal"] is not None and ns is not None:
                 if bent is ns:
                     bent = np.array(ns, np.float64, copy=True)
                 # Cycles' ensure_valid_specular_reflection: the programmed normal
                 # tilted until the mirror direction leaves above the true surface
                 bent[hit[sel]] = normals.valid_specular_reflection(
-                    sub.true_normal[:sel.size], sub.incoming[:sel.size],
+                    ins.true_normal[sel], ins.incoming[sel],
                     _unit_or(out["normal"], bent[hit[sel]]))
             h = sel.size
             kinds.append(np.tile(tab.kind[f:f + k], h))
@@ -552,6 +554,27 @@ class HitShader:
             abbe=np.ascontiguousarray(cat([tab.abbe, *abbes])))
         return batch, rows, bent
 
+
+    def _group_values(self, ins: ShadingInputs, mat) -> np.ndarray:
+        """(N, O) float32: the programs' outputs at the N points of ``ins`` whose
+        materials mat (N,) all have a program with O outputs, each program evaluated
+        once over the points of every material running it (``program_group``; the
+        inputs copied only when the batch holds more than one program). A point's
+        values do not depend on the others', so this is bit for bit what evaluating
+        each material's points apart gives; it saves the per-material copies of the
+        inputs and kernel launches (a scene often has one program on many materials)."""
+        group = self.program_group[mat]
+        found = np.unique(group)
+        if found.size == 1:
+            return interpreter.evaluate(self.programs[int(mat[0])], ins, self.images)
+        width = max(self.programs[int(m)].outputs.shape[0] for m in np.unique(mat))
+        out = np.zeros((mat.shape[0], width), np.float32)
+        for g in found:
+            sel = np.flatnonzero(group == g)
+            values = interpreter.evaluate(self.programs[int(mat[sel[0]])],
+                                          _subset(ins, sel), self.images)
+            out[sel, :values.shape[1]] = values
+        return out
 
     def diffuse_albedo(self, tab, rows, mat, texel, d, ns, albedo) -> np.ndarray:
         """``albedo`` (N, 3) with the programmed hits' (rows != mat) and the layered
@@ -595,6 +618,18 @@ def _unit_or(normal, fallback) -> np.ndarray:
 def _path_rows(path, sel):
     """The Light Path context of hits ``sel``: path (N, K) indexed, (K,) or None as is."""
     return path if path is None or np.ndim(path) == 1 else np.asarray(path)[sel]
+
+
+def _program_groups(programs) -> np.ndarray:
+    """(M,) int32: a group per distinct program (equal instructions, constants, tables,
+    register count and outputs), -1 for a material without one."""
+    keys, out = {}, np.full(len(programs), -1, np.int32)
+    for m, p in enumerate(programs):
+        if p is not None:
+            key = (p.instructions.tobytes(), p.constants.tobytes(), p.tables.tobytes(),
+                   p.tables.shape, p.n_registers, p.outputs.tobytes())
+            out[m] = keys.setdefault(key, len(keys))
+    return out
 
 
 def _reads_bump(program) -> bool:

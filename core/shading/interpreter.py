@@ -4,7 +4,8 @@ of hit points (``evaluate``), in parallel over points, each with its own registe
 This is the interface the integrators use once the closure model lands (issue 13):
 ``evaluate(program, inputs)`` gives the per-point values of the program's outputs, and
 ``closure_params(program, inputs, params)`` writes them into per-point copies of the
-material's closure parameter rows.
+material's closure parameter rows (``closure_values``: the same from values already
+evaluated).
 """
 
 from __future__ import annotations
@@ -416,8 +417,15 @@ def closure_params(program: pg.ShaderProgram, inputs: ShadingInputs,
     (TARGET_WEIGHT, clamped to [0, 1]; 1 for the rows without one), None when the
     program has no TARGET_WEIGHT output.
     """
-    values = evaluate(program, inputs, images)
-    n = inputs.count
+    return closure_values(program, evaluate(program, inputs, images), params)
+
+
+def closure_values(program: pg.ShaderProgram, values: np.ndarray, params: np.ndarray
+                   ) -> dict[str, np.ndarray]:
+    """``closure_params`` from the program's outputs already evaluated, values (N, O)
+    float32 (``evaluate``): one evaluation serves every material running the same
+    program (``HitShader.shade``)."""
+    n = values.shape[0]
     rows = np.broadcast_to(np.asarray(params, np.float32), (n,) + np.shape(params)).copy()
     result = {"params": rows, "emission": None, "alpha": None, "normal": None,
               "weight": None}

@@ -40,7 +40,9 @@ def _fade(t):
 
 @njit(inline="always", **_JIT)
 def _neg(v, cond):
-    return -v if cond else v
+    """-v where cond is set, else v: a multiply by +-1 (exact, -0.0 included), not a
+    branch: cond is a hash bit, so a branch would be mispredicted half the time."""
+    return v * (1.0 - 2.0 * (cond != 0))
 
 
 @njit(inline="always", **_JIT)
@@ -158,7 +160,10 @@ def perlin_4d(x, y, z, w):
 
 @njit(inline="always", **_JIT)
 def _wrap(p):
-    """Cycles' precision guard: fmod(p, 1e5) + 0.5 where |p| >= 1e6."""
+    """Cycles' precision guard: fmod(p, 1e5) + 0.5 where |p| >= 1e6 (p itself below 1e5,
+    where fmod is exact and returns p: the libm call costs a quarter of a 3-D snoise)."""
+    if abs(p) < 100000.0:
+        return p
     return np.fmod(p, 100000.0) + (0.5 if abs(p) >= 1000000.0 else 0.0)
 
 

@@ -176,3 +176,41 @@ def test_the_lobe_masks_follow_what_the_program_can_produce():
     assert a.passes["indirect"].max() > 0
     for name, image in b.passes.items():
         np.testing.assert_allclose(a.passes[name], image, rtol=1e-6, atol=1e-7, err_msg=name)
+
+
+def test_materials_sharing_a_program_evaluate_it_once_bit_for_bit():
+    """``HitShader.shade`` evaluates a program once over every material running it (equal
+    programs, not only the same object) and each other program apart: each hit's
+    closure parameters are bit for bit those of shading its material's hits alone."""
+    sc = scene(uv_program())
+    mesh = sc.mesh
+    mi = np.array(mesh.material_index, copy=True)
+    mi[mi == 1] = np.arange(np.count_nonzero(mi == 1)) % 2 + 1  # walls: materials 1, 2
+    row = {"closures": [{"kind": closures.CLOSURE_DIFFUSE, "params": {"color": 0.5}}],
+           "diffuse": [0.5] * 3}
+    mats = Materials.from_list([{**row, "program": uv_program()},
+                                {**row, "program": uv_program()},
+                                {**row, "program": constant_program(0.7)}])
+    sc = replace(sc, mesh=replace(mesh, material_index=mi), materials=mats)
+    pr = prepare(sc, 2)
+    hs = pr.hit_shader
+    assert hs.program_group.tolist() == [0, 0, 1]
+    rng = np.random.default_rng(3)
+    n = 300
+    prim = rng.integers(0, mi.shape[0], n).astype(np.int32)
+    u = rng.uniform(0, 0.5, n).astype(np.float32)
+    v = rng.uniform(0, 0.5, n).astype(np.float32)
+    d = np.tile([0.0, 0.0, -1.0], (n, 1))
+    mat = pr.tri_material[prim]
+    assert set(mat.tolist()) == {0, 1, 2}
+
+    def params(tab, rows):
+        return np.stack([tab.params[tab.first[r]] for r in rows])
+
+    tab, rows = hs.closures_at(prim, u, v, d, mat)
+    together = params(tab, rows)
+    for m in range(3):
+        sel = np.flatnonzero(mat == m)
+        t1, r1 = hs.closures_at(prim[sel], u[sel], v[sel], d[sel], mat[sel])
+        assert np.array_equal(params(t1, r1), together[sel])
+    assert np.allclose(together[mat == 2, closures.COLOR], 0.49, atol=1e-6)
