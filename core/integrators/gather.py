@@ -539,9 +539,14 @@ def _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sa
             else:
                 albedo = mats["diffuse"][mat[diff]]
             hd = hit[diff]
-            albedo = prepared.hit_shader.albedo_at(prepared.texels, hits.prim[hd], hits.u[hd],
-                                                   hits.v[hd], d[diff], mat[diff], s2[diff],
-                                                   albedo, None if path is None else path[diff])
+            # The diffuse lobe's albedo plus, under a glossy layer (a Principled wall), the
+            # rough reflection lobes' toward x: the light y's specular layer reflects to x
+            # (E / pi times its albedo: exact for uniform incident radiance). The photons'
+            # glossy bounces there count as diffuse (core/photons/scatter.py), so the
+            # caustic map does not hold it again.
+            albedo = prepared.hit_shader.reflection_albedo_at(
+                prepared.texels, hits.prim[hd], hits.u[hd], hits.v[hd], d[diff], mat[diff],
+                s2[diff], albedo, None if path is None else path[diff])
             if terms.cache is not None:
                 est = cached_radiance(terms, p2[diff], n2[diff], albedo)
             else:
