@@ -196,10 +196,10 @@ class HitShader:
             [bool(np.any(closures.kind[closures.first[m]:closures.first[m] + closures.count[m]]
                          == CLOSURE_PRINCIPLED)) for m in range(mats.count)],
             bool).reshape(mats.count)
-        # materials with a diffuse lobe and a rough reflection lobe (a Principled's specular
-        # layer or coat, a Mix of Diffuse and Glossy): a gather ray that lands there reads
-        # the global map times both lobes' albedo toward it (``reflection_albedo_at``), as
-        # the photons' glossy bounces there count as diffuse (core/photons/scatter.py)
+        # materials with a diffuse lobe and a rough glossy lobe (a Principled's specular
+        # layer or coat, a Mix of Diffuse and Glossy): a final-gather ray that lands there
+        # reads the diffuse part from the global map and follows the glossy part
+        # (core/integrators/gather.py)
         lobes = closure.lobe_masks(closures)
         self.glossy_on_diffuse = (lobes["diffuse"] & lobes["rough"]).reshape(mats.count)
         self.tri_vertices, self.tri_normals = tri_vertices, tri_normals
@@ -560,25 +560,6 @@ class HitShader:
         ns = np.where(away[:, None], -ns, ns)
         out = np.array(albedo, np.float64, copy=True)
         out[shaded] = closure.diffuse_albedo(tab, rows[shaded], texel[shaded], d, ns)
-        return out
-
-    def reflection_albedo_at(self, texels, prim, u, v, d, mat, ns, albedo, path=None
-                             ) -> np.ndarray:
-        """``albedo_at`` plus, at the hits of ``glossy_on_diffuse`` materials, the rough
-        reflection lobes' albedo toward the viewer (``closure.reflection_albedo``): (N, 3),
-        what a final-gather hit reflects of the global map's E / pi toward the gather ray
-        (exact where the incident radiance is uniform, by reciprocity). Arguments as
-        ``albedo_at``."""
-        glossy = self.glossy_on_diffuse[mat]
-        if not glossy.any():
-            return self.albedo_at(texels, prim, u, v, d, mat, ns, albedo, path)
-        tab, rows = self.closures_at(prim, u, v, d, mat, path)
-        texel = texels.albedo(prim, u, v, mat)
-        out = np.array(self.diffuse_albedo(tab, rows, mat, texel, d, ns, albedo), np.float64)
-        sel = np.flatnonzero(glossy)
-        _, gloss = closure.reflection_albedo(tab, rows[sel], texel[sel], np.asarray(d)[sel],
-                                             np.asarray(ns, np.float64)[sel])
-        out[sel] += gloss
         return out
 
     def albedo_at(self, texels, prim, u, v, d, mat, ns, albedo, path=None) -> np.ndarray:

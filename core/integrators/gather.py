@@ -17,16 +17,17 @@ At a diffuse hit x (a material with a diffuse lobe) seen with path throughput T:
 
 Glossy (rough) lobes of the camera path's hits get direct light (and their own BSDF-sampled
 continuation, core/integrators/photon_mapping.py). At a gather hit y_j whose material has a
-rough reflection lobe besides its diffuse one (a Principled wall's specular layer and coat,
-a Mix of Diffuse and Glossy: ``HitShader.glossy_on_diffuse``), L(y_j) is
-(rho_y + g_y(-w_j)) / pi * E_g(y_j), g_y the rough reflection lobes' directional albedo
-toward x (``HitShader.reflection_albedo_at``, ``closure.albedo_parts``): exact for uniform
-incident radiance (reciprocity), the glossy reflection of non-uniform light spread like
-diffuse light. The photons' rough reflections at such materials count as diffuse bounces
-(core/photons/scatter.py), so the caustic map does not hold that light again. Measured
-(issue 13): without g_y the default Principled wall returned 6 % too little of uniform light
-(tests/core/integrators/test_gather.py); following the glossy lobe by a BSDF sample instead,
-as for rough metals, would add a ray and an estimate per gather hit on every wall.
+rough glossy lobe besides its diffuse one (a Principled wall's specular layer and coat, a
+Mix of Diffuse and Glossy: ``HitShader.glossy_on_diffuse``), the diffuse part is read as
+above and the gather ray also goes on through one BSDF sample of the glossy part, as at a
+rough metal (``camera_paths.follow_bsdf``: Russian roulette on the glossy share, so at a
+default Principled wall about 1 ray in 20 goes on, with weight 1). The light the glossy
+part reflects straight from the light sources is the caustic map's (light -> glossy ->
+diffuse), as for a metal. Why not the diffuse-like shortcut (the global map's E / pi times
+the glossy lobe's albedo toward x, exact only for uniform incident light): on
+benchmarks/tradeoff.py's artist room it made the image 2.7 % too bright, 2.2 % of it from
+the dark glossy floor (roughness 0.1) whose mirror-like reflection of the ceiling light it
+spread over the walls (issue 13, docs/materials.md).
 Photon terms at the camera's hits use the diffuse albedo, the textured one at each hit
 (core/materials/textures.py). Gather rays pass cut-outs like camera rays.
 
@@ -435,9 +436,10 @@ def _through_medium(terms: PhotonTerms, o, d, hits, thr, radiance, rows) -> np.n
 
 def _follow_rough(prepared, seed, depth, bounce, ray_pixel, index, rs, hits, hs, pos, ngf, nsf, d,
                   front, mat, eps, thr, lam):
-    """Gather rays rs (K,) at hits hs (K,) of rough glossy materials without a diffuse lobe
-    (``prepared.sampled_only``): one lobe of the hit's shaded closures sampled each
-    (``camera_paths.follow_bsdf``; the whole f |cos| / pdf, as no diffuse part is there).
+    """Gather rays rs (K,) at hits hs (K,) of rough glossy materials (``prepared.sampled_only``,
+    ``HitShader.glossy_on_diffuse``): one lobe of the hit's shaded closures sampled each
+    (``camera_paths.follow_bsdf``: the glossy part of f |cos| / pdf, the diffuse part being
+    the estimate read there).
     Lights, emission and the world the rays then meet count nothing, as for gather rays
     after a mirror: the caustic map holds light reaching x through glossy lobes.
     Random numbers: dimensions 2 x and 2 x + 1 of x = (GATHER_LOBE, depth, bounce) for
@@ -539,15 +541,6 @@ def _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sa
                               tangent=tan)
                 est = radiance_estimate(terms.global_map, p2[bd], n2[bd], None, terms.global_k,
                                         terms.global_radius, terms.filter, bsdf=hb)
-                glossy = np.flatnonzero(prepared.hit_shader.glossy_on_diffuse[mat[bd]])
-                if glossy.size:  # the rough reflection lobes over them, as for Lambert below
-                    _, g = closure.reflection_albedo(tab, crow[glossy], texel[glossy],
-                                                     d[bd][glossy], s2b[glossy])
-                    pts, nrm = p2[bd][glossy], n2[bd][glossy]
-                    est[glossy] += (cached_radiance(terms, pts, nrm, g) if terms.cache is not None
-                                    else radiance_estimate(terms.global_map, pts, nrm, g,
-                                                           terms.global_k, terms.global_radius,
-                                                           terms.filter))
                 radiance[rows[bd]] += thr[bd] * est
                 terms.stats["gather_queries"] += bd.size
         if diff.size:
@@ -558,14 +551,9 @@ def _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sa
             else:
                 albedo = mats["diffuse"][mat[diff]]
             hd = hit[diff]
-            # The diffuse lobe's albedo plus, under a glossy layer (a Principled wall), the
-            # rough reflection lobes' toward x: the light y's specular layer reflects to x
-            # (E / pi times its albedo: exact for uniform incident radiance). The photons'
-            # glossy bounces there count as diffuse (core/photons/scatter.py), so the
-            # caustic map does not hold it again.
-            albedo = prepared.hit_shader.reflection_albedo_at(
-                prepared.texels, hits.prim[hd], hits.u[hd], hits.v[hd], d[diff], mat[diff],
-                s2[diff], albedo, None if path is None else path[diff])
+            albedo = prepared.hit_shader.albedo_at(prepared.texels, hits.prim[hd], hits.u[hd],
+                                                   hits.v[hd], d[diff], mat[diff], s2[diff],
+                                                   albedo, None if path is None else path[diff])
             if terms.cache is not None:
                 est = cached_radiance(terms, p2[diff], n2[diff], albedo)
             else:
@@ -576,10 +564,12 @@ def _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sa
             terms.stats["gather_queries"] += diff.size
         if bounce == st.max_specular_depth:
             break
-        # Mirrors and glass: one delta lobe (follow_delta). Rough glossy lobes without a
-        # diffuse one (a rough metal): no estimate is read there, so the ray goes on through
-        # one BSDF sample (follow_bsdf, as camera paths do) to the next diffuse hit.
-        rough = prepared.sampled_only[mat]
+        # Mirrors and glass: one delta lobe (follow_delta). Rough glossy lobes (a rough
+        # metal; a Principled wall's specular layer over its diffuse base, whose estimate
+        # above is the diffuse part only): the ray goes on through one BSDF sample of the
+        # glossy part (follow_bsdf, as camera paths do; Russian roulette on the glossy
+        # share) to the next diffuse hit.
+        rough = prepared.sampled_only[mat] | prepared.hit_shader.glossy_on_diffuse[mat]
         sd = np.flatnonzero(prepared.has_delta[mat] & ~rough)
         sr = np.flatnonzero(rough)
         if sd.size == 0 and sr.size == 0:

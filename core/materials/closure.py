@@ -210,24 +210,6 @@ def _rough_of(ax, ay):
 
 
 @njit(cache=True, error_model="numpy")
-def _fresnel_estimate(tab, mode, p, q, eta, rough, mu):
-    """The Fresnel term of a GGX lobe averaged over its reflected directions at wo (mu the
-    cosine of wo, rough sqrt(alpha); p, q 3-tuples as the lobe's P0, Q0): RGB, Cycles'
-    bsdf_microfacet_estimate_albedo (the albedo tables), what layering and ``albedo``
-    take."""
-    if mode == FR_SCHLICK or mode == FR_DIELECTRIC:
-        s = albedo_tables.read_3d(tab.schlick_s, rough, mu, albedo_tables.ior_z(eta))
-        return p[0] + (1.0 - p[0]) * s, p[1] + (1.0 - p[1]) * s, p[2] + (1.0 - p[2]) * s
-    if mode == FR_F82:
-        s = albedo_tables.read_2d(tab.schlick5_s, rough, mu)
-        return p[0] + (1.0 - p[0]) * s, p[1] + (1.0 - p[1]) * s, p[2] + (1.0 - p[2]) * s
-    if mode == FR_CONDUCTOR:
-        return (fresnel.conductor(mu, p[0], q[0]), fresnel.conductor(mu, p[1], q[1]),
-                fresnel.conductor(mu, p[2], q[2]))
-    return 1.0, 1.0, 1.0
-
-
-@njit(cache=True, error_model="numpy")
 def _ggx_lobe(tab, L, n, w0, w1, w2, ax, ay, rc, rs, mode, p, q, eta, mu, multi, fss,
               beck=False):
     """Append a GGX (``beck``: Beckmann) reflection lobe with Fresnel ``mode`` (params p, q:
@@ -243,7 +225,19 @@ def _ggx_lobe(tab, L, n, w0, w1, w2, ax, ay, rc, rs, mode, p, q, eta, mu, multi,
     L[k, P0], L[k, P0 + 1], L[k, P0 + 2] = p[0], p[1], p[2]
     L[k, Q0], L[k, Q0 + 1], L[k, Q0 + 2] = q[0], q[1], q[2]
     rough = _rough_of(ax, ay)
-    e0, e1, e2 = _fresnel_estimate(tab, mode, p, q, eta, rough, mu)
+    # Fresnel albedo estimate at wo (bsdf_microfacet_estimate_albedo)
+    if mode == FR_SCHLICK or mode == FR_DIELECTRIC:
+        s = albedo_tables.read_3d(tab.schlick_s, rough, mu, albedo_tables.ior_z(eta))
+        e0, e1, e2 = p[0] + (1.0 - p[0]) * s, p[1] + (1.0 - p[1]) * s, p[2] + (1.0 - p[2]) * s
+    elif mode == FR_F82:
+        s = albedo_tables.read_2d(tab.schlick5_s, rough, mu)
+        e0, e1, e2 = p[0] + (1.0 - p[0]) * s, p[1] + (1.0 - p[1]) * s, p[2] + (1.0 - p[2]) * s
+    elif mode == FR_CONDUCTOR:
+        e0 = fresnel.conductor(mu, p[0], q[0])
+        e1 = fresnel.conductor(mu, p[1], q[1])
+        e2 = fresnel.conductor(mu, p[2], q[2])
+    else:
+        e0 = e1 = e2 = 1.0
     L[k, SW] *= _mean3(e0, e1, e2)
     L[k, EST] = 1.0
     d0 = d1 = d2 = 1.0
@@ -1085,14 +1079,10 @@ def sample_delta(tab, m, c0, c1, c2, wox, woy, woz, nsx, nsy, nsz, ngx, ngy, ngz
 
 
 @njit(cache=True, error_model="numpy")
-def albedo_parts(tab, m, c0, c1, c2, wox, woy, woz, nsx, nsy, nsz):
-    """Directional albedo at wo: (d0, d1, d2, g0, g1, g2, a0, a1, a2): the diffuse-like
-    lobes' part (Lambert, Oren-Nayar, translucent, sheen; 0 when material m has none: no
-    photon is stored there), the rough reflection lobes' part (GGX / Beckmann, not
-    singular: a Principled's specular layer and coat, Glossy, Metallic) and the whole
-    material's (RGB, estimates from the albedo tables: a microfacet lobe's weight (its
-    energy compensation included) x its single-scattering albedo x the Fresnel term
-    averaged over its directions, ``_fresnel_estimate``, the albedo Cycles layers with)."""
+def albedo(tab, m, c0, c1, c2, wox, woy, woz, nsx, nsy, nsz):
+    """Directional albedo at wo: (d0, d1, d2, a0, a1, a2): the diffuse-like lobes' part
+    (Lambert, Oren-Nayar, translucent, sheen; 0 when material m has none: no photon is
+    stored there) and the whole material's (RGB, estimates from the albedo tables)."""
     cz = nsx * wox + nsy * woy + nsz * woz
     if cz < 0.0:
         nsx, nsy, nsz = -nsx, -nsy, -nsz
@@ -1100,20 +1090,16 @@ def albedo_parts(tab, m, c0, c1, c2, wox, woy, woz, nsx, nsy, nsz):
     ux, uy, uz, bx, by, bz = frame(nsx, nsy, nsz, 1.0, 0.0, 0.0)
     lox = wox * ux + woy * uy + woz * uz
     loy = wox * bx + woy * by + woz * bz
-    mu = max(cz, 1e-7)
-    L = _lobes(tab, m, c0, c1, c2, lox, loy, mu, True)
-    d0 = d1 = d2 = g0 = g1 = g2 = a0 = a1 = a2 = 0.0
+    L = _lobes(tab, m, c0, c1, c2, lox, loy, max(cz, 1e-7), True)
+    d0 = d1 = d2 = a0 = a1 = a2 = 0.0
     for k in range(L.shape[0]):
         e = L[k, EST]
-        t = int(L[k, T])
-        if t == L_GGX:
-            f0, f1, f2 = _fresnel_estimate(
-                tab, int(L[k, MODE]), (L[k, P0], L[k, P0 + 1], L[k, P0 + 2]),
-                (L[k, Q0], L[k, Q0 + 1], L[k, Q0 + 2]), L[k, ETA],
-                _rough_of(L[k, AX], L[k, AY]), mu)
+        if int(L[k, T]) == L_GGX:
+            # the Fresnel estimate at wo times the single-scattering albedo
+            g0, g1, g2 = _ggx_fresnel(L, k, cz)
         else:
-            f0 = f1 = f2 = 1.0
-        v0, v1, v2 = L[k, W] * e * f0, L[k, W + 1] * e * f1, L[k, W + 2] * e * f2
+            g0 = g1 = g2 = 1.0
+        v0, v1, v2 = L[k, W] * e * g0, L[k, W + 1] * e * g1, L[k, W + 2] * e * g2
         a0 += v0
         a1 += v1
         a2 += v2
@@ -1121,18 +1107,6 @@ def albedo_parts(tab, m, c0, c1, c2, wox, woy, woz, nsx, nsy, nsz):
             d0 += v0
             d1 += v1
             d2 += v2
-        elif t == L_GGX and not microfacet.is_singular(L[k, AX], L[k, AY]):
-            g0 += v0
-            g1 += v1
-            g2 += v2
-    return d0, d1, d2, g0, g1, g2, a0, a1, a2
-
-
-@njit(cache=True, error_model="numpy")
-def albedo(tab, m, c0, c1, c2, wox, woy, woz, nsx, nsy, nsz):
-    """``albedo_parts`` without the rough reflection part: (d0, d1, d2, a0, a1, a2)."""
-    d0, d1, d2, _, _, _, a0, a1, a2 = albedo_parts(tab, m, c0, c1, c2, wox, woy, woz,
-                                                   nsx, nsy, nsz)
     return d0, d1, d2, a0, a1, a2
 
 
@@ -1142,28 +1116,6 @@ def _diffuse_albedo_kernel(tab, rows, texel, d, ns, out):
         a0, a1, a2, _, _, _ = albedo(tab, rows[i], texel[i, 0], texel[i, 1], texel[i, 2],
                                      -d[i, 0], -d[i, 1], -d[i, 2], ns[i, 0], ns[i, 1], ns[i, 2])
         out[i, 0], out[i, 1], out[i, 2] = a0, a1, a2
-
-
-@njit(cache=True, parallel=True, error_model="numpy")
-def _reflection_albedo_kernel(tab, rows, texel, d, ns, diffuse, glossy):
-    for i in prange(rows.shape[0]):
-        r = albedo_parts(tab, rows[i], texel[i, 0], texel[i, 1], texel[i, 2],
-                         -d[i, 0], -d[i, 1], -d[i, 2], ns[i, 0], ns[i, 1], ns[i, 2])
-        diffuse[i, 0], diffuse[i, 1], diffuse[i, 2] = r[0], r[1], r[2]
-        glossy[i, 0], glossy[i, 1], glossy[i, 2] = r[3], r[4], r[5]
-
-
-def reflection_albedo(tab: ClosureTable, rows, texel, d, ns) -> tuple[np.ndarray, np.ndarray]:
-    """``albedo_parts``' diffuse and rough reflection parts at N hits: two (N, 3) float64
-    RGB arrays; arguments as ``diffuse_albedo``."""
-    n = rows.shape[0]
-    diffuse, glossy = np.empty((n, 3)), np.empty((n, 3))
-    if n:
-        _reflection_albedo_kernel(tab, np.ascontiguousarray(rows, np.int32),
-                                  np.ascontiguousarray(texel, np.float64),
-                                  np.ascontiguousarray(d, np.float64),
-                                  np.ascontiguousarray(ns, np.float64), diffuse, glossy)
-    return diffuse, glossy
 
 
 def diffuse_albedo(tab: ClosureTable, rows, texel, d, ns) -> np.ndarray:

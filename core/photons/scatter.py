@@ -25,11 +25,7 @@ flux is multiplied by that wavelength's RGB weight (mean (1, 1, 1) per channel),
 then on every transmission lobe it meets refracts it with the IOR at its wavelength. The
 flux stored is that RGB, so the maps and estimates are unchanged.
 
-Glossy bounces count as specular for the path type, like Jensen's caustic paths, except
-a rough reflection off a material that also has a diffuse lobe (a Principled wall's specular
-layer, a Mix of Diffuse and Glossy): that counts as diffuse, because final gathering reads
-the light such a surface reflects (the global map times its diffuse and rough reflection
-albedo, core/integrators/gather.py), so the caustic map must not hold it too.
+Glossy bounces count as specular for the path type, like Jensen's caustic paths.
 Textures: the texel colour multiplies the textured closures' colour (roulette and bounce
 weight); storage depends on the material having a diffuse lobe, not on the texel.
 Cut-outs (opacity a < 1): the photon is stored as usual, then passes straight through
@@ -146,13 +142,7 @@ def _scatter_range(tri_v, tri_n, tri_mat, extent, tab, has_diffuse, has_specular
             tx, ty, tz, entering, u_lobe, u1, u2, li)
         if flags == 0:
             continue  # absorbed: no direction
-        # A rough reflection off a material with a diffuse lobe (a Principled wall's
-        # specular layer) counts as a diffuse bounce: final gathering reads that light at
-        # the wall (the global map times the rough lobes' albedo, core/integrators/gather.py),
-        # so it is no caustic (it would be counted twice).
-        diffuse_like = (flags & closure.LOBE_DIFFUSE) != 0 or (
-            has_diffuse[m] and flags == closure.LOBE_GLOSSY)
-        if diffuse_like:
+        if flags & closure.LOBE_DIFFUSE:
             if mode == MODE_CAUSTIC:
                 continue  # a diffuse bounce ends the caustic path
         # Russian roulette on the sampled weight: survive with p = min(1, max w), the flux
@@ -160,7 +150,7 @@ def _scatter_range(tri_v, tri_n, tri_mat, extent, tab, has_diffuse, has_specular
         p = min(1.0, _max3(w0, w1, w2))
         if not u_rr < p:
             continue
-        if diffuse_like:
+        if flags & closure.LOBE_DIFFUSE:
             n_diff[i] = nd + 1
         else:
             n_spec[i] = ns + 1
