@@ -18,7 +18,7 @@ At a diffuse hit x (a material with a diffuse lobe) seen with path throughput T:
 Glossy (rough) lobes of the camera path's hits get direct light (and their own BSDF-sampled
 continuation, core/integrators/photon_mapping.py). At a gather hit y_j whose material has a
 rough glossy lobe besides its diffuse one (a Principled wall's specular layer and coat, a
-Mix of Diffuse and Glossy: ``HitShader.glossy_on_diffuse``), the diffuse part is read as
+Mix of Diffuse and Glossy: ``PreparedScene.glossy_on_diffuse``), the diffuse part is read as
 above and the gather ray also goes on through one BSDF sample of the glossy part, as at a
 rough metal (``camera_paths.follow_bsdf``: Russian roulette on the glossy share, so at a
 default Principled wall about 1 ray in 20 goes on, with weight 1). The light the glossy
@@ -437,7 +437,7 @@ def _through_medium(terms: PhotonTerms, o, d, hits, thr, radiance, rows) -> np.n
 def _follow_rough(prepared, seed, depth, bounce, ray_pixel, index, rs, hits, hs, pos, ngf, nsf, d,
                   front, mat, eps, thr, lam):
     """Gather rays rs (K,) at hits hs (K,) of rough glossy materials (``prepared.sampled_only``,
-    ``HitShader.glossy_on_diffuse``): one lobe of the hit's shaded closures sampled each
+    ``prepared.glossy_on_diffuse``): one lobe of the hit's shaded closures sampled each
     (``camera_paths.follow_bsdf``: the glossy part of f |cos| / pdf, the diffuse part being
     the estimate read there).
     Lights, emission and the world the rays then meet count nothing, as for gather rays
@@ -569,7 +569,7 @@ def _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sa
         # above is the diffuse part only): the ray goes on through one BSDF sample of the
         # glossy part (follow_bsdf, as camera paths do; Russian roulette on the glossy
         # share) to the next diffuse hit.
-        rough = prepared.sampled_only[mat] | prepared.hit_shader.glossy_on_diffuse[mat]
+        rough = prepared.sampled_only[mat] | prepared.glossy_on_diffuse[mat]
         sd = np.flatnonzero(prepared.has_delta[mat] & ~rough)
         sr = np.flatnonzero(rough)
         if sd.size == 0 and sr.size == 0:
