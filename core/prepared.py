@@ -13,7 +13,9 @@ render's thread count (numba and Embree) and builds:
   closures' COLOR, 1 where untextured), and per material (M,) bool ``has_diffuse``, ``nondelta`` (a lobe that light
   sampling can see: diffuse or rough glossy), ``has_delta`` (a mirror or glass lobe),
   ``sampled_only`` (a rough glossy lobe and no diffuse one: SPPM's camera paths go on
-  through it by BSDF sampling), ``emissive_index`` (T,) int32 each triangle's row in ``emissive`` (-1: not emissive),
+  through it by BSDF sampling), ``glossy_on_diffuse`` (a rough glossy lobe and a diffuse one,
+  a Principled wall: final-gather rays read the diffuse part there and follow the glossy
+  part, core/integrators/gather.py), ``emissive_index`` (T,) int32 each triangle's row in ``emissive`` (-1: not emissive),
   ``specular_material`` (any glossy, mirror or glass lobe);
 - lights: ``light_set`` (core.lights.LightSet), ``light_shows`` (L,) bool (the light has a
   surface a ray can see), ``emissive`` (the emissive triangles), ``world`` (3,) float64
@@ -102,6 +104,7 @@ class PreparedScene:
     nondelta: np.ndarray
     has_delta: np.ndarray
     sampled_only: np.ndarray
+    glossy_on_diffuse: np.ndarray
     specular_material: np.ndarray
     light_set: LightSet
     light_shows: np.ndarray
@@ -788,6 +791,7 @@ def prepare(scene: Scene, threads: int = 0, seed: int = 0) -> PreparedScene:
         emissive_index=emissive_index, has_diffuse=has_diffuse,
         nondelta=has_diffuse | lobes["rough"], has_delta=lobes["delta"],
         sampled_only=lobes["rough"] & ~has_diffuse,
+        glossy_on_diffuse=lobes["rough"] & has_diffuse,
         specular_material=specular_material, light_set=light_set,
         light_shows=np.any(light_set.radiance > 0, axis=1),
         emissive=emissive,

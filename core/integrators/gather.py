@@ -16,9 +16,20 @@ At a diffuse hit x (a material with a diffuse lobe) seen with path throughput T:
   photons (the direct visualisation: fast, blotchy, labelled a preview).
 
 Glossy (rough) lobes of the camera path's hits get direct light (and their own BSDF-sampled
-continuation, core/integrators/photon_mapping.py); at a gather hit y_j with a diffuse lobe
-only the diffuse part is read. Photon terms use the diffuse albedo, the
-textured one at each hit (core/materials/textures.py). Gather rays pass cut-outs like camera rays.
+continuation, core/integrators/photon_mapping.py). At a gather hit y_j whose material has a
+rough glossy lobe besides its diffuse one (a Principled wall's specular layer and coat, a
+Mix of Diffuse and Glossy: ``PreparedScene.glossy_on_diffuse``), the diffuse part is read as
+above and the gather ray also goes on through one BSDF sample of the glossy part, as at a
+rough metal (``camera_paths.follow_bsdf``: Russian roulette on the glossy share, so at a
+default Principled wall about 1 ray in 20 goes on, with weight 1). The light the glossy
+part reflects straight from the light sources is the caustic map's (light -> glossy ->
+diffuse), as for a metal. Why not the diffuse-like shortcut (the global map's E / pi times
+the glossy lobe's albedo toward x, exact only for uniform incident light): on
+benchmarks/tradeoff.py's artist room it made the image 2.7 % too bright, 2.2 % of it from
+the dark glossy floor (roughness 0.1) whose mirror-like reflection of the ceiling light it
+spread over the walls (issue 13, docs/materials.md).
+Photon terms at the camera's hits use the diffuse albedo, the textured one at each hit
+(core/materials/textures.py). Gather rays pass cut-outs like camera rays.
 
 Diffuse-like lobes that are not Lambert (``PhotonTerms.bsdf_materials``: Oren-Nayar,
 sheen, translucent) are not rho / pi: there the terms evaluate the closure evaluator's
@@ -424,9 +435,10 @@ def _through_medium(terms: PhotonTerms, o, d, hits, thr, radiance, rows) -> np.n
 
 def _follow_rough(prepared, seed, depth, bounce, ray_pixel, index, rs, hits, hs, pos, ngf, nsf, d,
                   front, mat, eps, thr, lam):
-    """Gather rays rs (K,) at hits hs (K,) of rough glossy materials without a diffuse lobe
-    (``prepared.sampled_only``): one lobe of the hit's shaded closures sampled each
-    (``camera_paths.follow_bsdf``; the whole f |cos| / pdf, as no diffuse part is there).
+    """Gather rays rs (K,) at hits hs (K,) of rough glossy materials (``prepared.sampled_only``,
+    ``prepared.glossy_on_diffuse``): one lobe of the hit's shaded closures sampled each
+    (``camera_paths.follow_bsdf``: the glossy part of f |cos| / pdf, the diffuse part being
+    the estimate read there).
     Lights, emission and the world the rays then meet count nothing, as for gather rays
     after a mirror: the caustic map holds light reaching x through glossy lobes.
     Random numbers: dimensions 2 x and 2 x + 1 of x = (GATHER_LOBE, depth, bounce) for
@@ -551,10 +563,12 @@ def _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sa
             terms.stats["gather_queries"] += diff.size
         if bounce == st.max_specular_depth:
             break
-        # Mirrors and glass: one delta lobe (follow_delta). Rough glossy lobes without a
-        # diffuse one (a rough metal): no estimate is read there, so the ray goes on through
-        # one BSDF sample (follow_bsdf, as camera paths do) to the next diffuse hit.
-        rough = prepared.sampled_only[mat]
+        # Mirrors and glass: one delta lobe (follow_delta). Rough glossy lobes (a rough
+        # metal; a Principled wall's specular layer over its diffuse base, whose estimate
+        # above is the diffuse part only): the ray goes on through one BSDF sample of the
+        # glossy part (follow_bsdf, as camera paths do; Russian roulette on the glossy
+        # share) to the next diffuse hit.
+        rough = prepared.sampled_only[mat] | prepared.glossy_on_diffuse[mat]
         sd = np.flatnonzero(prepared.has_delta[mat] & ~rough)
         sr = np.flatnonzero(rough)
         if sd.size == 0 and sr.size == 0:

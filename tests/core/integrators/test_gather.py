@@ -259,6 +259,44 @@ def test_photon_terms_take_the_principled_diffuse_albedo_under_its_specular_laye
     np.testing.assert_allclose(out.passes["indirect"].mean(), expected, rtol=0.02)
 
 
+@pytest.mark.parametrize("cache", [True, False])
+def test_final_gather_reads_the_light_a_principled_specular_layer_reflects(cache, monkeypatch,
+                                                                          rng):
+    """The furnace sphere (camera at its centre) in white default Principled (base 1,
+    roughness 0.5, IOR 1.5), with a hand-built global map of irradiance pi arriving
+    cosine-distributed (uniform incident radiance 1). Its total albedo is 1 at every angle
+    (Cycles layers the base under the specular layer by 1 - that layer's albedo; sampled
+    0.991-1.000 from 0 to 85 deg), and by reciprocity the albedo is what a surface reflects
+    of uniform light: every gather ray must find radiance 1, and the indirect pass is the
+    camera hit's diffuse albedo at normal view (0.963) times the white Lambert sphere's with
+    the same map (which is 1), with and without the radiance cache. A gather hit that read
+    the wall's diffuse part only, base x (1 - the specular layer's albedo), lost the light
+    its specular layer reflects (about 5 %: the artist scene's walls, issue 13); the gather
+    rays now also follow that glossy lobe."""
+    from core.materials import closure
+    from core.scene import closures as cl
+    if not cache:  # the full estimate at each gather hit
+        monkeypatch.setattr(gather, "build_radiance_cache",
+                            lambda terms, prepared, settings, **kw: None)
+    _, sphere = furnace(1.0)
+    pm = uniform_photons(sphere.corners, sphere.normals[:, 0], [math.pi] * 3, 60_000, rng)
+    st = RenderSettings(samples=4, final_gather_rays=64, caustics=False, global_k=64)
+
+    def indirect(material):
+        scene, _ = furnace(1.0, emission=0.0)
+        scene = Scene(scene.mesh, Materials.from_list([material]), scene.lights, scene.camera)
+        return integrator.render(scene, st, photon_maps=maps(pm)).passes["indirect"].mean()
+
+    lambert = indirect({"diffuse": [1.0] * 3})
+    np.testing.assert_allclose(lambert, 1.0, rtol=0.03)
+    principled = {"diffuse": [1.0] * 3, "closures": [dict(
+        kind=cl.CLOSURE_PRINCIPLED, params=dict(color=1.0, roughness=0.5, ior=1.5))]}
+    tab = closure.table(Materials.from_list([principled]))
+    rho = closure.albedo_at(tab, 0, [0, 0, 1.0], [0, 0, 1.0])[0]  # diffuse part, normal view
+    assert 0.95 < rho < 0.97
+    np.testing.assert_allclose(indirect(principled) / lambert, rho, rtol=0.01)
+
+
 # --- a caustic against a ray-traced oracle ----------------------------------------------------
 
 def _fresnel(cos_i, n1, n2):
