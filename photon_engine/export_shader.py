@@ -827,9 +827,9 @@ def _noise(b, node, path):
 
 def _voronoi(b, node, path):
     dims = _dims(node, "voronoi_dimensions")
-    if dims not in (2, 3) or node.feature not in FEATURES:
+    if dims not in (1, 2, 3, 4) or node.feature not in FEATURES:
         b.warn(("voronoi", path, node.name), f"node '{node.name}': Voronoi "
-               f"{dims}D {node.feature} is not supported (2D and 3D F1, F2, Smooth F1, "
+               f"{dims}D {node.feature} is not supported (1D-4D F1, F2, Smooth F1, "
                f"Distance to Edge, N-Sphere Radius are)")
         return []
     names = ("W", "Scale", "Detail", "Roughness", "Lacunarity", "Smoothness", "Exponent",

@@ -213,3 +213,30 @@ def hash_int2_to_float2(x, y):
 def hash_int3_to_float3(x, y, z):
     hx, hy, hz = hash_pcg3d(x, y, z)
     return _to_unit(hx), _to_unit(hy), _to_unit(hz)
+
+
+@njit(**_JIT)
+def hash_pcg4d(x, y, z, w):
+    x = (mul32(x & M32, 1664525) + 1013904223) & M32
+    y = (mul32(y & M32, 1664525) + 1013904223) & M32
+    z = (mul32(z & M32, 1664525) + 1013904223) & M32
+    w = (mul32(w & M32, 1664525) + 1013904223) & M32
+    x = (x + mul32(y, w)) & M32
+    y = (y + mul32(z, x)) & M32
+    z = (z + mul32(x, y)) & M32
+    w = (w + mul32(y, z)) & M32
+    x = _xorshift16(x)
+    y = _xorshift16(y)
+    z = _xorshift16(z)
+    w = _xorshift16(w)
+    x = (x + mul32(y, w)) & M32
+    y = (y + mul32(z, x)) & M32
+    z = (z + mul32(x, y)) & M32
+    w = (w + mul32(y, z)) & M32
+    return x & 0x7FFFFFFF, y & 0x7FFFFFFF, z & 0x7FFFFFFF, w & 0x7FFFFFFF
+
+
+@njit(**_JIT)
+def hash_int4_to_float4(x, y, z, w):
+    hx, hy, hz, hw = hash_pcg4d(x, y, z, w)
+    return _to_unit(hx), _to_unit(hy), _to_unit(hz), _to_unit(hw)

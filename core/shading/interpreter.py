@@ -246,13 +246,14 @@ def _run(r, ins, tables, im_bytes, im_shorts, im_floats, im_tiles, im_first, im_
         r[a[10]], r[a[10] + 1], r[a[10] + 2] = x, y, z
     elif op == pg.OP_VORONOI:
         scale = r[a[2]]
-        d, cr, cg, cb, px, py, pz = voronoi_texture(
-            r[a[0]], r[a[0] + 1], r[a[0] + 2], ins[1], ins[2], ins[3], (ins[4] & 1) != 0, scale,
-            r[a[3]], r[a[4]], r[a[5]], r[a[6]], r[a[7]], r[a[8]], (ins[4] & 2) != 0)
+        d, cr, cg, cb, px, py, pz, pw = voronoi_texture(
+            r[a[0]], r[a[0] + 1], r[a[0] + 2], r[a[1]], ins[1], ins[2], ins[3],
+            (ins[4] & 1) != 0, scale, r[a[3]], r[a[4]], r[a[5]], r[a[6]], r[a[7]], r[a[8]],
+            (ins[4] & 2) != 0)
         r[a[9]] = d
         r[a[10]], r[a[10] + 1], r[a[10] + 2] = cr, cg, cb
         r[a[11]], r[a[11] + 1], r[a[11] + 2] = px, py, pz
-        r[a[12]] = 0.0
+        r[a[12]] = pw
     elif op == pg.OP_WAVE:
         s = r[a[1]]
         f = wave(ins[1], ins[2], ins[3], ins[4], r[a[0]] * s, r[a[0] + 1] * s, r[a[0] + 2] * s,

@@ -1,8 +1,10 @@
-"""Cycles' Voronoi Texture (kernel/svm/voronoi.h) in 2 and 3 D: F1, F2, smooth F1,
+"""Cycles' Voronoi Texture (kernel/svm/voronoi.h) in 1, 2, 3 and 4 D: F1, F2, smooth F1,
 distance to edge and n-sphere radius, with the Euclidean, Manhattan, Chebychev and Minkowski metrics and the
 fractal octaves (detail, roughness, lacunarity, normalize) of Blender 4.0+. Feature
 points come from the PCG integer hashes (Blender 5.0+), or with ``legacy`` from lookup3
 on the cell's float coordinates (Blender 4.x, before Cycles commit c24e0712c of June 2025).
+1D hashes the cell's float coordinate with lookup3 in both, and measures |distance| whatever
+the metric (Cycles); 4D uses PCG 4D (5.0+) or lookup3 on the four floats (4.x).
 
 A 2-D point is (x, y, 0) with a one-cell-thick search in z; the metrics then see a zero
 third component, which leaves every metric unchanged.
@@ -15,8 +17,8 @@ import math
 from numba import njit
 
 from .. import _numba_cache  # noqa: F401
-from .hash import hash_int2_to_float2, hash_int3_to_float3, hash_float2_to_float, \
-    hash_float3_to_float, hash_float4_to_float
+from .hash import hash_int2_to_float2, hash_int3_to_float3, hash_int4_to_float4, \
+    hash_float_to_float, hash_float2_to_float, hash_float3_to_float, hash_float4_to_float
 
 _JIT = dict(cache=True, error_model="numpy")
 
@@ -228,28 +230,337 @@ def n_sphere_radius(x, y, z, dims, randomness, legacy):
     return _distance(rx - qx, ry - qy, rz - qz, EUCLIDEAN, 1.0) / 2.0
 
 
+# --- 1D (W only): lookup3 on the cell's float coordinate in Blender 4.x and 5.x alike ----
+
 @njit(**_JIT)
-def voronoi_texture(x, y, z, dims, feature, metric, normalize, scale, detail, roughness,
+def _cell_color1(c):
+    """Cycles' hash_float_to_float3 of cell coordinate c (float)."""
+    return hash_float_to_float(c), hash_float2_to_float(c, 1.0), hash_float2_to_float(c, 2.0)
+
+
+@njit(**_JIT)
+def octave1(w, feature, randomness, smoothness):
+    """One 1-D octave of F1 / F2 / smooth F1 at w: (distance, r, g, b, position w); the
+    distance is |dw| whatever the metric (Cycles' 1-D voronoi_distance)."""
+    cell = math.floor(w)
+    local = w - cell
+    if feature == SMOOTH_F1 and smoothness != 0.0:
+        sd = sr = sg = sb = sp = 0.0
+        h = -1.0
+        for i in range(-2, 3):
+            p = i + hash_float_to_float(cell + i) * randomness
+            d = abs(p - local)
+            h = 1.0 if h == -1.0 else _smoothstep01(0.5 + 0.5 * (sd - d) / smoothness)
+            corr = smoothness * h * (1.0 - h)
+            sd = (1.0 - h) * sd + h * d - corr
+            corr /= 1.0 + 3.0 * smoothness
+            r, g, b = _cell_color1(cell + i)
+            sr = (1.0 - h) * sr + h * r - corr
+            sg = (1.0 - h) * sg + h * g - corr
+            sb = (1.0 - h) * sb + h * b - corr
+            sp = (1.0 - h) * sp + h * p - corr
+        return sd, sr, sg, sb, cell + sp
+    d1 = d2 = 3.4028234663852886e38
+    o1 = o2 = 0
+    p1 = p2 = 0.0
+    for i in range(-1, 2):
+        p = i + hash_float_to_float(cell + i) * randomness
+        d = abs(p - local)
+        if d < d1:
+            d2, o2, p2 = d1, o1, p1
+            d1, o1, p1 = d, i, p
+        elif d < d2:
+            d2, o2, p2 = d, i, p
+    if feature == F2:
+        r, g, b = _cell_color1(cell + o2)
+        return d2, r, g, b, p2 + cell
+    r, g, b = _cell_color1(cell + o1)
+    return d1, r, g, b, p1 + cell
+
+
+@njit(**_JIT)
+def distance_to_edge1(w, randomness):
+    """Cycles' 1-D voronoi_distance_to_edge: to the nearer midpoint with a neighbour."""
+    cell = math.floor(w)
+    local = w - cell
+    mid = hash_float_to_float(cell) * randomness
+    left = -1.0 + hash_float_to_float(cell - 1.0) * randomness
+    right = 1.0 + hash_float_to_float(cell + 1.0) * randomness
+    return min(abs((mid + left) / 2.0 - local), abs((mid + right) / 2.0 - local))
+
+
+@njit(**_JIT)
+def n_sphere_radius1(w, randomness):
+    """Cycles' 1-D voronoi_n_sphere_radius."""
+    cell = math.floor(w)
+    local = w - cell
+    best = 3.4028234663852886e38
+    q = 0.0
+    qo = 0
+    for i in range(-1, 2):
+        p = i + hash_float_to_float(cell + i) * randomness
+        d = abs(p - local)
+        if d < best:
+            best, q, qo = d, p, i
+    best = 3.4028234663852886e38
+    rr = 0.0
+    for i in (-1, 1):
+        o = i + qo
+        p = o + hash_float_to_float(cell + o) * randomness
+        d = abs(q - p)
+        if d < best:
+            best, rr = d, p
+    return abs(rr - q) / 2.0
+
+
+# --- 4D (Vector + W) -----------------------------------------------------------------------
+
+@njit(inline="always", **_JIT)
+def _distance4(dx, dy, dz, dw, metric, exponent):
+    dx, dy, dz, dw = abs(dx), abs(dy), abs(dz), abs(dw)
+    if metric == EUCLIDEAN:
+        return math.sqrt(dx * dx + dy * dy + dz * dz + dw * dw)
+    if metric == MANHATTAN:
+        return dx + dy + dz + dw
+    if metric == CHEBYCHEV:
+        return max(max(dx, dy), max(dz, dw))
+    return (dx ** exponent + dy ** exponent + dz ** exponent + dw ** exponent) ** (
+        1.0 / exponent)
+
+
+@njit(inline="always", **_JIT)
+def _bound4(dx, dy, dz, dw, metric, exponent):
+    """As _bound, in 4-D."""
+    if metric == EUCLIDEAN:
+        return dx * dx + dy * dy + dz * dz + dw * dw
+    if metric == MINKOWSKI:
+        return abs(dx) ** exponent + abs(dy) ** exponent + abs(dz) ** exponent + \
+            abs(dw) ** exponent
+    return _distance4(dx, dy, dz, dw, metric, exponent)
+
+
+@njit(**_JIT)  # not inlined, as _cell_point
+def _cell_point4(cx, cy, cz, cw, legacy):
+    """The feature point's offset in [0, 1)^4 of integer cell (cx, cy, cz, cw): Cycles'
+    hash_int4_to_float4 (PCG, 5.0+) or with ``legacy`` hash_float4_to_float4 (4.x)."""
+    if legacy:
+        x, y, z, w = float(cx), float(cy), float(cz), float(cw)
+        return (hash_float4_to_float(x, y, z, w), hash_float4_to_float(w, x, y, z),
+                hash_float4_to_float(z, w, x, y), hash_float4_to_float(y, z, w, x))
+    return hash_int4_to_float4(cx, cy, cz, cw)
+
+
+@njit(**_JIT)  # not inlined, as _cell_point
+def _cell_color4(cx, cy, cz, cw, legacy):
+    """Cycles' hash_int4_to_float3 (5.0+) or hash_float4_to_float3 (4.x) of the cell."""
+    if legacy:
+        x, y, z, w = float(cx), float(cy), float(cz), float(cw)
+        return (hash_float4_to_float(x, y, z, w), hash_float4_to_float(z, x, w, y),
+                hash_float4_to_float(w, z, y, x))
+    a, b, c, _ = hash_int4_to_float4(cx, cy, cz, cw)
+    return a, b, c
+
+
+@njit(**_JIT)
+def octave4(x, y, z, w, feature, metric, exponent, randomness, smoothness, legacy):
+    """One 4-D octave of F1 / F2 / smooth F1: (distance, r, g, b, px, py, pz, pw)."""
+    fx, fy, fz, fw = math.floor(x), math.floor(y), math.floor(z), math.floor(w)
+    lx, ly, lz, lw = x - fx, y - fy, z - fz, w - fw
+    cx, cy, cz, cw = int(fx), int(fy), int(fz), int(fw)
+    if feature == SMOOTH_F1 and smoothness != 0.0:
+        sd = sr = sg = sb = 0.0
+        spx = spy = spz = spw = 0.0
+        h = -1.0
+        for u in range(-2, 3):
+            for k in range(-2, 3):
+                for j in range(-2, 3):
+                    for i in range(-2, 3):
+                        ox, oy, oz, ow = _cell_point4(cx + i, cy + j, cz + k, cw + u, legacy)
+                        px = i + ox * randomness
+                        py = j + oy * randomness
+                        pz = k + oz * randomness
+                        pw = u + ow * randomness
+                        d = _distance4(px - lx, py - ly, pz - lz, pw - lw, metric, exponent)
+                        h = 1.0 if h == -1.0 else _smoothstep01(
+                            0.5 + 0.5 * (sd - d) / smoothness)
+                        corr = smoothness * h * (1.0 - h)
+                        sd = (1.0 - h) * sd + h * d - corr
+                        corr /= 1.0 + 3.0 * smoothness
+                        r, g, b = _cell_color4(cx + i, cy + j, cz + k, cw + u, legacy)
+                        sr = (1.0 - h) * sr + h * r - corr
+                        sg = (1.0 - h) * sg + h * g - corr
+                        sb = (1.0 - h) * sb + h * b - corr
+                        spx = (1.0 - h) * spx + h * px - corr
+                        spy = (1.0 - h) * spy + h * py - corr
+                        spz = (1.0 - h) * spz + h * pz - corr
+                        spw = (1.0 - h) * spw + h * pw - corr
+        return sd, sr, sg, sb, fx + spx, fy + spy, fz + spz, fw + spw
+    d1 = d2 = 3.4028234663852886e38
+    o1x = o1y = o1z = o1w = o2x = o2y = o2z = o2w = 0
+    p1x = p1y = p1z = p1w = p2x = p2y = p2z = p2w = 0.0
+    for u in range(-1, 2):
+        for k in range(-1, 2):
+            for j in range(-1, 2):
+                for i in range(-1, 2):
+                    ox, oy, oz, ow = _cell_point4(cx + i, cy + j, cz + k, cw + u, legacy)
+                    px = i + ox * randomness
+                    py = j + oy * randomness
+                    pz = k + oz * randomness
+                    pw = u + ow * randomness
+                    if feature == F2:
+                        d = _distance4(px - lx, py - ly, pz - lz, pw - lw, metric, exponent)
+                        if d < d1:
+                            d2, o2x, o2y, o2z, o2w = d1, o1x, o1y, o1z, o1w
+                            p2x, p2y, p2z, p2w = p1x, p1y, p1z, p1w
+                            d1, o1x, o1y, o1z, o1w = d, i, j, k, u
+                            p1x, p1y, p1z, p1w = px, py, pz, pw
+                        elif d < d2:
+                            d2, o2x, o2y, o2z, o2w = d, i, j, k, u
+                            p2x, p2y, p2z, p2w = px, py, pz, pw
+                    else:
+                        d = _bound4(px - lx, py - ly, pz - lz, pw - lw, metric, exponent)
+                        if d < d1:
+                            d1, o1x, o1y, o1z, o1w = d, i, j, k, u
+                            p1x, p1y, p1z, p1w = px, py, pz, pw
+    if feature == F2:
+        r, g, b = _cell_color4(cx + o2x, cy + o2y, cz + o2z, cw + o2w, legacy)
+        return d2, r, g, b, p2x + fx, p2y + fy, p2z + fz, p2w + fw
+    d = _distance4(p1x - lx, p1y - ly, p1z - lz, p1w - lw, metric, exponent)
+    r, g, b = _cell_color4(cx + o1x, cy + o1y, cz + o1z, cw + o1w, legacy)
+    return d, r, g, b, p1x + fx, p1y + fy, p1z + fz, p1w + fw
+
+
+@njit(**_JIT)
+def distance_to_edge4(x, y, z, w, randomness, legacy):
+    """Cycles' 4-D voronoi_distance_to_edge (Euclidean, whatever the metric)."""
+    fx, fy, fz, fw = math.floor(x), math.floor(y), math.floor(z), math.floor(w)
+    lx, ly, lz, lw = x - fx, y - fy, z - fz, w - fw
+    cx, cy, cz, cw = int(fx), int(fy), int(fz), int(fw)
+    vx = vy = vz = vw = 0.0
+    best = 3.4028234663852886e38
+    for u in range(-1, 2):
+        for k in range(-1, 2):
+            for j in range(-1, 2):
+                for i in range(-1, 2):
+                    ox, oy, oz, ow = _cell_point4(cx + i, cy + j, cz + k, cw + u, legacy)
+                    tx = i + ox * randomness - lx
+                    ty = j + oy * randomness - ly
+                    tz = k + oz * randomness - lz
+                    tw = u + ow * randomness - lw
+                    d = tx * tx + ty * ty + tz * tz + tw * tw
+                    if d < best:
+                        best, vx, vy, vz, vw = d, tx, ty, tz, tw
+    best = 3.4028234663852886e38
+    for u in range(-1, 2):
+        for k in range(-1, 2):
+            for j in range(-1, 2):
+                for i in range(-1, 2):
+                    ox, oy, oz, ow = _cell_point4(cx + i, cy + j, cz + k, cw + u, legacy)
+                    tx = i + ox * randomness - lx
+                    ty = j + oy * randomness - ly
+                    tz = k + oz * randomness - lz
+                    tw = u + ow * randomness - lw
+                    ex, ey, ez, ew = tx - vx, ty - vy, tz - vz, tw - vw
+                    e2 = ex * ex + ey * ey + ez * ez + ew * ew
+                    if e2 > 0.0001:
+                        inv = 1.0 / math.sqrt(e2)
+                        d = ((vx + tx) * 0.5 * ex + (vy + ty) * 0.5 * ey
+                             + (vz + tz) * 0.5 * ez + (vw + tw) * 0.5 * ew) * inv
+                        best = min(best, d)
+    return best
+
+
+@njit(**_JIT)
+def n_sphere_radius4(x, y, z, w, randomness, legacy):
+    """Cycles' 4-D voronoi_n_sphere_radius (as n_sphere_radius)."""
+    fx, fy, fz, fw = math.floor(x), math.floor(y), math.floor(z), math.floor(w)
+    lx, ly, lz, lw = x - fx, y - fy, z - fz, w - fw
+    cx, cy, cz, cw = int(fx), int(fy), int(fz), int(fw)
+    best = 3.4028234663852886e38
+    qx = qy = qz = qw = 0.0
+    oi = oj = ok = ou = 0
+    for u in range(-1, 2):
+        for k in range(-1, 2):
+            for j in range(-1, 2):
+                for i in range(-1, 2):
+                    ox, oy, oz, ow = _cell_point4(cx + i, cy + j, cz + k, cw + u, legacy)
+                    px, py = i + ox * randomness, j + oy * randomness
+                    pz, pw = k + oz * randomness, u + ow * randomness
+                    d = _distance4(px - lx, py - ly, pz - lz, pw - lw, EUCLIDEAN, 1.0)
+                    if d < best:
+                        best, qx, qy, qz, qw, oi, oj, ok, ou = d, px, py, pz, pw, i, j, k, u
+    best = 3.4028234663852886e38
+    rx = ry = rz = rw = 0.0
+    for u in range(-1, 2):
+        for k in range(-1, 2):
+            for j in range(-1, 2):
+                for i in range(-1, 2):
+                    if i == 0 and j == 0 and k == 0 and u == 0:
+                        continue
+                    ii, jj, kk, uu = i + oi, j + oj, k + ok, u + ou
+                    ox, oy, oz, ow = _cell_point4(cx + ii, cy + jj, cz + kk, cw + uu, legacy)
+                    px, py = ii + ox * randomness, jj + oy * randomness
+                    pz, pw = kk + oz * randomness, uu + ow * randomness
+                    d = _distance4(qx - px, qy - py, qz - pz, qw - pw, EUCLIDEAN, 1.0)
+                    if d < best:
+                        best, rx, ry, rz, rw = d, px, py, pz, pw
+    return _distance4(rx - qx, ry - qy, rz - qz, rw - qw, EUCLIDEAN, 1.0) / 2.0
+
+
+# --- any dimension ---------------------------------------------------------------------------
+
+@njit(**_JIT)
+def _octave_any(x, y, z, w, dims, feature, metric, exponent, randomness, smoothness, legacy):
+    """One octave in ``dims`` D: (distance, r, g, b, px, py, pz, pw), Cycles' float4
+    position (1D: (0, 0, 0, w); 2D/3D: w = 0)."""
+    if dims == 1:
+        d, r, g, b, pw = octave1(w, feature, randomness, smoothness)
+        return d, r, g, b, 0.0, 0.0, 0.0, pw
+    if dims == 4:
+        return octave4(x, y, z, w, feature, metric, exponent, randomness, smoothness, legacy)
+    d, r, g, b, px, py, pz = octave(x, y, z, dims, feature, metric, exponent, randomness,
+                                    smoothness, legacy)
+    return d, r, g, b, px, py, pz, 0.0
+
+
+@njit(**_JIT)
+def _edge_any(x, y, z, w, dims, randomness, legacy):
+    if dims == 1:
+        return distance_to_edge1(w, randomness)
+    if dims == 4:
+        return distance_to_edge4(x, y, z, w, randomness, legacy)
+    return distance_to_edge(x, y, z, dims, randomness, legacy)
+
+
+@njit(**_JIT)
+def voronoi_texture(x, y, z, w, dims, feature, metric, normalize, scale, detail, roughness,
                     lacunarity, smoothness, exponent, randomness, legacy=False):
-    """Cycles' Voronoi Texture node at vector (x, y, z):
-    (distance, r, g, b, px, py, pz); position is in the input's space (divided by scale);
+    """Cycles' Voronoi Texture node at vector (x, y, z) and W (dims 1: W only, 2: x, y,
+    3: x, y, z, 4: all four): (distance, r, g, b, px, py, pz, pw); the position (Position
+    output px, py, pz and W output pw) is in the input's space (divided by scale);
     ``legacy``: Blender 4.x's feature points (module doc)."""
     detail = min(max(detail, 0.0), 15.0)
     roughness = min(max(roughness, 0.0), 1.0)
     randomness = min(max(randomness, 0.0), 1.0)
     smoothness = min(max(smoothness / 2.0, 0.0), 0.5)
-    x, y, z = x * scale, y * scale, z * scale
+    x, y, z, w = x * scale, y * scale, z * scale, w * scale
     zero_input = detail == 0.0 or roughness == 0.0
     half = 0.5 + 0.5 * randomness
     if feature == N_SPHERE_RADIUS:  # one octave, no normalisation (Cycles)
-        return n_sphere_radius(x, y, z, dims, randomness, legacy), 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+        if dims == 1:
+            rad = n_sphere_radius1(w, randomness)
+        elif dims == 4:
+            rad = n_sphere_radius4(x, y, z, w, randomness, legacy)
+        else:
+            rad = n_sphere_radius(x, y, z, dims, randomness, legacy)
+        return rad, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
     if feature == DISTANCE_TO_EDGE:
         amp = 1.0
         max_amp = half
         sc = 1.0
         dist = 8.0
         for i in range(int(math.ceil(detail)) + 1):
-            od = distance_to_edge(x * sc, y * sc, z * sc, dims, randomness, legacy)
+            od = _edge_any(x * sc, y * sc, z * sc, w * sc, dims, randomness, legacy)
             if zero_input:
                 dist = od
                 break
@@ -267,21 +578,27 @@ def voronoi_texture(x, y, z, dims, feature, metric, normalize, scale, detail, ro
                     dist = (1.0 - rem) * dist + rem * min(dist, lerp_d)
         if normalize:
             dist /= max_amp
-        return dist, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
-    max_distance = _distance(half, half, half if dims == 3 else 0.0, metric, exponent)
+        return dist, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    if dims == 1:  # Cycles' 1-D max distance ignores the metric, as its distance does
+        max_distance = half
+    elif dims == 4:
+        max_distance = _distance4(half, half, half, half, metric, exponent)
+    else:
+        max_distance = _distance(half, half, half if dims == 3 else 0.0, metric, exponent)
     if feature == F2:
         max_distance *= 2.0
     amp = 1.0
     max_amp = 0.0
     sc = 1.0
     od = orr = og = ob = 0.0
-    opx = opy = opz = 0.0
+    opx = opy = opz = opw = 0.0
     for i in range(int(math.ceil(detail)) + 1):
-        d, r, g, b, px, py, pz = octave(x * sc, y * sc, z * sc, dims, feature, metric,
-                                        exponent, randomness, smoothness, legacy)
+        d, r, g, b, px, py, pz, pw = _octave_any(x * sc, y * sc, z * sc, w * sc, dims,
+                                                 feature, metric, exponent, randomness,
+                                                 smoothness, legacy)
         if zero_input:
             max_amp = 1.0
-            od, orr, og, ob, opx, opy, opz = d, r, g, b, px, py, pz
+            od, orr, og, ob, opx, opy, opz, opw = d, r, g, b, px, py, pz, pw
             break
         if i <= detail:
             max_amp += amp
@@ -292,6 +609,7 @@ def voronoi_texture(x, y, z, dims, feature, metric, normalize, scale, detail, ro
             opx = (1.0 - amp) * opx + amp * (px / sc)
             opy = (1.0 - amp) * opy + amp * (py / sc)
             opz = (1.0 - amp) * opz + amp * (pz / sc)
+            opw = (1.0 - amp) * opw + amp * (pw / sc)
             sc *= lacunarity
             amp *= roughness
         else:
@@ -305,13 +623,14 @@ def voronoi_texture(x, y, z, dims, feature, metric, normalize, scale, detail, ro
                 opx = (1.0 - rem) * opx + rem * ((1.0 - amp) * opx + amp * (px / sc))
                 opy = (1.0 - rem) * opy + rem * ((1.0 - amp) * opy + amp * (py / sc))
                 opz = (1.0 - rem) * opz + rem * ((1.0 - amp) * opz + amp * (pz / sc))
+                opw = (1.0 - rem) * opw + rem * ((1.0 - amp) * opw + amp * (pw / sc))
     if normalize:
         od /= max_amp * max_distance
         orr /= max_amp
         og /= max_amp
         ob /= max_amp
     if scale != 0.0:
-        opx, opy, opz = opx / scale, opy / scale, opz / scale
+        opx, opy, opz, opw = opx / scale, opy / scale, opz / scale, opw / scale
     else:
-        opx = opy = opz = 0.0
-    return od, orr, og, ob, opx, opy, opz
+        opx = opy = opz = opw = 0.0
+    return od, orr, og, ob, opx, opy, opz, opw
