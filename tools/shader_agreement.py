@@ -1,6 +1,7 @@
 """The measured agreement of every shader node test plane with Cycles (docs/shading.md's
 table): renders the scenes of tests/blender/test_shader_nodes.py, test_shader_nodes_view.py,
-test_shader_images.py and test_shader_attributes.py and prints, per plane,
+test_shader_voronoi_1d4d.py, test_shader_images.py and test_shader_attributes.py and
+prints, per plane,
 the 99th-percentile per-pixel error (relative to max(1, |Cycles|)) on the non-edge
 pixels, the worst error beyond our value's variation within 0.2 pixel (Cycles' occasional
 off-centre sample) and at the centre, and the fraction of edge pixels.
@@ -23,6 +24,7 @@ import numpy as np  # noqa: E402
 from tests.blender import shader_scenes as ss  # noqa: E402
 from tests.blender import test_shader_nodes as t  # noqa: E402
 from tests.blender import test_shader_nodes_view as tv  # noqa: E402
+from tests.blender import test_shader_voronoi_1d4d as tvw  # noqa: E402
 
 
 def scenes():
@@ -75,6 +77,8 @@ def scenes():
               ("Voronoi fractal (detail 1.5)", t.voronoi_plane(
                   "3D", "F1", output="Distance", Detail=1.5, Roughness=0.6, Lacunarity=2.2))]
     yield "Voronoi", specs
+    yield "Voronoi 1D", tvw.SPECS_1D
+    yield "Voronoi 4D", tvw.SPECS_4D
     specs = [("Checker", t.checker_plane)]
     specs += [(f"Gradient {k}", t.gradient_plane(k)) for k in (
         "LINEAR", "QUADRATIC", "EASING", "DIAGONAL", "RADIAL", "QUADRATIC_SPHERE",
