@@ -196,8 +196,9 @@ def _walk_arrays(origins, directions, t0, t1, index):
 
 
 def _checked_density(density, points, field, majorant, what):
-    """rho (K,) or, for a medium whose colour varies, per-channel factors (K, 3): each in
-    [0, majorant] (else MajorantExceeded)."""
+    """rho (K,) or, for a medium whose colour varies, per-channel factors (K, 3) (of the
+    extinction) or (K, 6) (absorption's, scattering's): each in [0, majorant] (else
+    MajorantExceeded)."""
     rho = np.asarray(density(points, field), np.float64)
     bound = majorant if rho.ndim == 1 else np.asarray(majorant)[:, None]
     bad = ~((rho >= 0.0) & (rho <= bound))
@@ -260,7 +261,10 @@ def delta_tracking_batch(density, origins, directions, t0, t1, field, base_a, ba
     absorption base_a + rho(x) rho_a and scattering base_s + rho(x) rho_s ((N, 3) 1/m
     each: a homogeneous part plus the density's), rho as ``ratio_tracking_batch``.
     Returns t (N,) metres (t1 where the flight passes), scattered (N,) bool, weights (N, 3)
-    float64: E[w, passing] = T(t1), E[w f(t), scattering] = integral of sigma_s T f."""
+    float64: E[w, passing] = T(t1), E[w f(t), scattering] = integral of sigma_s T f.
+    A medium whose colour varies: density returns (K, 6) factors, the absorption's per
+    channel then the scattering's (sigma_a,c = base_a,c + f_c rho_a,c, sigma_s,c = base_s,c
+    + f_{3+c} rho_s,c), each in [0, majorant]."""
     o, d, t, b, idx = _walk_arrays(origins, directions, t0, t1, index)
     n = o.shape[0]
 
@@ -287,9 +291,13 @@ def delta_tracking_batch(density, origins, directions, t0, t1, field, base_a, ba
         if not active.size:
             break
         p = o[active] + t[active, None] * d[active]
-        rho = _checked_density(density, p, fld[active], maj[active], "delta tracking")[:, None]
-        sig_s = bs[active] + rho * rs[active]
-        sig_t = ba[active] + rho * ra[active] + sig_s
+        rho = _checked_density(density, p, fld[active], maj[active], "delta tracking")
+        if rho.ndim == 1:
+            rho_a = rho_sc = rho[:, None]
+        else:  # a varying colour: (K, 6) per-channel factors of rho_a, then of rho_s
+            rho_a, rho_sc = rho[:, :3], rho[:, 3:]
+        sig_s = bs[active] + rho_sc * rs[active]
+        sig_t = ba[active] + rho_a * ra[active] + sig_s
         wa = w[active]
         bb = bar[active, None]
         # Kutz et al.'s throughput-weighted channel means decide scattering vs null
