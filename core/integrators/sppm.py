@@ -685,6 +685,14 @@ class PassRenderer:
                 "direct_light": "shadow rays at the visible points; photons for the rest"
                 if self.direct == "shadow_rays" else "photons (standard SPPM: no shadow rays)"}
 
+    def medium_warnings(self) -> list[str]:
+        """The heterogeneous media's density clipping so far (DensityFields.warnings, over
+        every pass this renderer made), as photon_mapping.render's stats["medium_warnings"]."""
+        medium = self.prepared.medium
+        if medium is None or medium.fields is None:
+            return []
+        return medium.fields.warnings()
+
 
 # --- one machine ----------------------------------------------------------------------------
 
@@ -752,6 +760,8 @@ def _passes(renderer: PassRenderer, max_passes: int) -> Iterator[ProgressiveStat
                 state.block = renderer.new_sums(b)
             state.passes = k + 1
             state.stats.update(merge_stats(image.stats, state.block.stats))
+            # Not a counter merge_stats adds: the fields count the clipping of every pass
+            state.stats["medium_warnings"] = renderer.medium_warnings()
             yield state
 
 

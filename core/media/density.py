@@ -230,3 +230,22 @@ def measure_majorant(rho, lo, hi, grid: int = GRID, safety: float = SAFETY) -> f
     corners = np.array([[(lo, hi)[(c >> k) & 1][k] for k in range(3)] for c in range(8)])
     v = rho(np.concatenate([pts, corners]))
     return float(safety * v.max()) if v.size else 0.0
+
+
+def principled_volume_coefficients(rho, color, absorption_color):
+    """Cycles' Principled Volume coefficients at K points (svm_node_principled_volume, as
+    photon_engine/export_volumes.py reads it for constant inputs): sigma_s = C rho,
+    sigma_a = max(1 - C, 0) max(1 - sqrt(A), 0) rho.
+
+    rho (K,) density (negative taken as 0, as Cycles), color C and absorption_color A
+    (K, 3) or (3,). Returns (sigma_a, sigma_s), (K, 3) float64 each, 1/m: the per-point
+    coefficients of a medium whose colour varies (a Color / Absorption Color fed by nodes);
+    their sum over a constant extinction gives ``tracking.ratio_tracking_batch``'s
+    per-channel factors."""
+    r = np.maximum(np.asarray(rho, np.float64), 0.0)[:, None]
+    c = np.maximum(np.asarray(color, np.float64), 0.0)
+    a = np.sqrt(np.maximum(np.asarray(absorption_color, np.float64), 0.0))
+    sigma_s = np.broadcast_to(c * r, (r.shape[0], 3))
+    sigma_a = np.broadcast_to(np.maximum(1.0 - c, 0.0) * np.maximum(1.0 - a, 0.0) * r,
+                              (r.shape[0], 3))
+    return np.ascontiguousarray(sigma_a), np.ascontiguousarray(sigma_s)

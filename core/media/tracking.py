@@ -196,15 +196,27 @@ def _walk_arrays(origins, directions, t0, t1, index):
 
 
 def _checked_density(density, points, field, majorant, what):
+    """rho (K,) or, for a medium whose colour varies, per-channel factors (K, 3) (of the
+    extinction) or (K, 6) (absorption's, scattering's): each in [0, majorant] (else
+    MajorantExceeded)."""
     rho = np.asarray(density(points, field), np.float64)
-    bad = ~((rho >= 0.0) & (rho <= majorant))
+    bound = majorant if rho.ndim == 1 else np.asarray(majorant)[:, None]
+    bad = ~((rho >= 0.0) & (rho <= bound))
+    if bad.ndim == 2:
+        bad = bad.any(axis=1)
     if bad.any():
         j = int(np.flatnonzero(bad)[0])
         raise MajorantExceeded(
-            f"media: {what} met a density {rho[j]!r} outside [0, majorant = {majorant[j]!r}] "
+            f"media: {what} met a density {rho[j].tolist()!r} outside [0, majorant = "
+            f"{majorant[j]!r}] "
             f"at {points[j].tolist()} (field {int(field[j])}): the majorant underestimates "
             f"the density there")
     return rho
+
+
+def _per_channel(rho: np.ndarray) -> np.ndarray:
+    """rho (K,) as (K, 1), per-channel factors (K, 3) as they are."""
+    return rho[:, None] if rho.ndim == 1 else rho
 
 
 def ratio_tracking_batch(density, origins, directions, t0, t1, field, sigma_t, majorant,
@@ -214,7 +226,11 @@ def ratio_tracking_batch(density, origins, directions, t0, t1, field, sigma_t, m
     per segment). density(points (K, 3) float64, field (K,) int64) -> (K,) float64 is rho,
     field (N,) int64 which density each segment reads, majorant (N,) >= rho on the segment.
     Unbiased: E = exp(-integral of rho sigma_t) per channel. Raises MajorantExceeded for a
-    density outside [0, majorant] (module doc)."""
+    density outside [0, majorant] (module doc). A medium whose colour varies (Principled
+    Volume Color / Absorption Color fed by nodes) has a per-channel extinction: density
+    then returns (K, 3) factors r_c(x) with sigma_t,c(x) = r_c(x) sigma_t,c, each in
+    [0, majorant] (the majorant stays one scalar on the extinction: the tentative
+    collisions are drawn from majorant x max_c sigma_t,c as for a scalar rho)."""
     o, d, t, b, idx = _walk_arrays(origins, directions, t0, t1, index)
     st = np.ascontiguousarray(np.broadcast_to(np.asarray(sigma_t, np.float64), o.shape))
     maj = np.broadcast_to(np.asarray(majorant, np.float64), t.shape)
@@ -233,7 +249,7 @@ def ratio_tracking_batch(density, origins, directions, t0, t1, field, sigma_t, m
             break
         p = o[active] + t[active, None] * d[active]
         rho = _checked_density(density, p, fld[active], maj[active], "ratio tracking")
-        T[active] *= 1.0 - rho[:, None] * st[active] / bar[active, None]
+        T[active] *= 1.0 - _per_channel(rho) * st[active] / bar[active, None]
         step += 1
     return T
 
@@ -245,7 +261,10 @@ def delta_tracking_batch(density, origins, directions, t0, t1, field, base_a, ba
     absorption base_a + rho(x) rho_a and scattering base_s + rho(x) rho_s ((N, 3) 1/m
     each: a homogeneous part plus the density's), rho as ``ratio_tracking_batch``.
     Returns t (N,) metres (t1 where the flight passes), scattered (N,) bool, weights (N, 3)
-    float64: E[w, passing] = T(t1), E[w f(t), scattering] = integral of sigma_s T f."""
+    float64: E[w, passing] = T(t1), E[w f(t), scattering] = integral of sigma_s T f.
+    A medium whose colour varies: density returns (K, 6) factors, the absorption's per
+    channel then the scattering's (sigma_a,c = base_a,c + f_c rho_a,c, sigma_s,c = base_s,c
+    + f_{3+c} rho_s,c), each in [0, majorant]."""
     o, d, t, b, idx = _walk_arrays(origins, directions, t0, t1, index)
     n = o.shape[0]
 
@@ -272,9 +291,13 @@ def delta_tracking_batch(density, origins, directions, t0, t1, field, base_a, ba
         if not active.size:
             break
         p = o[active] + t[active, None] * d[active]
-        rho = _checked_density(density, p, fld[active], maj[active], "delta tracking")[:, None]
-        sig_s = bs[active] + rho * rs[active]
-        sig_t = ba[active] + rho * ra[active] + sig_s
+        rho = _checked_density(density, p, fld[active], maj[active], "delta tracking")
+        if rho.ndim == 1:
+            rho_a = rho_sc = rho[:, None]
+        else:  # a varying colour: (K, 6) per-channel factors of rho_a, then of rho_s
+            rho_a, rho_sc = rho[:, :3], rho[:, 3:]
+        sig_s = bs[active] + rho_sc * rs[active]
+        sig_t = ba[active] + rho_a * ra[active] + sig_s
         wa = w[active]
         bb = bar[active, None]
         # Kutz et al.'s throughput-weighted channel means decide scattering vs null
@@ -321,7 +344,7 @@ def ratio_tracking_points(density, origins, directions, t0, t1, field, sigma_t, 
             break
         p = o[active] + t[active, None] * d[active]
         rho = _checked_density(density, p, fld[active], maj[active], "ratio tracking")
-        T[active] *= 1.0 - rho[:, None] * st[active] / bar[active, None]
+        T[active] *= 1.0 - _per_channel(rho) * st[active] / bar[active, None]
         walks.append(active.copy())
         ts.append(t[active].copy())
         Ts.append(T[active].copy())

@@ -47,7 +47,9 @@ def object_spheres(tri_vertices: np.ndarray, object_index: np.ndarray,
         np.minimum.at(lo, obj, tv[:, c])
         np.maximum.at(hi, obj, tv[:, c])
     present = np.all(np.isfinite(lo), axis=1)
-    centre = np.where(present[:, None], 0.5 * (lo + hi), 0.0)
+    # inf + -inf of an object without triangles is not evaluated (no RuntimeWarning)
+    centre = np.zeros((n_objects, 3))
+    centre[present] = 0.5 * (lo[present] + hi[present])
     r2 = np.zeros(n_objects)
     for c in range(3):
         np.maximum.at(r2, obj, np.sum((tv[:, c] - centre[obj]) ** 2, axis=1))

@@ -9,7 +9,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from core.integrators import photon_mapping
+from core.integrators import photon_mapping, sppm
 from core.media import regions
 from core.media.density import GRID, DensityFields
 from core.scene import shapes
@@ -105,7 +105,9 @@ def _fine_sine_program():
                                   name="fine sine")
 
 
-def test_a_density_finer_than_the_grid_is_clipped_and_reported_in_the_render_stats():
+def _ripples_scene(wall: bool = False):
+    """The fine sine in a 2 m box seen along +y; with ``wall`` a grey wall behind it (the
+    progressive integrator traces the media on its camera paths to surfaces only)."""
     lo, hi = np.array([-1.0, -1.0, -1.0]), np.array([1.0, 1.0, 1.0])
     media = Media.from_list([{"bounds": 0, "name": "Ripples",
                               "boundary": shapes.box(lo, hi).corners,
@@ -113,15 +115,37 @@ def test_a_density_finer_than_the_grid_is_clipped_and_reported_in_the_render_sta
                             programs=(_fine_sine_program(),))
     cam = Camera(to_world=shapes.look_at([0, -5, 0], [0, 0, 0], (0, 0, 1)), width=8,
                  height=8, film_size=np.array([1.6, 1.6]), kind=CAMERA_ORTHOGRAPHIC)
-    mesh = dataclasses.replace(Mesh.empty(), object_names=("Box",),
-                               object_to_world=np.eye(4)[None],
-                               object_texspace=np.array([[[0.0, 0, 0], [1.0, 1, 1]]]))
-    scene = Scene(mesh, Materials.from_list([{"diffuse": [0, 0, 0]}]), Lights.empty(), cam,
+    objects = 2 if wall else 1
+    base = Mesh.empty()
+    if wall:  # object 1 (the box, object 0, is the medium's boundary only)
+        base = shapes.assemble([(shapes.quad([0, 2, 0], [-3, 0, 0], [0, 0, 3]), 1)])
+        base = dataclasses.replace(base, object_index=np.ones_like(base.object_index))
+    mesh = dataclasses.replace(base, object_names=("Box", "Wall")[:objects],
+                               object_to_world=np.tile(np.eye(4), (objects, 1, 1)),
+                               object_texspace=np.tile([[0.0, 0, 0], [1.0, 1, 1]],
+                                                       (objects, 1, 1)))
+    mats = Materials.from_list([{"diffuse": [0, 0, 0]}, {"diffuse": [0.5, 0.5, 0.5]}])
+    scene = Scene(mesh, mats, Lights.empty(), cam,
                   world=World(radiance=np.full(3, 1.0, np.float32)), media=media).validate()
+    return scene
+
+
+def test_a_density_finer_than_the_grid_is_clipped_and_reported_in_the_render_stats():
     st = RenderSettings(samples=1, caustics=False, indirect_mode="preview",
                         global_photons=1000, threads=2, seed=1)
-    out = photon_mapping.render(scene, st)
+    out = photon_mapping.render(_ripples_scene(), st)
     warnings = out.stats["medium_warnings"]
     print(warnings)
+    assert len(warnings) == 1 and "medium 'Ripples'" in warnings[0] and "clipped" in warnings[0]
+    assert np.all(np.isfinite(out.passes["combined"]))
+
+
+def test_the_progressive_render_reports_the_clipping_in_its_stats_too():
+    """sppm.render gives stats["medium_warnings"] as photon_mapping.render does (Blender's
+    report, photon_engine/render.py, reads it for both integrators)."""
+    st = RenderSettings(integrator="progressive", progressive_passes=2, photons_per_pass=500,
+                        threads=2, seed=1)
+    out = sppm.render(_ripples_scene(wall=True), st)
+    warnings = out.stats["medium_warnings"]
     assert len(warnings) == 1 and "medium 'Ripples'" in warnings[0] and "clipped" in warnings[0]
     assert np.all(np.isfinite(out.passes["combined"]))
