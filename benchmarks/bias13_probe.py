@@ -31,6 +31,8 @@ VARIANTS = {
     "nowallglossy": {},
     "mode_preview": dict(indirect_mode="preview"),
     "filter_none": dict(filter="none"),
+    "pmb7": dict(photon_max_bounces=7),
+    "pmb9": dict(photon_max_bounces=9),
 }
 
 
