@@ -1,6 +1,6 @@
 """Issue 13 diagnosis: the artist scene's diffuse indirect excess, one variation at a time.
 
-    .venv/bin/python benchmarks/bias13_probe.py VARIANT[,VARIANT...] [--seeds 0,1]
+    .venv/bin/python benchmarks/probe_artist_variants.py VARIANT[,VARIANT...] [--seeds 0,1]
 
 Prints per variant and seed: the image mean ratio vs the cached Cycles reference
 (benchmarks/references/artist_48x36.npz), (indirect + caustics) / reference mean and the

@@ -1,7 +1,7 @@
 """Issue 13: the artist scene with the specular layer of the walls / floor switched off
 (Principled "Specular IOR Level" 0), Cycles (1024 spp) against Photon Map Preview (seeds 0, 1).
 
-    .venv/bin/python benchmarks/bias13_spec.py walls|floor|both|none|diffuse
+    .venv/bin/python benchmarks/probe_artist_layers.py walls|floor|both|none|diffuse
 """
 import json
 import pathlib
