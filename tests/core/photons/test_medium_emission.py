@@ -108,14 +108,14 @@ def _floor_scene():
                  cam, media=media).validate()
 
 
-def _sphere_irradiance(x, centre, radius):
+def _sphere_irradiance(x, centre, radius, n_mu=400, n_phi=400):
     """E at floor points x (P, 3) from the World medium inside the sphere (centre, radius),
     l the chord from the point to the sphere."""
     def chord(p, d):
         q = p - centre
         b = d @ q
         return -b + np.sqrt(b * b - (q @ q - radius ** 2))
-    return _hemisphere_irradiance(x, chord, W_EPS, W_SIGMA_A)
+    return _hemisphere_irradiance(x, chord, W_EPS, W_SIGMA_A, n_mu, n_phi)
 
 
 def test_the_world_volume_emission_lights_the_floor_from_the_scene_sphere():
