@@ -264,9 +264,6 @@ class PhotonTerms:
                                                  "caustic_queries": 0, "time_gather": 0.0,
                                                  "time_caustics": 0.0})
 
-    def use_cache(self, cache: RadianceCache | None) -> None:
-        self.cache = cache
-
     @property
     def active(self) -> bool:
         return self.caustic_map is not None or (self.global_map is not None

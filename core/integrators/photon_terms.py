@@ -129,7 +129,7 @@ def run(prepared: PreparedScene, settings: RenderSettings, maps,
         if not cancelled:
             cache = gather.build_radiance_cache(terms, prepared, settings, should_stop=should_stop)
             cancelled = should_stop is not None and should_stop()
-            terms.use_cache(None if cancelled else cache)
+            terms.cache = None if cancelled else cache
     stats.update({"caustic_photons_stored": n_c, "global_photons_stored": n_g,
                   "caustic_radius": r_c if n_c else 0.0, "global_radius": r_g if n_g else 0.0,
                   "gather_rays_per_sample": terms.gather_rays if n_g and

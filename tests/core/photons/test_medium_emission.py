@@ -39,21 +39,27 @@ def _exit_distance(p, d):
     return t.min(axis=1)
 
 
-def _irradiance(x, n_mu=400, n_phi=400):
-    """E at floor points x (P, 3): the integral over the upper hemisphere of
-    epsilon (1 - exp(-sigma_a l(w))) / sigma_a cos dw, l the chord to the far wall
-    (midpoint rule in cos and azimuth: smooth integrand)."""
+def _hemisphere_irradiance(x, chord, eps, sigma_a, n_mu=400, n_phi=400):
+    """E at floor points x (P, 3), averaged: the integral over the upper hemisphere of
+    eps (1 - exp(-sigma_a l(w))) / sigma_a cos dw, l = chord(p, directions) the length of
+    the emitting medium along each direction from p (midpoint rule in cos and azimuth:
+    smooth integrand)."""
     mu = (np.arange(n_mu) + 0.5) / n_mu
     phi = (np.arange(n_phi) + 0.5) / n_phi * 2 * np.pi
     mu, phi = np.meshgrid(mu, phi, indexing="ij")
     s = np.sqrt(1 - mu ** 2)
     d = np.stack([s * np.cos(phi), s * np.sin(phi), mu], axis=-1).reshape(-1, 3)
     w = (mu.reshape(-1) / n_mu) * (2 * np.pi / n_phi)
-    out = []
-    for p in x:
-        ell = _exit_distance(np.broadcast_to(p + [0, 0, 1e-12], d.shape), d)
-        out.append(EPS * (w[:, None] * (1 - np.exp(-SIGMA_A * ell[:, None]))).sum(0) / SIGMA_A)
+    out = [eps * (w[:, None] * (1 - np.exp(-sigma_a * chord(p, d)[:, None]))).sum(0) / sigma_a
+           for p in x]
     return np.mean(out, axis=0)
+
+
+def _irradiance(x):
+    """E at floor points x (P, 3) from the box's medium, l the chord to the far wall."""
+    return _hemisphere_irradiance(
+        x, lambda p, d: _exit_distance(np.broadcast_to(p + [0, 0, 1e-12], d.shape), d),
+        EPS, SIGMA_A)
 
 
 def test_volume_of_a_closed_mesh():
@@ -103,23 +109,13 @@ def _floor_scene():
 
 
 def _sphere_irradiance(x, centre, radius, n_mu=400, n_phi=400):
-    """E at floor points x (P, 3) from the World medium inside the sphere (centre, radius):
-    the hemisphere integral of epsilon (1 - exp(-sigma_a l)) / sigma_a cos, l the chord
-    from the point to the sphere (midpoint rule)."""
-    mu = (np.arange(n_mu) + 0.5) / n_mu
-    phi = (np.arange(n_phi) + 0.5) / n_phi * 2 * np.pi
-    mu, phi = np.meshgrid(mu, phi, indexing="ij")
-    s = np.sqrt(1 - mu ** 2)
-    d = np.stack([s * np.cos(phi), s * np.sin(phi), mu], axis=-1).reshape(-1, 3)
-    w = (mu.reshape(-1) / n_mu) * (2 * np.pi / n_phi)
-    out = []
-    for p in x:
+    """E at floor points x (P, 3) from the World medium inside the sphere (centre, radius),
+    l the chord from the point to the sphere."""
+    def chord(p, d):
         q = p - centre
         b = d @ q
-        ell = -b + np.sqrt(b * b - (q @ q - radius ** 2))
-        out.append(W_EPS * (w[:, None] * (1 - np.exp(-W_SIGMA_A * ell[:, None]))).sum(0)
-                   / W_SIGMA_A)
-    return np.mean(out, axis=0)
+        return -b + np.sqrt(b * b - (q @ q - radius ** 2))
+    return _hemisphere_irradiance(x, chord, W_EPS, W_SIGMA_A, n_mu, n_phi)
 
 
 def test_the_world_volume_emission_lights_the_floor_from_the_scene_sphere():
