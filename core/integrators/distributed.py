@@ -37,7 +37,9 @@ from .. import memory
 from ..prepared import prepare
 from ..scene import contract
 from ..scene.contract import Scene
+from ..media import density
 from ..settings import RenderSettings, SettingsError
+from ..shading import program as shader_program
 from . import dask_task, sppm
 
 CONNECT_TIMEOUT = 6.0
@@ -123,10 +125,20 @@ def scene_payload(obj):
     return obj
 
 
+PAYLOAD_MODULES = (contract, shader_program)
+"""Where ``scene_from_payload`` finds a payload's classes: the scene contract's, and the
+shader programs that materials and media hold (``Materials.programs``,
+``Media.programs``)."""
+
+
 def scene_from_payload(payload):
-    """The inverse of ``scene_payload`` with this core's classes."""
+    """The inverse of ``scene_payload`` with this core's classes (PAYLOAD_MODULES)."""
     if isinstance(payload, dict) and "__class__" in payload:
-        cls = getattr(contract, payload["__class__"])
+        name = payload["__class__"]
+        cls = next((getattr(m, name) for m in PAYLOAD_MODULES if hasattr(m, name)), None)
+        if cls is None:
+            raise TypeError(f"a Dask scene payload holds a {name}, which no module of "
+                            f"PAYLOAD_MODULES defines")
         return cls(**{k: scene_from_payload(v) for k, v in payload.items() if k != "__class__"})
     if isinstance(payload, (list, tuple)):
         return type(payload)(scene_from_payload(v) for v in payload)
@@ -148,11 +160,37 @@ def render_block_on_worker(scene_payload_, settings_values, token, start, stop):
         prepared = prepare(scene_from_payload(scene_payload_), settings.threads, settings.seed)
         entry = _WORKER[token] = (prepared, sppm.PassRenderer(prepared, settings))
     t0 = time.perf_counter()
+    fields = entry[0].medium.fields if entry[0].medium is not None else None
+    if fields is not None:  # this block's clipping alone (the fields count every pass)
+        counted, peak = dict(fields.clipped), dict(fields.clipped_max)
+        fields.clipped_max.update({m: 0.0 for m in peak})
     sums = entry[1].render_block(start, stop)
     stats = dict(sums.stats)
+    if fields is not None:
+        stats["medium_clipping"] = {
+            m: (fields.names[m], fields.majorant[m], n - counted[m], fields.clipped_max[m])
+            for m, n in fields.clipped.items() if n > counted[m]}
+        fields.clipped_max.update({m: max(v, fields.clipped_max[m]) for m, v in peak.items()})
     stats["time_tasks"] = time.perf_counter() - t0
     stats["initial_radius"] = entry[1].r1
     return sums.start, sums.stop, sums.radiance, stats
+
+
+def merge_clipping(total: dict, block: dict) -> None:
+    """Add a block's ``medium_clipping`` ({medium row: (name, majorant, tracked points
+    clipped, largest density clipped)}, ``render_block_on_worker``) to total, in place."""
+    for m, (name, majorant, n, peak) in block.items():
+        _, _, n0, peak0 = total.get(m, (name, majorant, 0, 0.0))
+        total[m] = (name, majorant, n0 + n, max(peak0, peak))
+
+
+def clipping_warnings(total: dict) -> list[str]:
+    """stats["medium_warnings"] of the merged clipping (``merge_clipping``), the messages
+    of a render on one machine (``density.clipping_warnings``)."""
+    return density.clipping_warnings({m: v[0] for m, v in total.items()},
+                                     {m: v[1] for m, v in total.items()},
+                                     {m: v[2] for m, v in sorted(total.items())},
+                                     {m: v[3] for m, v in total.items()})
 
 
 def _core_names() -> list[str]:
@@ -200,7 +238,8 @@ def render(scene: Scene, settings: RenderSettings, client, on_progress: Progress
 
     stats add: workers, scene_bytes (the scattered payload), bytes_per_block (a task's
     result), time_scatter, time_merge (client time adding blocks), time_tasks (worker time
-    in passes, summed), tasks."""
+    in passes, summed), tasks; medium_warnings as ``sppm.render``'s (the workers' density
+    clipping summed over the blocks received)."""
     from dask.distributed import wait
 
     settings = (settings or RenderSettings()).validated()
@@ -250,6 +289,7 @@ def render(scene: Scene, settings: RenderSettings, client, on_progress: Progress
     cancelled, stopped_by = False, "passes"
     time_merge, time_tasks, bytes_per_block, tasks = 0.0, 0.0, 0, 0
     r1 = float("nan")
+    clipping = {}  # the media's density clipping, summed over the blocks received
     try:
         while futures:
             # Esc / a signal is asked between short waits, not only when a block arrives:
@@ -270,6 +310,7 @@ def render(scene: Scene, settings: RenderSettings, client, on_progress: Progress
                 bytes_per_block = max(bytes_per_block, radiance.nbytes)
                 time_tasks += stats.pop("time_tasks", 0.0)
                 r1 = stats.pop("initial_radius", r1)
+                merge_clipping(clipping, stats.pop("medium_clipping", {}))
                 t0 = time.perf_counter()
                 merged = image.add(sppm.PassSums(a, b, radiance, stats))
                 time_merge += time.perf_counter() - t0
@@ -301,7 +342,8 @@ def render(scene: Scene, settings: RenderSettings, client, on_progress: Progress
                   "workers": n_workers, "scene_bytes": scene_bytes,
                   "memory_estimate": need, "bytes_per_block": bytes_per_block,
                   "time_scatter": time_scatter, "time_merge": time_merge,
-                  "time_tasks": time_tasks, "tasks": tasks})
+                  "time_tasks": time_tasks, "tasks": tasks,
+                  "medium_warnings": clipping_warnings(clipping)})
     return RenderOutput(passes={"combined": image.radiance()}, stats=stats, cancelled=cancelled)
 
 

@@ -298,11 +298,12 @@ BACK_SHARE = 0.5
 
 
 def bsdf_terms(terms: PhotonTerms, closures, rows, mat, closure_rows, texel, d, nsf, front,
-               tangent=None):
+               tangent=None, lam=None):
     """Split the diffuse hits ``rows`` (indices into mat (N,) their materials, closure_rows
     (N,) int32 their rows of ``closures`` (``HitShader.closures_at``), texel (N, 3), d (N, 3)
     the arriving directions, nsf (N, 3), front (N,), tangent (N, 3) or None, as
-    ``BsdfHits.tangent``) into those with Lambert diffuse lobes
+    ``BsdfHits.tangent``, lam (N,) float64 the paths' wavelengths in nm or None, as
+    ``BsdfHits.wavelength``) into those with Lambert diffuse lobes
     (the albedo path) and the others: (lambert rows, BSDF rows, BsdfHits of the BSDF rows
     or None when there are none)."""
     if terms.bsdf_materials is None:
@@ -313,7 +314,7 @@ def bsdf_terms(terms: PhotonTerms, closures, rows, mat, closure_rows, texel, d, 
     br = rows[b]
     hits = BsdfHits(closures, closure_rows[br].astype(np.int32), texel[br], -d[br], nsf[br],
                     front[br], terms.back_share[mat[br]],
-                    None if tangent is None else tangent[br])
+                    None if tangent is None else tangent[br], None if lam is None else lam[br])
     return rows[~b], br, hits
 
 
@@ -340,17 +341,18 @@ def preview(terms: PhotonTerms, pos, ngf, albedo, bsdf: BsdfHits | None = None) 
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
-def _bsdf_gather_rays_kernel(tab, mat, texel, wo, tan, front, pos, ngf, nsf, eps, back, g, u1, u2,
-                             o, d, weight, ok):
+def _bsdf_gather_rays_kernel(tab, mat, texel, wo, tan, front, lam, pos, ngf, nsf, eps, back, g,
+                             u1, u2, o, d, weight, ok):
     """g gather rays per point i (rays i g .. i g + g - 1), cosine-distributed about the
     shading normal, about its opposite with probability back[i]; weight (RGB) f_d |cos| /
-    pdf of the diffuse-like lobes (``closure.parts_at``); ok False where it is 0 or the
-    ray's geometric side disagrees with its hemisphere."""
+    pdf of the diffuse-like lobes (``closure.parts_at``, the closures built at wavelength
+    lam[i] nm, 0: RGB); ok False where it is 0 or the ray's geometric side disagrees with
+    its hemisphere."""
     for i in prange(pos.shape[0]):
         L, F = closure.hit_lobes(tab, mat[i], texel[i, 0], texel[i, 1], texel[i, 2],
                                  wo[i, 0], wo[i, 1], wo[i, 2], nsf[i, 0], nsf[i, 1], nsf[i, 2],
                                  ngf[i, 0], ngf[i, 1], ngf[i, 2], tan[i, 0], tan[i, 1],
-                                 tan[i, 2], front[i])
+                                 tan[i, 2], front[i], lam[i])
         pb = back[i]
         for j in range(g):
             r = i * g + j
@@ -380,7 +382,8 @@ GATHER_BATCH = 1 << 20
 
 
 def final_gather(terms: PhotonTerms, prepared: PreparedScene, settings: RenderSettings, pos,
-                 ngf, nsf, eps, pixel, sample, depth, bsdf: BsdfHits | None = None) -> np.ndarray:
+                 ngf, nsf, eps, pixel, sample, depth, bsdf: BsdfHits | None = None,
+                 lam=None) -> np.ndarray:
     """(N, 3) mean radiance L(y_j) over the gather rays of each diffuse hit (module doc).
 
     settings: seed, samples, max_specular_depth. pos, ngf, nsf (N, 3) float64, eps (N,),
@@ -388,20 +391,24 @@ def final_gather(terms: PhotonTerms, prepared: PreparedScene, settings: RenderSe
     camera sample, depth: the camera path's bounce (a random stream index).
     The caller multiplies by rho_x and the path throughput; with ``bsdf`` (the hits'
     BsdfHits) the mean is of f_d |cos| / pdf L(y_j) and the caller multiplies by the
-    throughput only. Points are gathered in batches of GATHER_BATCH rays; each point's
-    value depends on its own rays only.
+    throughput only. lam (N,) float64: the camera paths' wavelengths in nm (0: RGB; None:
+    all RGB), which their gather rays keep (docs/dispersion.md: a path stays at its
+    wavelength once picked; a gather ray from an RGB path picks its own at its first
+    dispersive surface). Points are gathered in batches of GATHER_BATCH rays; each
+    point's value depends on its own rays only.
     """
     n = pos.shape[0]
     step = max(1, GATHER_BATCH // terms.gather_rays)
     if n <= step:
         return _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sample,
-                                   depth, bsdf)
+                                   depth, bsdf, lam)
     out = np.empty((n, 3))
     for lo in range(0, n, step):
         sl = slice(lo, min(n, lo + step))
         out[sl] = _final_gather_batch(terms, prepared, settings, pos[sl], ngf[sl], nsf[sl],
                                       eps[sl], pixel[sl], sample[sl], depth,
-                                      None if bsdf is None else bsdf.take(sl))
+                                      None if bsdf is None else bsdf.take(sl),
+                                      None if lam is None else lam[sl])
     return out
 
 
@@ -463,7 +470,7 @@ def _follow_rough(prepared, seed, depth, bounce, ray_pixel, index, rs, hits, hs,
 
 
 def _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sample,
-                        depth, bsdf=None) -> np.ndarray:
+                        depth, bsdf=None, lam=None) -> np.ndarray:
     t_start = time.perf_counter()
     st = settings
     n = pos.shape[0]
@@ -483,16 +490,16 @@ def _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sa
         back = bsdf.back_share
         _bsdf_gather_rays_kernel(bsdf.closures, bsdf.material, np.ascontiguousarray(bsdf.texel),
                                  np.ascontiguousarray(bsdf.outgoing), bsdf.tangents(),
-                                 bsdf.front, pos, ngf, nsf,
+                                 bsdf.front, bsdf.wavelengths(), pos, ngf, nsf,
                                  eps, back, g, u1, u2, o, d, weight, ok)
     radiance = np.zeros((m, 3))
     rows = np.flatnonzero(ok)
     o, d = o[rows], d[rows]
     thr = np.ones((rows.shape[0], 3)) if bsdf is None else weight[rows]
     mats = prepared.materials
-    # Each gather ray's wavelength (nm, 0 while RGB): picked at its first dispersive
-    # surface, as camera paths pick theirs (docs/dispersion.md).
-    lam = np.zeros(rows.shape[0])
+    # Each gather ray's wavelength (nm, 0 while RGB): its camera path's, else picked at its
+    # first dispersive surface, as camera paths pick theirs (docs/dispersion.md).
+    lam = np.zeros(rows.shape[0]) if lam is None else np.asarray(lam, np.float64)[owner[rows]]
     dispersive = bool(np.any(prepared.closures.abbe > 0))
     for bounce in range(st.max_specular_depth + 1):
         if rows.shape[0] == 0:
@@ -534,7 +541,7 @@ def _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sa
                     None if path is None else path[bd])
                 tan = prepared.hit_shader.tangents(hits.prim[hd], p2[bd], tab, crow)
                 hb = BsdfHits(tab, crow.astype(np.int32), texel, -d[bd], s2b, front[bd],
-                              tangent=tan)
+                              tangent=tan, wavelength=lam[bd])
                 est = radiance_estimate(terms.global_map, p2[bd], n2[bd], None, terms.global_k,
                                         terms.global_radius, terms.filter, bsdf=hb)
                 radiance[rows[bd]] += thr[bd] * est

@@ -146,12 +146,14 @@ def _add(acc, rows, values):
 
 def _photon_terms(ctx: _CameraPass, rows, pos, ngf, nsf, eps, mat, thr, pixel, sample, depth,
                   caustic_target, indirect_target, albedo, after_glossy, d, texel, front,
-                  tab, crow, tangent):
+                  tab, crow, tangent, lam):
     """Add T * (caustics) and T * (indirect) at the hits with a diffuse lobe
     (core/integrators/gather.py). albedo (N, 3): the (textured) diffuse albedo at the hits;
     d (N, 3) the arriving directions, texel (N, 3), front (N,), tab and crow (N,) (the hits'
     closure rows, ``HitShader.closures_at``), tangent (N, 3) (``HitShader.tangents``): the
-    BSDF where the diffuse-like lobes are not Lambert (``gather.bsdf_terms``).
+    BSDF where the diffuse-like lobes are not Lambert (``gather.bsdf_terms``); lam (N,)
+    float64 the paths' wavelengths in nm (0: RGB), at which that BSDF is built and which
+    their gather rays keep (docs/dispersion.md).
     after_glossy (N,) bool: the path reached the hit through a rough lobe; with
     ``global_after_glossy(terms)`` the diffuse part's whole radiance there is the global
     map's estimate (direct and caustic photons included), added to indirect_target."""
@@ -166,7 +168,8 @@ def _photon_terms(ctx: _CameraPass, rows, pos, ngf, nsf, eps, mat, thr, pixel, s
             t0 = time.perf_counter()
             # Non-Lambert diffuse-like lobes: the BSDF estimate (photons of both sides; the
             # cache holds Lambert's E / pi, so it is not read there)
-            g, gb, hb = gather.bsdf_terms(terms, tab, g, mat, crow, texel, d, nsf, front, tangent)
+            g, gb, hb = gather.bsdf_terms(terms, tab, g, mat, crow, texel, d, nsf, front, tangent,
+                                          lam)
             if hb is not None:
                 _add(indirect_target, rows[gb],
                      thr[gb] * gather.preview(terms, pos[gb], ngf[gb], None, hb))
@@ -181,7 +184,8 @@ def _photon_terms(ctx: _CameraPass, rows, pos, ngf, nsf, eps, mat, thr, pixel, s
         sel = sel[~blur]
         if sel.size == 0:
             return
-    sel, bs, hb = gather.bsdf_terms(terms, tab, sel, mat, crow, texel, d, nsf, front, tangent)
+    sel, bs, hb = gather.bsdf_terms(terms, tab, sel, mat, crow, texel, d, nsf, front, tangent,
+                                    lam)
     if hb is not None:
         r = rows[bs]
         if terms.caustic_map is not None:
@@ -189,7 +193,7 @@ def _photon_terms(ctx: _CameraPass, rows, pos, ngf, nsf, eps, mat, thr, pixel, s
         if terms.global_map is not None and terms.mode == "final_gather":
             _add(indirect_target, r, thr[bs] * gather.final_gather(
                 terms, ctx.prepared, ctx.settings, pos[bs], ngf[bs], nsf[bs], eps[bs],
-                pixel[r], sample[r], depth, hb))
+                pixel[r], sample[r], depth, hb, lam[bs]))
         elif terms.global_map is not None and terms.mode == "preview":
             _add(indirect_target, r, thr[bs] * gather.preview(terms, pos[bs], ngf[bs], None, hb))
         if sel.size == 0:
@@ -202,7 +206,8 @@ def _photon_terms(ctx: _CameraPass, rows, pos, ngf, nsf, eps, mat, thr, pixel, s
         return
     if terms.mode == "final_gather":
         incoming = gather.final_gather(terms, ctx.prepared, ctx.settings, pos[sel], ngf[sel],
-                                       nsf[sel], eps[sel], pixel[r], sample[r], depth)
+                                       nsf[sel], eps[sel], pixel[r], sample[r], depth,
+                                       lam=lam[sel])
         _add(indirect_target, r, thr[sel] * albedo * incoming)
     elif terms.mode == "preview":
         _add(indirect_target, r, thr[sel] * gather.preview(terms, pos[sel], ngf[sel], albedo))
@@ -385,7 +390,7 @@ def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> dict[str, np.ndarray]:
             _photon_terms(ctx, rows, pos, ngf, nsf, eps, mat, thr, pixel, sample, depth,
                           acc["caustics"] if first else acc["specular"],
                           acc["indirect"] if first else acc["specular"], albedo, glossy, d,
-                          texel, front, tab, crow, tangent)
+                          texel, front, tab, crow, tangent, lam)
 
         # Continue through one sampled lobe: mirrors, glass, the glossy part of rough lobes
         if last:

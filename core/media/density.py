@@ -122,11 +122,18 @@ class DensityFields:
 
     def warnings(self) -> list[str]:
         """One message per medium whose majorant a tracked point exceeded."""
-        return [f"medium '{self.names[m]}': the density reached {self.clipped_max[m]:.4g} at "
-                f"{n} tracked points, above the majorant of their cells (at most "
-                f"{self.majorant[m]:.4g}; measured per cell of a {GRID}^3 grid x {SAFETY}); "
-                f"clipped there (biased: the texture has features finer than the grid)"
-                for m, n in self.clipped.items() if n]
+        return clipping_warnings(self.names, self.majorant, self.clipped, self.clipped_max)
+
+
+def clipping_warnings(names, majorant, clipped, clipped_max) -> list[str]:
+    """``DensityFields.warnings`` from its figures (a Dask render adds its workers' counts,
+    core/integrators/distributed.py): names and majorant indexed by medium row, clipped
+    {row: tracked points clipped}, clipped_max {row: the largest density clipped}."""
+    return [f"medium '{names[m]}': the density reached {clipped_max[m]:.4g} at "
+            f"{n} tracked points, above the majorant of their cells (at most "
+            f"{majorant[m]:.4g}; measured per cell of a {GRID}^3 grid x {SAFETY}); "
+            f"clipped there (biased: the texture has features finer than the grid)"
+            for m, n in clipped.items() if n]
 
 
 class MajorantGrid:

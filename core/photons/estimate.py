@@ -337,7 +337,9 @@ class BsdfHits(NamedTuple):
     the materials', ``HitShader.closures_at``). back_share (M,) float64: the share of final
     gathering's rays sent to the far side (None where no final gathering starts there).
     tangent (M, 3) float64: the BSDF frame's tangent (``HitShader.tangents``; None:
-    ``closure.DEFAULT_TANGENT``).
+    ``closure.DEFAULT_TANGENT``). wavelength (M,) float64: the camera paths' wavelengths in
+    nm, 0 for an RGB path (docs/dispersion.md; None: all RGB), at which the closures'
+    dispersive transmission lobes are built (``closure.hit_lobes``).
     """
 
     closures: closure.ClosureTable
@@ -348,6 +350,7 @@ class BsdfHits(NamedTuple):
     front: np.ndarray
     back_share: np.ndarray | None = None
     tangent: np.ndarray | None = None
+    wavelength: np.ndarray | None = None
 
     def tangents(self) -> np.ndarray:
         """(M, 3) float64 C-contiguous: ``tangent``, or the default tangent where None."""
@@ -355,21 +358,29 @@ class BsdfHits(NamedTuple):
             return closure.default_tangents(self.material.shape[0])
         return np.ascontiguousarray(self.tangent, np.float64)
 
+    def wavelengths(self) -> np.ndarray:
+        """(M,) float64 C-contiguous nm: ``wavelength``, or 0 (RGB) where None."""
+        if self.wavelength is None:
+            return np.zeros(self.material.shape[0])
+        return np.ascontiguousarray(self.wavelength, np.float64)
+
     def take(self, rows) -> "BsdfHits":
         """The hits ``rows`` (an index array or slice)."""
         return BsdfHits(self.closures, self.material[rows], self.texel[rows],
                         self.outgoing[rows], self.shading_normal[rows], self.front[rows],
                         None if self.back_share is None else self.back_share[rows],
-                        None if self.tangent is None else self.tangent[rows])
+                        None if self.tangent is None else self.tangent[rows],
+                        None if self.wavelength is None else self.wavelength[rows])
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
 def _bsdf_estimate_kernel(tree, flux_codes, inv_scale, direction_codes, idx, dist2, points,
-                          normals, tab, mat, texel, wo, ns, tan, front, max_r2, kind, k_cone,
-                          plane_fraction, out):
+                          normals, tab, mat, texel, wo, ns, tan, front, lam, max_r2, kind,
+                          k_cone, plane_fraction, out):
     """out[i] = sum_p f_d(wo_i, w_p) w_p Phi_p (W/(m^2 sr)) over the gathered photons of
     both sides of normals[i] (the geometric normal facing the viewer), in the order of the
-    sorted neighbours; returns the number of zero-area discs holding photons."""
+    sorted neighbours, the closures built at wavelength lam[i] nm (0: RGB); returns the
+    number of zero-area discs holding photons."""
     k = idx.shape[1]
     degenerate = 0
     for i in prange(idx.shape[0]):
@@ -385,7 +396,8 @@ def _bsdf_estimate_kernel(tree, flux_codes, inv_scale, direction_codes, idx, dis
         n0, n1, n2 = unit_row(normals, i)
         L, F = closure.hit_lobes(tab, mat[i], texel[i, 0], texel[i, 1], texel[i, 2],
                                  wo[i, 0], wo[i, 1], wo[i, 2], ns[i, 0], ns[i, 1], ns[i, 2],
-                                 n0, n1, n2, tan[i, 0], tan[i, 1], tan[i, 2], front[i])
+                                 n0, n1, n2, tan[i, 0], tan[i, 1], tan[i, 2], front[i],
+                                 lam[i])
         if L.shape[0] == 0:
             continue
         px, py, pz = np.float32(points[i, 0]), np.float32(points[i, 1]), np.float32(points[i, 2])
@@ -440,6 +452,7 @@ def radiance_estimate(photon_map: PhotonMap, points: np.ndarray, normals: np.nda
               (normals, bsdf.texel, bsdf.outgoing, bsdf.shading_normal)] + [bsdf.tangents()]
     mat = np.ascontiguousarray(bsdf.material, np.int32)
     front = np.ascontiguousarray(bsdf.front, np.bool_)
+    lam = bsdf.wavelengths()
     bad = 0
     for lo in range(0, m, QUERY_CHUNK):
         hi = min(m, lo + QUERY_CHUNK)
@@ -447,7 +460,8 @@ def radiance_estimate(photon_map: PhotonMap, points: np.ndarray, normals: np.nda
         nrm, texel, wo, ns, tan = (a[lo:hi] for a in arrays)
         bad += _bsdf_estimate_kernel(tree, flux_codes, 1.0 / scale, direction_codes, idx, dist2,
                                      points32[lo:hi], nrm, bsdf.closures, mat[lo:hi], texel,
-                                     wo, ns, tan, front[lo:hi], r2, FILTERS[filter], CONE_K,
+                                     wo, ns, tan, front[lo:hi], lam[lo:hi], r2, FILTERS[filter],
+                                     CONE_K,
                                      float(plane_fraction), out[lo:hi])
     _raise_degenerate(bad)
     return out

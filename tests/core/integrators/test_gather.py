@@ -504,7 +504,7 @@ def test_bsdf_gather_ray_weights_average_to_the_diffuse_albedo(kind, back):
     o, d, weight, ok = np.empty((g, 3)), np.empty((g, 3)), np.empty((g, 3)), np.empty(g, bool)
     gather._bsdf_gather_rays_kernel(tab, np.zeros(1, np.int32), np.ones((1, 3)), wo,
                                     closure.default_tangents(1), np.ones(1, bool),
-                                    np.zeros((1, 3)), up, up, np.full(1, 1e-4),
+                                    np.zeros(1), np.zeros((1, 3)), up, up, np.full(1, 1e-4),
                                     np.full(1, back), g, rng.random(g), rng.random(g), o, d,
                                     weight, ok)
     assert np.isfinite(weight).all() and (weight >= 0).all()
@@ -522,3 +522,37 @@ def test_bsdf_gather_ray_weights_average_to_the_diffuse_albedo(kind, back):
     want = 4.0 * np.pi * closure.eval_many(tab, 0, wo[0], uniform, up[0], up[0],
                                            (1.0, 0.0, 0.0), True)[:, :3].mean(axis=0)
     np.testing.assert_allclose(weight.mean(axis=0), want, rtol=0.02)
+
+
+def test_gather_rays_keep_the_camera_path_wavelength(rng):
+    """docs/dispersion.md: a path stays at its wavelength once picked, its final-gather
+    rays included. Diffuse points under a dispersive glass slab (parallel faces: every
+    wavelength crosses it undeviated) inside a grey-lit grey sphere: gather rays of a path
+    at 550 nm cross the slab at that wavelength, so the gathered light is grey (no
+    wavelength weight); rays of RGB paths pick their own wavelengths at the slab, each
+    weighted by its RGB weight (mean 1): tinted per point, the same light on average."""
+    from core.prepared import prepare
+    sphere = inward(shapes.uv_sphere([0, 0, 0], 5.0, 24, 48))
+    mesh = shapes.assemble([(shapes.quad([0, 0, 0], [0.5, 0, 0], [0, 0.5, 0]), 0),
+                            (shapes.box([-3, -3, 0.2], [3, 3, 0.25]), 1), (sphere, 0)])
+    mats = Materials.from_list([{"diffuse": [0.5] * 3},
+                                {"transmission": [1, 1, 1], "ior": 1.5, "dispersion": 20.0}])
+    cam = shapes.pinhole([0, -2, 1], [0, 0, 0], 8, 8, 0.9)
+    scene = Scene(mesh, mats, Lights.empty(), cam).validate()
+    prepared = prepare(scene, 2, 0)
+    pm = uniform_photons(sphere.corners, sphere.normals[:, 0], [1.0] * 3, 40_000, rng)
+    terms = gather.PhotonTerms(caustic_map=None, global_map=pm, caustic_k=1, global_k=64,
+                               caustic_radius=1.0, global_radius=1.0, filter="cone",
+                               mode="final_gather", gather_rays=64)
+    st = RenderSettings(samples=1, final_gather_rays=64, caustics=False)
+    n = 24
+    pos = np.column_stack([rng.uniform(-0.3, 0.3, (n, 2)), np.zeros(n)])
+    up = np.tile([0.0, 0.0, 1.0], (n, 1))
+    args = (terms, prepared, st, pos, up, up, np.full(n, 1e-4), np.arange(n), np.zeros(n, int), 1)
+    kept = gather.final_gather(*args, lam=np.full(n, 550.0))
+    own = gather.final_gather(*args)
+    assert np.isfinite(own).all() and kept.min() > 0 and own.min() >= 0
+    np.testing.assert_allclose(kept[:, 0], kept[:, 2], rtol=1e-12)
+    np.testing.assert_allclose(kept[:, 0], kept[:, 1], rtol=1e-12)
+    assert np.abs(own[:, 0] / own[:, 2] - 1.0).max() > 0.05
+    np.testing.assert_allclose(own.mean(axis=0), kept.mean(), rtol=0.1)

@@ -149,3 +149,28 @@ def test_the_progressive_render_reports_the_clipping_in_its_stats_too():
     warnings = out.stats["medium_warnings"]
     assert len(warnings) == 1 and "medium 'Ripples'" in warnings[0] and "clipped" in warnings[0]
     assert np.all(np.isfinite(out.passes["combined"]))
+
+
+def test_a_dask_render_reports_the_clipping_of_its_workers():
+    """The Dask path (core/integrators/distributed.py) merges the workers' clipping counts:
+    its stats["medium_warnings"] (which Blender's report reads, as for a render on one
+    machine) are the single-process render's, word for word, for three blocks each
+    counted on its own (a pass's clipping depends on the pass only). One in-process
+    worker: in-process workers would share one PassRenderer (``distributed._WORKER``);
+    separate processes hold their own, as tests/core/integrators/test_distributed.py's."""
+    pytest.importorskip("dask.distributed")
+    from dask.distributed import Client
+
+    from core.integrators import distributed
+    st = RenderSettings(integrator="progressive", progressive_passes=6, photons_per_pass=300,
+                        progressive_block=2, threads=1, seed=1)
+    scene = _ripples_scene(wall=True)
+    single = sppm.render(scene, st)
+    with Client(processes=False, n_workers=1, threads_per_worker=1,
+                dashboard_address=None) as client:
+        out = distributed.render(scene, st, client)
+    assert out.stats["tasks"] == 3 and out.stats["passes"] == 6
+    np.testing.assert_array_equal(out.passes["combined"], single.passes["combined"])
+    warnings = single.stats["medium_warnings"]
+    assert len(warnings) == 1 and "medium 'Ripples'" in warnings[0]
+    assert out.stats["medium_warnings"] == warnings

@@ -234,3 +234,58 @@ def test_bsdf_estimate_oren_nayar_equals_the_brdf_callback(rng):
                                          40, np.inf)
     np.testing.assert_allclose(got, want, rtol=1e-4)
     assert np.abs(got / lambert - 1.0).max() > 0.02  # Oren-Nayar is not Lambert here
+
+
+@pytest.mark.parametrize("nm", [450.0, 650.0])
+def test_bsdf_estimate_builds_a_dispersive_principled_at_the_path_wavelength(nm, rng):
+    """A dispersive Principled BSDF with a diffuse base and Transmission (docs/dispersion.md):
+    the BSDF estimate of a camera path that picked wavelength nm (``BsdfHits.wavelength``)
+    is the sum over the same photons of the closures built at that wavelength
+    (``closure.eval_parts(..., lam=nm)``, its diffuse-like part), and the subsets of hits
+    (``take``) keep their wavelengths. The transmission lobe is really built at nm: its pdf
+    differs from n_d's; the diffuse base's f does not depend on the transmission's IOR
+    (Principled weights it by 1 - Transmission), hence the same estimate at lam 0."""
+    from core.materials import closure
+    from core.scene import closures as cl
+    from core.scene.contract import Materials
+    positions, flux, directions = uniform_field(rng, side=60)
+    directions[::3] *= -1.0  # photons of both sides: the transmission sees the far side
+    pm = PhotonMap(positions, flux, directions)
+    points, normals = interior_points(rng, m=30)
+    wo = np.array([0.6, 0.0, 0.8])
+    outgoing = np.tile(wo, (30, 1))
+    mats = Materials.from_list([{"closures": [dict(kind=cl.CLOSURE_PRINCIPLED, params=dict(
+        color=(0.8, 0.5, 0.2), roughness=0.4, ior=1.5, transmission=0.5))],
+        "dispersion": 20.0}])
+    tab = closure.table(mats)
+    assert closure.dispersive(tab, 0)
+    lam = np.full(30, nm)
+    hits = estimate.BsdfHits(tab, np.zeros(30, np.int32), np.ones((30, 3)), outgoing, normals,
+                             np.ones(30, bool), wavelength=lam)
+    assert np.array_equal(hits.take(slice(3, 9)).wavelengths(), lam[3:9])
+    assert np.array_equal(estimate.BsdfHits(*hits[:6]).wavelengths(), np.zeros(30))
+
+    def parts(wi, at):
+        return np.array([closure.eval_parts(tab, 0, 1.0, 1.0, 1.0, *wo, *w, *UP, *UP,
+                                            1.0, 0.0, 0.0, True, True, at) for w in wi])
+
+    def brdf(wi, _):
+        flat = wi.reshape(-1, 3).astype(np.float64)
+        ok = np.linalg.norm(flat, axis=1) > 0.5
+        f = np.zeros((flat.shape[0], 3))
+        f[ok] = parts(flat[ok], nm)[:, :3] / np.abs(flat[ok, 2:3])
+        return f.reshape(wi.shape)
+
+    probe = np.array([[-0.4, 0.0, -0.92], [-0.5, 0.1, -0.86]])  # near the refraction
+    probe /= np.linalg.norm(probe, axis=1, keepdims=True)
+    at_nm, at_nd = parts(probe, nm), parts(probe, 0.0)
+    assert np.all(np.abs(at_nm[:, 6] / at_nd[:, 6] - 1.0) > 1e-3)  # the lobe's pdf moves
+    want = estimate.radiance(pm, points, normals, 40, np.inf, brdf=brdf, outgoing=outgoing,
+                             filter="cone", k_cone=estimate.CONE_K,
+                             max_plane_distance=estimate.PLANE_FRACTION)
+    got = estimate.radiance_estimate(pm, points, normals, None, 40, np.inf, bsdf=hits)
+    assert got.min() > 0
+    np.testing.assert_allclose(got, want, rtol=1e-4)
+    rgb = estimate.radiance_estimate(pm, points, normals, None, 40, np.inf,
+                                     bsdf=hits._replace(wavelength=None))
+    np.testing.assert_array_equal(got, rgb)
