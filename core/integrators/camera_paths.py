@@ -553,11 +553,20 @@ def _walk(prepared: PreparedScene, seed: int, k: int, max_depth: int, direct, fe
                                                   prev_pdf[h], k_light)[:, None]
         direct[pixel[rows]] += thr * emission
         albedo = prepared.surfaces.albedo(hits.prim[h], hits.u[h], hits.v[h], sp.material)
-        # Shader programs: the visible point's diffuse albedo (its lobe choice reads the
-        # per-hit closures below, its direct light sppm's own closures_at).
-        albedo = prepared.hit_shader.albedo_at(
-            prepared.texels, hits.prim[h], hits.u[h], hits.v[h], d, sp.material,
-            sp.shading_normal, albedo, path)
+        front = np.einsum("ij,ij->i", d, sp.geometric_normal) < 0.0
+        ng, ns = sp.geometric_normal.copy(), sp.shading_normal.copy()
+        # A shader program's normal (Normal Map, Bump; it faces the ray): given to the
+        # kernel on the winding's side, which it flips to face the ray again.
+        entering = np.einsum("ij,ij->i", d, ng) < 0.0
+        facing = np.where(entering[:, None], ns, -ns)
+        # the per-hit closures (programmed parameters and Mix weights), shaded once: they
+        # choose the lobe and give the visible point's diffuse albedo (its direct light
+        # sppm's own closures_at)
+        tab, crow, bent = prepared.hit_shader.shade(hits.prim[h], hits.u[h], hits.v[h], d,
+                                                    sp.material, facing, path)
+        texel = prepared.texels.albedo(hits.prim[h], hits.u[h], hits.v[h], sp.material)
+        albedo = prepared.hit_shader.diffuse_albedo(tab, crow, sp.material, texel, d,
+                                                    sp.shading_normal, albedo)
         m = len(rows)
         pix, smp = pixel[rows], sample[rows]
         u_vp = sampling.uniform(seed, pix, smp, dim_lobe(depth))
@@ -567,20 +576,10 @@ def _walk(prepared: PreparedScene, seed: int, k: int, max_depth: int, direct, fe
                 sampling.CAMERA_WAVELENGTH, depth, sampling.PROGRESSIVE))
             thr = np.array(thr)
             pick_wavelengths(prepared.closures, sp.material, u_lam, lam, thr)
-        front = np.einsum("ij,ij->i", d, sp.geometric_normal) < 0.0
-        ng, ns = sp.geometric_normal.copy(), sp.shading_normal.copy()
-        # A shader program's normal (Normal Map, Bump; it faces the ray): given to the
-        # kernel on the winding's side, which it flips to face the ray again.
-        entering = np.einsum("ij,ij->i", d, ng) < 0.0
-        facing = np.where(entering[:, None], ns, -ns)
-        # the per-hit closures (programmed parameters and Mix weights) choose the lobe
-        tab, crow, bent = prepared.hit_shader.shade(hits.prim[h], hits.u[h], hits.v[h], d,
-                                                    sp.material, facing, path)
         if bent is not facing:
             ns = np.where(entering[:, None], bent, -bent)
         vp, go_on, new_tr = np.empty(m, bool), np.empty(m, bool), np.empty(m, bool)
         new_o, new_d, new_thr = np.empty((m, 3)), np.empty((m, 3)), np.empty((m, 3))
-        texel = prepared.texels.albedo(hits.prim[h], hits.u[h], hits.v[h], sp.material)
         _path_kernel(sp.position, d, ng, ns, sp.material, sp.eps, thr, u_vp, u_lobe, u_pick,
                      prepared.has_diffuse, tab,
                      prepared.hit_shader.tangents(hits.prim[h], sp.position, tab, crow),

@@ -438,7 +438,7 @@ def _through_medium(terms: PhotonTerms, o, d, hits, thr, radiance, rows) -> np.n
 
 
 def _follow_rough(prepared, seed, depth, bounce, ray_pixel, index, rs, hits, hs, pos, ngf, nsf, d,
-                  front, mat, eps, thr, lam):
+                  front, mat, eps, thr, lam, tab, crow):
     """Gather rays rs (K,) at hits hs (K,) of rough glossy materials (``prepared.sampled_only``,
     ``prepared.glossy_on_diffuse``): one lobe of the hit's shaded closures sampled each
     (``camera_paths.follow_bsdf``: the glossy part of f |cos| / pdf, the diffuse part being
@@ -448,6 +448,8 @@ def _follow_rough(prepared, seed, depth, bounce, ray_pixel, index, rs, hits, hs,
     Random numbers: dimensions 2 x and 2 x + 1 of x = (GATHER_LOBE, depth, bounce) for
     the lobe and the direction (as at mirrors), (GATHER_LOBE, depth, bounce, 1) and (.., 2)
     for the direction's second coordinate and the roulette.
+    tab, crow (K,): the hits' shaded closures (``shade_hits``; nsf their shading normals
+    as the programs bent them).
     Returns (rows (J,), origins (J, 3), directions (J, 3), throughput (J, 3), lam (J,))."""
     pix, idx = ray_pixel[rs], index[rs]
     dim = sampling.stream(sampling.GATHER_LOBE, depth, bounce)
@@ -457,7 +459,6 @@ def _follow_rough(prepared, seed, depth, bounce, ray_pixel, index, rs, hits, hs,
     u_rr = sampling.uniform(seed, pix, idx, sampling.stream(sampling.GATHER_LOBE, depth, bounce, 2))
     prim, u, v = hits.prim[hs], hits.u[hs], hits.v[hs]
     texel = prepared.texels.albedo(prim, u, v, mat)
-    tab, crow, nsf = prepared.hit_shader.shade(prim, u, v, d, mat, nsf)
     tangent = prepared.hit_shader.tangents(prim, pos, tab, crow)
     keep, o, d2, thr2, _, _, _, lam2 = camera_paths.follow_bsdf(
         prepared, np.ascontiguousarray(pos, np.float64), np.ascontiguousarray(ngf, np.float64),
@@ -467,6 +468,27 @@ def _follow_rough(prepared, seed, depth, bounce, ray_pixel, index, rs, hits, hs,
         np.ascontiguousarray(thr, np.float64), np.ascontiguousarray(lam, np.float64),
         u_lobe, u1, u2, u_rr, closures=tab, tangent=tangent)
     return rs[keep], o, d2, thr2, lam2
+
+
+def shade_hits(prepared, prim, u, v, d, mat, ns, path, need):
+    """``HitShader.shade`` at the N hits (prim, u, v, d, mat, ns, path as it takes them)
+    where ``need`` (N,) bool asks: (tab, rows (N,) int32, ns (N, 3)), rows the hits'
+    rows of tab (their material where not needed or not programmed) and ns with the
+    programs' normals in place. ``mat`` and ``ns`` themselves (the same objects, and the
+    prepared table) when no needed hit is programmed: bit for bit as without programs."""
+    shader = prepared.hit_shader
+    sel = np.flatnonzero(need & shader.programmed[mat]) if shader.active else ()
+    if len(sel) == 0:
+        return prepared.closures, mat, ns
+    given = ns[sel]
+    tab, r, bent = shader.shade(prim[sel], u[sel], v[sel], d[sel], mat[sel], given,
+                                None if path is None else path[sel])
+    rows = np.array(mat, np.int32, copy=True)
+    rows[sel] = r
+    if bent is not given:
+        ns = np.array(ns, copy=True)
+        ns[sel] = bent
+    return tab, rows, ns
 
 
 def _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sample,
@@ -530,18 +552,21 @@ def _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sa
             thr = np.array(thr)
             camera_paths.pick_wavelengths(prepared.closures, mat, u_lam, lam, thr)
         diff = np.flatnonzero(prepared.has_diffuse[mat])
+        rough = prepared.sampled_only[mat] | prepared.glossy_on_diffuse[mat]
+        # One shading per hit (issue 14: a Principled wall's hit was shaded for its
+        # albedo, then again for its glossy continuation), read by the BSDF estimate,
+        # the diffuse albedo and the rough continuation below.
+        tab, crow, s2s = shade_hits(prepared, hits.prim[hit], hits.u[hit], hits.v[hit], d,
+                                    mat, s2, path, prepared.has_diffuse[mat] | rough)
         if diff.size and terms.bsdf_materials is not None:
             b = terms.bsdf_materials[mat[diff]]
             if b.any():  # L(y_j) toward x by the BSDF estimate (the cache holds Lambert's E / pi)
                 bd, diff = diff[b], diff[~b]
                 hd = hit[bd]
                 texel = prepared.texels.albedo(hits.prim[hd], hits.u[hd], hits.v[hd], mat[bd])
-                tab, crow, s2b = prepared.hit_shader.shade(
-                    hits.prim[hd], hits.u[hd], hits.v[hd], d[bd], mat[bd], s2[bd],
-                    None if path is None else path[bd])
-                tan = prepared.hit_shader.tangents(hits.prim[hd], p2[bd], tab, crow)
-                hb = BsdfHits(tab, crow.astype(np.int32), texel, -d[bd], s2b, front[bd],
-                              tangent=tan, wavelength=lam[bd])
+                tan = prepared.hit_shader.tangents(hits.prim[hd], p2[bd], tab, crow[bd])
+                hb = BsdfHits(tab, crow[bd].astype(np.int32), texel, -d[bd], s2s[bd],
+                              front[bd], tangent=tan, wavelength=lam[bd])
                 est = radiance_estimate(terms.global_map, p2[bd], n2[bd], None, terms.global_k,
                                         terms.global_radius, terms.filter, bsdf=hb)
                 radiance[rows[bd]] += thr[bd] * est
@@ -554,9 +579,11 @@ def _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sa
             else:
                 albedo = mats["diffuse"][mat[diff]]
             hd = hit[diff]
-            albedo = prepared.hit_shader.albedo_at(prepared.texels, hits.prim[hd], hits.u[hd],
-                                                   hits.v[hd], d[diff], mat[diff], s2[diff],
-                                                   albedo, None if path is None else path[diff])
+            if crow is not mat or prepared.hit_shader.layered[mat[diff]].any():
+                albedo = prepared.hit_shader.diffuse_albedo(
+                    tab, crow[diff], mat[diff],
+                    prepared.texels.albedo(hits.prim[hd], hits.u[hd], hits.v[hd], mat[diff]),
+                    d[diff], s2[diff], albedo)
             if terms.cache is not None:
                 est = cached_radiance(terms, p2[diff], n2[diff], albedo)
             else:
@@ -572,7 +599,6 @@ def _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sa
         # above is the diffuse part only): the ray goes on through one BSDF sample of the
         # glossy part (follow_bsdf, as camera paths do; Russian roulette on the glossy
         # share) to the next diffuse hit.
-        rough = prepared.sampled_only[mat] | prepared.glossy_on_diffuse[mat]
         sd = np.flatnonzero(prepared.has_delta[mat] & ~rough)
         sr = np.flatnonzero(rough)
         if sd.size == 0 and sr.size == 0:
@@ -593,8 +619,8 @@ def _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sa
             go.append((rs[keep], o_s, d_s, thr_s, lam_s))
         if sr.size:
             go.append(_follow_rough(prepared, st.seed, depth, bounce, ray_pixel, index, rows[sr],
-                                    hits, hit[sr], p2[sr], n2[sr], s2[sr], d[sr], front[sr],
-                                    mat[sr], e2[sr], thr[sr], lam[sr]))
+                                    hits, hit[sr], p2[sr], n2[sr], s2s[sr], d[sr], front[sr],
+                                    mat[sr], e2[sr], thr[sr], lam[sr], tab, crow[sr]))
         if len(go) == 1:
             rows, o, d, thr, lam = go[0]
         else:

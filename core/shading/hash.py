@@ -155,10 +155,10 @@ def hash_float4_to_float(x, y, z, w):
 
 @njit(**_JIT)
 def mul32(a, b):
-    """(a * b) mod 2^32 for a, b in [0, 2^32) without int64 overflow."""
-    lo = a * (b & 0xFFFF)
-    hi = ((a * (b >> 16)) & 0xFFFF) << 16
-    return (lo + hi) & M32
+    """(a * b) mod 2^32 for a, b in [0, 2^32): one uint64 product (it wraps mod 2^64,
+    well defined, where numba's int64 product is ``mul nsw``: overflow undefined), its
+    low 32 bits; twice as fast as the two 16-bit halves it replaces (issue 14)."""
+    return np.int64((np.uint64(a) * np.uint64(b)) & np.uint64(M32))
 
 
 @njit(**_JIT)
