@@ -21,9 +21,13 @@ Math ... through Texture Coordinate Object / Generated or the Geometry Position)
 coefficients at density 1 (core/scene/media.py); Cycles clamps the density at 0 as the
 renderer does. Since the sixth slice the varying node may sit under Add / Mix Shaders:
 its coefficients (times the Mix factors above it) make the heterogeneous row and the rest
-of the sum a homogeneous row ``homogeneous_part`` in the same object (export.py). Any
-other linked input (Color, Absorption Color, a second varying Density in the same material,
-the World's Density) is reported by node and input and its own value used. The World's Volume fills all space (``world_medium``); a
+of the sum a homogeneous row ``homogeneous_part`` in the same object (export.py). A
+varying colour (issue 16): a Principled Volume's linked Color / Absorption Color or a Volume
+Scatter's linked Color makes that node the varying one too; its program has seven outputs
+(density, Color, Absorption Color) and its row holds weights (core/scene/media.py). Any
+other linked input (a Volume Absorption's Color, a second varying node in the same
+material, the World's Density or Color) is reported by node and input and its own value
+used. The World's Volume fills all space (``world_medium``); a
 mesh material's Volume fills the inside of every object using it (``material_medium``;
 export.py makes one medium per object and material, bounded by that object's faces of the
 material, and leaves a volume-only material's faces out of the surfaces: they are null
@@ -134,9 +138,11 @@ def _density(node, owner, warnings, linked, colours=()) -> tuple[float, bool, bo
 
 def _read(sock, owner, warnings, depth=0, linked=None, weight=1.0) -> _Medium:
     """The medium of a Volume socket. ``linked``: a list (None: no varying density) that
-    takes the first volume node whose Density is linked, anywhere under Add / Mix Shaders:
-    [its Density socket, its medium at density 1 times ``weight``, the product of the Mix
-    factors above it]; that node then adds nothing to the returned (homogeneous) medium."""
+    takes the first volume node whose Density (or, Principled Volume / Volume Scatter, Color
+    / Absorption Color) is linked, anywhere under Add / Mix Shaders: [{input name: socket}
+    of its Density and colours, its medium at density 1 (weights for a varying colour)
+    times ``weight``, the product of the Mix factors above it]; that node then adds nothing
+    to the returned (homogeneous) medium."""
     m = _Medium()
     out = follow_reroutes(sock) if sock is not None else None
     if out is None or depth > 32:
