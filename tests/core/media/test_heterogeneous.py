@@ -306,3 +306,17 @@ def test_a_colour_programs_medium_gives_the_transmittance_of_its_per_channel_dep
                                [[1.5 * 0.75, 1.5 * gy, 1.5 * gz]], rtol=1e-6)
     assert not med.fields.warnings()
     prep.close()
+
+
+def test_a_density_program_of_two_outputs_is_refused_naming_it():
+    """A density program has one output or seven (density, Color, Absorption Color)."""
+    from core.scene.checks import SceneError
+
+    prog = _colour_program()
+    two = dataclasses.replace(prog, outputs=prog.outputs[:2])
+    media = Media.from_list([{"bounds": 0, "name": "Odd", "density_texture": 0,
+                              "boundary": shapes.box(np.full(3, -1.0), np.full(3, 1.0)).corners}],
+                            programs=(two,))
+    with pytest.raises(SceneError, match="colour ramp.*one output.*or 7"):
+        media.validate(1)
+    dataclasses.replace(media, programs=(prog,)).validate(1)
