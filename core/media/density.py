@@ -20,6 +20,11 @@ tracked point still exceeds its cell's value, the density is clipped to it (a bi
 by what was clipped) and counted in ``clipped`` / ``clipped_max``, which the render reports
 as a warning naming the medium (in the log and in Blender's report). A negative program value is taken as 0 (Cycles clamps the
 density at 0 too: ``fmaxf(density, 0.0f)`` in svm_node_principled_volume).
+
+**A varying colour** (issue 16): a medium whose program also gives Color and Absorption
+Color has six factors per point instead of rho (``DensityFields`` doc); the grid bounds the
+largest, and ``along`` / ``scattering`` hand the trackers and Volume Direct per-channel
+values (docs/volumes.md "Varying colour").
 """
 
 from __future__ import annotations
