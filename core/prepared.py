@@ -54,6 +54,7 @@ from .scene.bounds import Targets, bounding_sphere, object_spheres
 from .scene.checks import SceneError
 from .scene.closures import CLOSURE_PRINCIPLED
 from .scene.contract import CAMERA_ORTHOGRAPHIC, Scene
+from .scene.media import DENSITY_SLOTS
 
 
 def density_fields(scene: Scene, shader: "HitShader") -> DensityFields | None:
@@ -66,24 +67,29 @@ def density_fields(scene: Scene, shader: "HitShader") -> DensityFields | None:
     rows = np.flatnonzero(media.density_texture >= 0)
     if rows.size == 0:
         return None
-    evaluators, boxes = {}, {}
+    evaluators, boxes, colour = {}, {}, []
     for r in rows.tolist():
         prog = media.programs[int(media.density_texture[r])]
         if prog.outputs[0, 1] != pg.TARGET_DENSITY:
             raise SceneError(f"medium '{media.names[r]}': its density program's output has "
                              f"target {prog.outputs[0, 1]}, not TARGET_DENSITY")
+        # A varying colour: the program's seven outputs (density, Color, Absorption Color)
+        varies = prog.outputs.shape[0] == DENSITY_SLOTS
+        if varies:
+            colour.append(r)
 
-        def evaluate(p, prog=prog, obj=int(media.bounds[r])):
+        def evaluate(p, prog=prog, obj=int(media.bounds[r]), varies=varies):
             n = p.shape[0]
             world = p + shader.origin
             local, generated = shader.object_point(np.full(n, obj), world)
             inputs = ShadingInputs.build(world, np.zeros((n, 3), np.float32),
                                          object_coords=local, generated=generated)
-            return interpreter.evaluate(prog, inputs, scene.program_images)[:, 0]
+            out = interpreter.evaluate(prog, inputs, scene.program_images)
+            return out if varies else out[:, 0]
         evaluators[r] = evaluate
         tri = media.boundary[media.boundary_medium == r].reshape(-1, 3).astype(np.float64)
         boxes[r] = (tri.min(axis=0), tri.max(axis=0))
-    return DensityFields(evaluators, boxes, media.names)
+    return DensityFields(evaluators, boxes, media.names, colour)
 
 
 @dataclass

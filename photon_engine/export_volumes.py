@@ -21,9 +21,13 @@ Math ... through Texture Coordinate Object / Generated or the Geometry Position)
 coefficients at density 1 (core/scene/media.py); Cycles clamps the density at 0 as the
 renderer does. Since the sixth slice the varying node may sit under Add / Mix Shaders:
 its coefficients (times the Mix factors above it) make the heterogeneous row and the rest
-of the sum a homogeneous row ``homogeneous_part`` in the same object (export.py). Any
-other linked input (Color, Absorption Color, a second varying Density in the same material,
-the World's Density) is reported by node and input and its own value used. The World's Volume fills all space (``world_medium``); a
+of the sum a homogeneous row ``homogeneous_part`` in the same object (export.py). A
+varying colour (issue 16): a Principled Volume's linked Color / Absorption Color or a Volume
+Scatter's linked Color makes that node the varying one too; its program has seven outputs
+(density, Color, Absorption Color) and its row holds weights (core/scene/media.py). Any
+other linked input (a Volume Absorption's Color, a second varying node in the same
+material, the World's Density or Color) is reported by node and input and its own value
+used. The World's Volume fills all space (``world_medium``); a
 mesh material's Volume fills the inside of every object using it (``material_medium``;
 export.py makes one medium per object and material, bounded by that object's faces of the
 material, and leaves a volume-only material's faces out of the surfaces: they are null
@@ -105,29 +109,40 @@ def _value(node, name, owner, warnings, size=None):
     return float(v)
 
 
-def _density(node, owner, warnings, linked) -> tuple[float, bool]:
-    """The node's Density and whether it varies: (1, True) when it is linked and
-    ``linked`` (a list, None: never) is still empty: the socket is appended (the medium is
-    heterogeneous); else (its own value, False), a link reported (a second varying density
-    in the same material among them)."""
+def _linked(node, name) -> bool:
+    sock = node.inputs.get(name)
+    return sock is not None and sock.is_linked and follow_reroutes(sock) is not None
+
+
+def _density(node, owner, warnings, linked, colours=()) -> tuple[float, bool, bool]:
+    """The node's Density, whether the node varies and whether its colour does:
+    (1, True, colour) when its Density or one of its ``colours`` inputs (Color, Absorption
+    Color) is linked and ``linked`` (a list, None: never) is still empty: {input name:
+    socket} of the Density and the colours is appended (the medium is heterogeneous);
+    else (its own value, False, False), a link reported (a second varying node in the same
+    material among them; the colours' links by ``_value``)."""
     sock = node.inputs.get("Density")
-    if linked is not None and sock is not None and sock.is_linked \
-            and follow_reroutes(sock) is not None:
+    varying = [n for n in ("Density",) + tuple(colours) if _linked(node, n)]
+    if linked is not None and varying:
         if not linked:
-            linked.append(sock)
-            return 1.0, True
-        warnings.append(f"{owner}: input 'Density' of node '{node.name}' is linked, and "
-                        f"another volume node's Density already varies (one varying density "
-                        f"per material is supported); using its own value")
-        return max(float(sock.default_value), 0.0), False
-    return max(_value(node, "Density", owner, warnings), 0.0), False
+            linked.append({n: node.inputs[n] for n in ("Density",) + tuple(colours)
+                           if node.inputs.get(n) is not None})
+            return 1.0, True, any(n != "Density" for n in varying)
+        if "Density" in varying:
+            warnings.append(f"{owner}: input 'Density' of node '{node.name}' is linked, and "
+                            f"another volume node already varies (one varying volume node "
+                            f"per material is supported); using its own value")
+            return max(float(sock.default_value), 0.0), False, False
+    return max(_value(node, "Density", owner, warnings), 0.0), False, False
 
 
 def _read(sock, owner, warnings, depth=0, linked=None, weight=1.0) -> _Medium:
     """The medium of a Volume socket. ``linked``: a list (None: no varying density) that
-    takes the first volume node whose Density is linked, anywhere under Add / Mix Shaders:
-    [its Density socket, its medium at density 1 times ``weight``, the product of the Mix
-    factors above it]; that node then adds nothing to the returned (homogeneous) medium."""
+    takes the first volume node whose Density (or, Principled Volume / Volume Scatter, Color
+    / Absorption Color) is linked, anywhere under Add / Mix Shaders: [{input name: socket}
+    of its Density and colours, its medium at density 1 (weights for a varying colour)
+    times ``weight``, the product of the Mix factors above it]; that node then adds nothing
+    to the returned (homogeneous) medium."""
     m = _Medium()
     out = follow_reroutes(sock) if sock is not None else None
     if out is None or depth > 32:
@@ -145,11 +160,12 @@ def _read(sock, owner, warnings, depth=0, linked=None, weight=1.0) -> _Medium:
         m.add(_read(node.inputs[2], owner, warnings, depth + 1, linked, weight * fac), fac)
     elif kind == "ShaderNodeVolumeAbsorption":
         c = _value(node, "Color", owner, warnings, 3)
-        rho, varies = _density(node, owner, warnings, linked)
+        rho, varies, _ = _density(node, owner, warnings, linked)
         m.sigma_a = np.maximum(1.0 - c, 0.0) * rho
     elif kind == "ShaderNodeVolumeScatter":
-        c = np.maximum(_value(node, "Color", owner, warnings, 3), 0.0)
-        rho, varies = _density(node, owner, warnings, linked)
+        rho, varies, colour = _density(node, owner, warnings, linked, ("Color",))
+        # A varying colour: the row's sigma_s is the weight the program's Color multiplies
+        c = np.ones(3) if colour else np.maximum(_value(node, "Color", owner, warnings, 3), 0.0)
         m.sigma_s = c * rho
         m.g_weight = float(np.mean(m.sigma_s)) * _value(node, "Anisotropy", owner, warnings)
         phase = getattr(node, "phase", "HENYEY_GREENSTEIN")
@@ -157,11 +173,15 @@ def _read(sock, owner, warnings, depth=0, linked=None, weight=1.0) -> _Medium:
             warnings.append(f"{owner}: phase function '{phase}' of node '{node.name}' is not "
                             f"supported yet; using Henyey-Greenstein")
     elif kind == "ShaderNodeVolumePrincipled":
-        c = np.maximum(_value(node, "Color", owner, warnings, 3), 0.0)
-        rho, varies = _density(node, owner, warnings, linked)
-        a = np.sqrt(np.maximum(_value(node, "Absorption Color", owner, warnings, 3), 0.0))
-        m.sigma_s = c * rho
-        m.sigma_a = np.maximum(1.0 - c, 0.0) * np.maximum(1.0 - a, 0.0) * rho
+        rho, varies, colour = _density(node, owner, warnings, linked,
+                                       ("Color", "Absorption Color"))
+        if colour:  # weights, which the program's Color and Absorption Color multiply
+            m.sigma_s, m.sigma_a = np.ones(3), np.ones(3)
+        else:
+            c = np.maximum(_value(node, "Color", owner, warnings, 3), 0.0)
+            a = np.sqrt(np.maximum(_value(node, "Absorption Color", owner, warnings, 3), 0.0))
+            m.sigma_s = c * rho
+            m.sigma_a = np.maximum(1.0 - c, 0.0) * np.maximum(1.0 - a, 0.0) * rho
         m.g_weight = float(np.mean(m.sigma_s)) * _value(node, "Anisotropy", owner, warnings)
         strength = max(_value(node, "Emission Strength", owner, warnings), 0.0)
         m.emission = strength * np.maximum(_value(node, "Emission Color", owner, warnings, 3), 0.0)
@@ -225,11 +245,26 @@ def material_medium(mat, warnings: list[str]) -> dict | None:
     m = _read(sock, f'Material "{mat.name}"', warnings, linked=linked)
     if not linked:
         return _row(m, mat.name)
-    het = linked[1]
-    comp = compile_sockets(mat, [(linked[0], pg.TARGET_DENSITY, 0, 0)])
+    sockets, het = linked
+    colour = [sockets[n] for n in ("Color", "Absorption Color")
+              if n in sockets and _linked(sockets[n].node, n)]
+    targets = [(sockets["Density"], pg.TARGET_DENSITY, 0, 0)]
+    if colour:
+        # Color and Absorption Color, slots 1-3 and 4-6 (a Volume Scatter has no
+        # Absorption Color: its Color fills them, read by nothing since its sigma_a is 0)
+        targets += [(sockets["Color"], pg.TARGET_DENSITY, 0, 1),
+                    (sockets.get("Absorption Color", sockets["Color"]), pg.TARGET_DENSITY,
+                     0, 4)]
+    comp = compile_sockets(mat, targets)
     warnings.extend(comp.warnings)
-    if comp.program is None:  # the graph folds to a constant density
+    if comp.program is None:  # the graph folds to a constant density (and colour)
         rho = max(float(comp.constant[0][0]), 0.0)
+        if colour:
+            c = np.maximum(np.asarray(comp.constant[1], np.float64), 0.0)
+            a = np.sqrt(np.maximum(np.asarray(comp.constant[2], np.float64), 0.0))
+            het.g_weight *= float(np.mean(c))
+            het.sigma_s = het.sigma_s * c
+            het.sigma_a = het.sigma_a * np.maximum(1.0 - c, 0.0) * np.maximum(1.0 - a, 0.0)
         het.sigma_a, het.sigma_s, het.g_weight = het.sigma_a * rho, het.sigma_s * rho, \
             het.g_weight * rho  # the emission does not scale with the density
         m.add(het, 1.0)

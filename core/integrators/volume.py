@@ -240,8 +240,8 @@ def add_segments(vt: VolumeTerms, origins, dirs, seg_t, thr, rows, pixel, sample
                 hs, hom, f = het_s[sl], sig_s[sl], fld[sl]
 
                 def sigma_s_at(idx, points):
-                    rho = m.fields(points, f[idx])
-                    return hom[idx] + rho[:, None] * hs[idx]
+                    # rho (K, 1), or a varying colour's per-channel factor (K, 3)
+                    return hom[idx] + m.fields.scattering(points, f[idx]) * hs[idx]
                 out = _single_scattering(vt, *direct_args, np.ones((len(hs), 3)), sig_t[sl],
                                          np.ascontiguousarray(g[sl]), pixel[s_rows[sl]],
                                          sample[s_rows[sl]], depth, stats, sigma_s_at)
@@ -273,7 +273,8 @@ def _split_heterogeneous(vt: VolumeTerms, st, s_o, s_d, s_len, s_thr, pixel, sam
     seg = st.ray[het]
     index = pixel[seg] * np.int64(1 << 24) + sample[seg] * np.int64(64) + (het - st.start[seg])
     walk, t, T, _ = tracking.ratio_tracking_points(
-        m.fields.along(st.field[het], st.majorant[het]), s_o[het], s_d[het], 0.0, s_len[het],
+        m.fields.along(st.field[het], st.majorant[het], st.het_a[het], st.het_s[het]),
+        s_o[het], s_d[het], 0.0, s_len[het],
         np.arange(het.size), st.het_a[het]
         + st.het_s[het], st.majorant[het], vt.seed,
         sampling.stream(sampling.MEDIUM_TRACKING, 4095, min(depth, 4095)), index=index)

@@ -20,6 +20,11 @@ tracked point still exceeds its cell's value, the density is clipped to it (a bi
 by what was clipped) and counted in ``clipped`` / ``clipped_max``, which the render reports
 as a warning naming the medium (in the log and in Blender's report). A negative program value is taken as 0 (Cycles clamps the
 density at 0 too: ``fmaxf(density, 0.0f)`` in svm_node_principled_volume).
+
+**A varying colour** (issue 16): a medium whose program also gives Color and Absorption
+Color has six factors per point instead of rho (``DensityFields`` doc); the grid bounds the
+largest, and ``along`` / ``scattering`` hand the trackers and Volume Direct per-channel
+values (docs/volumes.md "Varying colour").
 """
 
 from __future__ import annotations
@@ -40,47 +45,94 @@ class DensityFields:
     """The densities of a scene's heterogeneous media.
 
     evaluators: {medium row: evaluate(points (K, 3) float64 metres) -> (K,) float} the
-    program's value; boxes: {medium row: (lo, hi) (3,) metres} the region the majorant
-    covers (the medium's boundary box); names: the media's names.
+    program's value, or for the rows in ``colour`` (a varying colour) -> (K, 7): the
+    density, Color (3), Absorption Color (3) (core/scene/media.py); boxes: {medium row:
+    (lo, hi) (3,) metres} the region the majorant covers (the medium's boundary box);
+    names: the media's names.
+
+    A colour medium's "density" is six factors per point (``principled_volume_coefficients``:
+    the absorption's per channel, then the scattering's, each rho x a colour term), which
+    the row's sigma_a, sigma_s (weights) multiply; the majorant grid is measured on their
+    largest, so it bounds every factor.
     """
 
-    def __init__(self, evaluators: dict, boxes: dict, names):
+    def __init__(self, evaluators: dict, boxes: dict, names, colour=()):
         self.evaluators = dict(evaluators)
         self.names = tuple(names)
+        self.colour = frozenset(int(m) for m in colour)
         self.clipped = {m: 0 for m in self.evaluators}
         self.clipped_max = {m: 0.0 for m in self.evaluators}
-        self.grids = {m: MajorantGrid.measure(self._raw(m), *boxes[m]) for m in self.evaluators}
+        self.grids = {m: MajorantGrid.measure(self._largest(m), *boxes[m])
+                      for m in self.evaluators}
         # The medium's bound over its whole box (the decisions' figure)
         self.majorant = {m: float(g.cells.max()) for m, g in self.grids.items()}
 
     def _raw(self, m: int):
-        """rho of medium m at world points (K, 3) -> (K,) float64, not clipped."""
+        """rho of medium m at world points (K, 3) -> (K,) float64, not clipped; a colour
+        medium: its factors (K, 6) (class doc)."""
         ev = self.evaluators[m]
+        if m in self.colour:
+            def factors(points):
+                v = np.asarray(ev(np.asarray(points, np.float64)), np.float64).reshape(-1, 7)
+                v = np.where(np.isfinite(v), v, 0.0)
+                sa, ss = principled_volume_coefficients(v[:, 0], v[:, 1:4], v[:, 4:7])
+                return np.concatenate([sa, ss], axis=1)
+            return factors
 
         def rho(points):
             v = np.asarray(ev(np.asarray(points, np.float64)), np.float64)
             return np.where(np.isfinite(v), np.maximum(v, 0.0), 0.0)
         return rho
 
+    def _largest(self, m: int):
+        """What the majorant grid of medium m bounds: rho, or a colour medium's largest
+        factor, at points (K, 3) -> (K,)."""
+        raw = self._raw(m)
+        if m not in self.colour:
+            return raw
+        return lambda points: raw(points).max(axis=1)
+
     def __call__(self, points, field) -> np.ndarray:
         """rho (K,) float64 at world points (K, 3) metres of the media field (K,) int64,
-        clipped to each medium's majorant (module doc)."""
+        clipped to each medium's majorant (module doc). Media of a constant colour only
+        (``scattering`` serves both)."""
         p = np.asarray(points, np.float64).reshape(-1, 3)
         f = np.asarray(field, np.int64).reshape(-1)
         out = np.zeros(p.shape[0])
         for m in np.unique(f):
+            if int(m) in self.colour:
+                raise ValueError(f"medium '{self.names[int(m)]}' has a varying colour: its "
+                                 f"density is per channel (DensityFields.scattering)")
             sel = np.flatnonzero(f == m)
             out[sel] = self._clipped(int(m), p[sel], self.grids[int(m)].at(p[sel]))
         return out
 
+    def scattering(self, points, field) -> np.ndarray:
+        """The factor of the rows' sigma_s at world points (K, 3) metres of the media field
+        (K,) int64, clipped as ``__call__``: (K, 1) rho where no medium of a varying colour
+        is in the scene (the arithmetic of a constant colour), else (K, 3)."""
+        if not self.colour:
+            return self(points, field)[:, None]
+        p = np.asarray(points, np.float64).reshape(-1, 3)
+        f = np.asarray(field, np.int64).reshape(-1)
+        out = np.zeros((p.shape[0], 3))
+        for m in np.unique(f):
+            sel = np.flatnonzero(f == m)
+            v = self._clipped(int(m), p[sel], self.grids[int(m)].at(p[sel]))
+            out[sel] = v[:, 3:] if int(m) in self.colour else v[:, None]
+        return out
+
     def _clipped(self, m: int, points, bound) -> np.ndarray:
-        """rho of medium m at points (K, 3) clipped to bound (K,), the clipping counted."""
+        """rho of medium m at points (K, 3) clipped to bound (K,), the clipping counted (a
+        colour medium: its factors (K, 6), each clipped)."""
         v = self._raw(m)(points)
-        over = v > bound
+        b = bound if v.ndim == 1 else bound[:, None]
+        over = v > b
         if over.any():
-            self.clipped[m] += int(over.sum())
+            hit = over if v.ndim == 1 else over.any(axis=1)
+            self.clipped[m] += int(hit.sum())
             self.clipped_max[m] = max(self.clipped_max[m], float(v[over].max()))
-            v = np.minimum(v, bound)
+            v = np.minimum(v, b)
         return v
 
     def segment_majorant(self, field, origins, directions, t0, t1) -> np.ndarray:
@@ -100,23 +152,45 @@ class DensityFields:
             out[sel] = res
         return out
 
-    def along(self, field, majorant):
+    def along(self, field, majorant, het_a=None, het_s=None):
         """The density of N tracked segments as the trackers call it: a function
         (points (K, 3), k (K,) int64 segment index) -> rho (K,) of medium field[k], clipped
         to the point's cell value and to the segment's majorant[k] (the two agree but where
-        a point on a cell's face falls on the other side of the DDA; counted as clipping)."""
+        a point on a cell's face falls on the other side of the DDA; counted as clipping).
+
+        With a medium of a varying colour in the scene the factors are per channel
+        (``tracking``'s per-channel densities): het_a, het_s (N, 3) the segments' row
+        coefficients given -> (K, 3) extinction factors for ratio tracking (a colour
+        medium's (f_a het_a + f_s het_s) / (het_a + het_s)); not given -> (K, 6) the
+        absorption's and scattering's factors for delta tracking. Media of a constant
+        colour give rho in every column (the same arithmetic)."""
         f = np.asarray(field, np.int64).reshape(-1)
         maj = np.asarray(majorant, np.float64).reshape(-1)
+        colour = bool(self.colour) and bool(np.isin(f, list(self.colour)).any())
+        if colour and het_a is not None:
+            ha = np.asarray(het_a, np.float64).reshape(-1, 3)
+            hs = np.asarray(het_s, np.float64).reshape(-1, 3)
+            ht = ha + hs
 
         def rho(points, k):
             p = np.asarray(points, np.float64).reshape(-1, 3)
             k = np.asarray(k, np.int64).reshape(-1)
-            out = np.zeros(p.shape[0])
+            width = 1 if not colour else (3 if het_a is not None else 6)
+            out = np.zeros(p.shape[0]) if width == 1 else np.zeros((p.shape[0], width))
             fk = f[k]
             for m in np.unique(fk):
                 sel = np.flatnonzero(fk == m)
                 bound = np.minimum(self.grids[int(m)].at(p[sel]), maj[k[sel]])
-                out[sel] = self._clipped(int(m), p[sel], bound)
+                v = self._clipped(int(m), p[sel], bound)
+                if width == 1 or int(m) not in self.colour:
+                    out[sel] = v if width == 1 else v[:, None]
+                elif width == 6:
+                    out[sel] = v
+                else:
+                    kk = k[sel]
+                    t = ht[kk]
+                    out[sel] = np.where(t > 0, (v[:, :3] * ha[kk] + v[:, 3:] * hs[kk])
+                                        / np.where(t > 0, t, 1.0), 0.0)
             return out
         return rho
 

@@ -245,7 +245,8 @@ class Medium:
                 # Each walk's stream is keyed by its segment's origin and direction bits
                 # and its row: the same for the same call whatever runs before or beside it
                 # (photon chunks may run in threads)
-                T = ratio_tracking_batch(self.fields.along(fld[het], maj[het]), o[ray[het]],
+                T = ratio_tracking_batch(self.fields.along(fld[het], maj[het], ha[het], hs[het]),
+                                         o[ray[het]],
                                          d[ray[het]], t0[het], t1[het], np.arange(het.size),
                                          ha[het] + hs[het], maj[het], self.seed,
                                          sampling.stream(sampling.MEDIUM_TRANSMITTANCE),

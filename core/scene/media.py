@@ -16,7 +16,12 @@ Heterogeneous density: a shader program (``programs``, one output, target
 ``core.shading.program.TARGET_DENSITY``) gives rho(x) >= 0 at every point inside the
 medium and scales its sigma_a and sigma_s (not its emission: Cycles' Principled Volume
 adds its emission independently of the density); ``density_texture == -1`` means
-homogeneous (rho = 1).
+homogeneous (rho = 1). **A varying colour** (a Principled Volume's or Volume Scatter's Color /
+Absorption Color fed by nodes): the program has DENSITY_SLOTS outputs, rho, Color C (3),
+Absorption Color A (3), and the row's sigma_a, sigma_s are weights: at a point
+sigma_s = sigma_s(row) C rho, sigma_a = sigma_a(row) max(1 - C, 0) max(1 - sqrt(A), 0) rho
+(Cycles' svm_node_principled_volume; ``core.media.density.principled_volume_coefficients``),
+per channel: a Principled Volume under Mix factor w has w in both, a Volume Scatter w and 0.
 """
 
 from __future__ import annotations
@@ -29,6 +34,10 @@ from .checks import SceneError, check_array
 
 WORLD = -1
 """``Media.bounds`` of the World's volume: the medium of every point inside no mesh medium."""
+
+DENSITY_SLOTS = 7
+"""Outputs of a density program with a varying colour: the density, Color (3), Absorption
+Color (3) (``core.shading.program.TARGET_DENSITY`` slots 0-6, in order; module doc)."""
 
 MAX_ANISOTROPY = 0.999
 """The phase function clamps |g| to this (a delta peak beyond; Cycles' volume_henyey_greenstein
@@ -160,9 +169,13 @@ class Media:
                 prog.validate()
             except ValueError as exc:
                 raise SceneError(f"media.programs[{k}]: {exc}") from None
-            if prog.outputs.shape[0] != 1:
+            n_out = prog.outputs.shape[0]
+            if n_out not in (1, DENSITY_SLOTS) or np.any(prog.outputs[:, 1] != prog.outputs[0, 1]) \
+                    or np.any(prog.outputs[:, 3] != np.arange(n_out)):
                 raise SceneError(f"media.programs[{k}] ({prog.name!r}) must have one output "
-                                 f"(the density), got {prog.outputs.shape[0]}")
+                                 f"(the density) or {DENSITY_SLOTS} (the density, Color, "
+                                 f"Absorption Color), TARGET_DENSITY slots in order, got "
+                                 f"{prog.outputs.tolist()}")
         check_array("media.boundary", self.boundary, (None, 3, 3), dtype=np.float32)
         check_array("media.boundary_medium", self.boundary_medium, (self.boundary.shape[0],),
                     dtype=np.int32)

@@ -30,6 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..scene import closures
+from ..scene.media import DENSITY_SLOTS  # TARGET_DENSITY's slots (core/scene/media.py)
 from . import light_path
 
 INSTRUCTION_WIDTH = 20
@@ -157,7 +158,8 @@ TARGET_CLOSURE = 0    # closure parameter slot (core.scene.closures)
 TARGET_EMISSION = 1   # the material's emission colour, component 0-2 (radiance)
 TARGET_ALPHA = 2      # the material's opacity in [0, 1]
 TARGET_NORMAL = 3     # the shading normal, component 0-2 (world space, unnormalised)
-TARGET_DENSITY = 4    # a medium's density rho(x) >= 0 (core/scene/media.py), slot 0
+TARGET_DENSITY = 4    # a medium's density rho(x) >= 0 (core/scene/media.py), slot 0; a
+                      # varying colour adds slots 1-3 (Color) and 4-6 (Absorption Color)
 TARGET_WEIGHT = 5     # a per-hit factor of closure row ``closure``'s weight, slot 0: the
                       # product of the linked Mix Shader factors above it (clamped f or
                       # 1 - f each); rows without one keep their constant weight
@@ -259,7 +261,8 @@ class ShaderProgram:
             if not 0 <= target < TARGET_COUNT:
                 raise ValueError(f"{who}: output {o} has unknown target {target}")
             limit = closures.PARAM_COUNT if target == TARGET_CLOSURE else \
-                (1 if target in (TARGET_ALPHA, TARGET_DENSITY, TARGET_WEIGHT) else 3)
+                (DENSITY_SLOTS if target == TARGET_DENSITY else
+                 1 if target in (TARGET_ALPHA, TARGET_WEIGHT) else 3)
             if not 0 <= slot < limit:
                 raise ValueError(f"{who}: output {o} slot {slot} outside [0, {limit})")
             if closure < 0:

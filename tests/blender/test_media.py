@@ -181,3 +181,50 @@ def test_a_varying_density_under_a_mix_shader_is_a_heterogeneous_row_beside_the_
     np.testing.assert_allclose(media.anisotropy[0], 0.3, rtol=1e-6)
     np.testing.assert_allclose(media.sigma_a[1], [0.1, 0.1, 0.2], rtol=1e-6)     # x 0.8 x 0.25
     np.testing.assert_allclose(media.sigma_s[1], 0.0)
+
+
+def test_a_varying_scatter_colour_under_a_mix_shader_is_a_row_of_weights_with_a_colour_program():
+    """Mix Shader (Fac 0.25) of a Volume Scatter whose Color a Noise's Color drives (Density
+    2) and a Volume Absorption: the scatter's row holds the weights (sigma_s 0.75, sigma_a 0:
+    the program's Color, density and weight give sigma_s = 0.75 C 2 per point) with a
+    seven-output program whose density is the constant 2; the absorption x 0.25 a
+    homogeneous row; a Volume Absorption's linked Color is still reported."""
+    from core.shading import program as pg
+
+    _lit()
+    mat = bpy.data.materials.new("Tinted Smoke")
+    tree = scenes.ensure_node_tree(mat)
+    for node in list(tree.nodes):
+        if node.type != 'OUTPUT_MATERIAL':
+            tree.nodes.remove(node)
+    out = next(n for n in tree.nodes if n.type == 'OUTPUT_MATERIAL')
+    smoke = tree.nodes.new('ShaderNodeVolumeScatter')
+    smoke.inputs["Density"].default_value = 2.0
+    noise = tree.nodes.new('ShaderNodeTexNoise')
+    tree.links.new(noise.outputs["Color"], smoke.inputs["Color"])
+    absorb = tree.nodes.new('ShaderNodeVolumeAbsorption')
+    absorb.inputs["Color"].default_value = (0.5, 0.5, 0.0, 1.0)
+    absorb.inputs["Density"].default_value = 0.8
+    mix = tree.nodes.new('ShaderNodeMixShader')
+    mix.inputs["Fac"].default_value = 0.25
+    tree.links.new(smoke.outputs[0], mix.inputs[1])
+    tree.links.new(absorb.outputs[0], mix.inputs[2])
+    tree.links.new(mix.outputs[0], out.inputs["Volume"])
+    bpy.ops.mesh.primitive_cube_add(size=1.0, location=(0.0, 0.0, 0.6))
+    bpy.context.active_object.name = "Box"
+    bpy.context.active_object.data.materials.append(mat)
+    result = export()
+    assert result.warnings == []
+    media = result.scene.media
+    assert media.names == ("Tinted Smoke in Box", "Tinted Smoke in Box (homogeneous part)")
+    assert media.density_texture.tolist() == [0, -1]
+    np.testing.assert_allclose(media.sigma_s[0], 0.75, rtol=1e-6)
+    np.testing.assert_allclose(media.sigma_a[0], 0.0)
+    np.testing.assert_allclose(media.sigma_a[1], [0.1, 0.1, 0.2], rtol=1e-6)
+    (prog,) = media.programs
+    assert prog.outputs[:, 3].tolist() == list(range(7))
+    assert set(prog.outputs[:, 1].tolist()) == {pg.TARGET_DENSITY}
+    assert prog.constants[prog.outputs[0, 0]] == 2.0  # the constant density's register
+    # A Volume Absorption's Color still varies only as its own value
+    tree.links.new(noise.outputs["Color"], absorb.inputs["Color"])
+    assert any("input 'Color' of node" in w for w in export().warnings)

@@ -145,6 +145,7 @@ def test_closure_params_write_the_slots_and_keep_the_constants(rng):
     ([ins(pg.OP_MATH, [0, 0], [0, 1, 0, 1])], [], 5, "writes constant register 1"),
     ([ins(pg.OP_INPUT, [0], [3])], [[3, pg.TARGET_CLOSURE, 0, closures.PARAM_COUNT]], 6,
      f"slot {closures.PARAM_COUNT} outside"),
+    ([ins(pg.OP_INPUT, [0], [3])], [[3, pg.TARGET_DENSITY, 0, 7]], 6, "slot 7 outside"),
     ([ins(pg.OP_INPUT, [0], [4])], [], 6, "register 4 outside [0, 3]"),
     ([ins(pg.OP_INPUT, [42], [3])], [], 6, "unknown input source 42"),
     ([ins(pg.OP_RAMP, [0, 256, 1], [0, 3, 6])], [], 7, "RAMP"),
