@@ -69,8 +69,7 @@ from . import camera_paths, volume
 from ..media import regions
 from ..materials import closure
 from ..photons.estimate import BsdfHits, radiance_estimate, radiance_estimate_sides
-from ..photons import encoding, hash_grid, kdtree
-from ..photons.hash_grid import HashGrid
+from ..photons import encoding, kdtree
 from ..photons.photon_map import PhotonMap, squared_radius
 
 
@@ -86,10 +85,6 @@ CACHE_NEIGHBOURS = 2
 compatible normal is used)."""
 CACHE_MIN_COS = 0.5
 """A cache entry serves a gather hit when their normals agree this well (cos)."""
-CACHE_GRID_SPACINGS = 1.6
-"""The cache's hash-grid cell, in mean point spacings sqrt(area / points): the CACHE_NEIGHBOURS
-nearest points then lie within one cell of a hit but for ~0.3 % of hits (Poisson points
-on a plane), which the kd-tree answers (core/photons/hash_grid.nearest_compatible_kernel)."""
 
 
 # --- the radiance cache (Christensen 1999) -----------------------------------------------------
@@ -107,8 +102,7 @@ class RadianceCache:
     Final gathering reads the nearest side with a compatible normal among the
     CACHE_NEIGHBOURS nearest points (one k-nearest search per hit instead of a k =
     global_k estimate, several times faster); a hit with none within the radius gets the
-    full estimate. grid: a HashGrid over ``tree`` (cells CACHE_GRID_SPACINGS point spacings
-    wide) that answers most lookups from 27 cells, or None (the tree alone): same picks.
+    full estimate.
     """
 
     tree: np.ndarray
@@ -117,7 +111,6 @@ class RadianceCache:
     normals: np.ndarray
     radiance: np.ndarray
     radius: float
-    grid: HashGrid | None = None
 
     def __len__(self):
         return self.tree.shape[0]
@@ -202,9 +195,8 @@ def build_radiance_cache(terms: "PhotonTerms", prepared: PreparedScene,
                          for f in (front, back)], axis=1).astype(np.float64)
     normals = np.stack([encoding.decode_direction(encoding.encode_direction(v[source]))
                         for v in (nrm, -nrm)], axis=1).astype(np.float64)
-    grid = HashGrid(tree, CACHE_GRID_SPACINGS * math.sqrt(float(area.sum()) / m))
     cache = RadianceCache(tree, axis, kdtree.tree_depth(m), normals, radiance,
-                          terms.global_radius, grid)
+                          terms.global_radius)
     terms.stats["cache_points"] = 2 * m
     terms.stats["time_cache"] = time.perf_counter() - t0
     return cache
@@ -220,19 +212,11 @@ def cached_radiance(terms: "PhotonTerms", points, normals, albedo) -> np.ndarray
     q = np.ascontiguousarray(points, np.float32)
     k = min(CACHE_NEIGHBOURS, len(cache))
     pick = np.empty(m, np.int64)
-    nq = np.ascontiguousarray(normals, np.float64)
-    r2 = squared_radius(cache.radius)
     with numba.parallel_chunksize(1):
-        if cache.grid is not None:
-            g = cache.grid
-            hash_grid.nearest_compatible_kernel(
-                cache.tree, g.lo, g.inv_h, g.mask, g.cells, g.start, g.order, cache.axis,
-                cache.depth, q, nq, kdtree.query_order(q), k, r2, cache.normals,
-                CACHE_MIN_COS, pick)
-        else:
-            kdtree.nearest_compatible_kernel(
-                cache.tree, cache.axis, cache.depth, q, nq, kdtree.query_order(q), k, r2,
-                kdtree.search_growth(k), cache.normals, CACHE_MIN_COS, pick)
+        kdtree.nearest_compatible_kernel(
+            cache.tree, cache.axis, cache.depth, q, np.ascontiguousarray(normals, np.float64),
+            kdtree.query_order(q), k, squared_radius(cache.radius), kdtree.search_growth(k),
+            cache.normals, CACHE_MIN_COS, pick)
     found = pick >= 0
     out = np.zeros((m, 3))
     out[found] = cache.radiance.reshape(-1, 3)[pick[found]]

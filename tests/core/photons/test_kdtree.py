@@ -312,35 +312,6 @@ def test_nearest_compatible_kernel_equals_brute_force(k, rng):
         assert 0 < (want >= 0).sum() < want.size  # some hits, some misses
 
 
-@pytest.mark.parametrize("k", [1, 2, 5])
-@pytest.mark.parametrize("points", ["surface", "grid", "duplicates"])
-def test_hash_grid_compatible_kernel_equals_brute_force(k, points, rng):
-    """core/photons/hash_grid.nearest_compatible_kernel (the radiance cache's lookup): the
-    same picks as brute force (ties by index included) with cells small enough that the
-    tree answers most queries, about the k-th neighbour's distance (both paths), and large
-    enough that the grid settles every query."""
-    from core.photons import hash_grid
-
-    pts, sites, queries, normals = surface_sites(rng, 3000)
-    if points != "surface":  # integer lattices / repeated sites: exactly equal distances
-        pts = point_set(points, rng, 3000)
-        sites = sites[: pts.shape[0]]
-        queries = np.round(queries * 6.0).astype(np.float32)
-    tree, source, axis = balance(pts)
-    sites = np.ascontiguousarray(sites[source])
-    for radius in (0.01, 0.05, 1.5, np.inf):
-        r2 = np.float32(min(radius * radius, 3.0e38))
-        want = compatible_brute(tree, queries, normals, k, r2, sites, 0.5)
-        for cell in (0.003, 0.03, 0.3, 3.0):
-            g = hash_grid.HashGrid(tree, cell)
-            out = np.empty(queries.shape[0], np.int64)
-            hash_grid.nearest_compatible_kernel(
-                tree, g.lo, g.inv_h, g.mask, g.cells, g.start, g.order, axis,
-                tree_depth(tree.shape[0]), queries, normals, query_order(queries), k, r2,
-                sites, 0.5, out)
-            np.testing.assert_array_equal(out, want, err_msg=f"k={k} r={radius} cell={cell}")
-
-
 def test_two_sided_sites_equal_two_entries_per_point(rng):
     """The radiance cache keeps one site per surface point with both sides' normals; it
     used to be a map of 2 N entries (each position twice, one normal each) searched for
