@@ -202,6 +202,16 @@ def build_radiance_cache(terms: "PhotonTerms", prepared: PreparedScene,
     return cache
 
 
+@njit(cache=True, parallel=True, error_model="numpy")
+def _cached_times_albedo_kernel(entries, pick, albedo, out):
+    """out[i] = entries[pick[i]] * albedo[i] (0 where pick[i] < 0): one pass instead of
+    numpy's mask, gather and product temporaries."""
+    for i in prange(pick.shape[0]):
+        p = pick[i]
+        for c in range(3):
+            out[i, c] = entries[p, c] * albedo[i, c] if p >= 0 else 0.0
+
+
 def cached_radiance(terms: "PhotonTerms", points, normals, albedo) -> np.ndarray:
     """(M, 3) float64 radiance albedo / pi * E (W/(m^2 sr)) at M Lambert hits: the cached
     E / pi times ``albedo`` (M, 3), the hits' own (textured, programmed) diffuse albedo;
@@ -217,11 +227,10 @@ def cached_radiance(terms: "PhotonTerms", points, normals, albedo) -> np.ndarray
             cache.tree, cache.axis, cache.depth, q, np.ascontiguousarray(normals, np.float64),
             kdtree.query_order(q), k, squared_radius(cache.radius), kdtree.search_growth(k),
             cache.normals, CACHE_MIN_COS, pick)
-    found = pick >= 0
-    out = np.zeros((m, 3))
-    out[found] = cache.radiance.reshape(-1, 3)[pick[found]]
-    out *= albedo
-    missing = np.flatnonzero(~found)
+    out = np.empty((m, 3))
+    _cached_times_albedo_kernel(cache.radiance.reshape(-1, 3), pick,
+                                np.ascontiguousarray(albedo, np.float64), out)
+    missing = np.flatnonzero(pick < 0)
     if missing.size:
         out[missing] = radiance_estimate(terms.global_map, points[missing], normals[missing],
                                          albedo[missing], terms.global_k, terms.global_radius,
