@@ -257,6 +257,7 @@ PROGRAM_SLOTS = {
     "Sheen Tint": cl.SHEEN_TINT, "Anisotropic": cl.ANISOTROPIC, "Anisotropy": cl.ANISOTROPIC,
     "Anisotropic Rotation": cl.ANISOTROPIC_ROTATION, "Rotation": cl.ANISOTROPIC_ROTATION,
     "Diffuse Roughness": cl.DIFFUSE_ROUGHNESS, "Tangent": cl.TANGENT,
+    "Coat Normal": cl.COAT_NORMAL,
 }
 """BSDF input socket name -> the closure slot a shader program writes (``_program``)."""
 

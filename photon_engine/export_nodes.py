@@ -307,13 +307,14 @@ class NodeReader:
         """Report each input among ``names`` that is linked but not read. A linked
         "Normal" goes to the shader program instead when programs are compiled
         (``linked`` is a list: export_materials._program makes it the shading normal), so
-        does a linked "Tangent" (the closure's TANGENT slots, core ``HitShader.tangents``);
-        Coat Normal is reported: the shading normal is used."""
+        does a linked "Tangent" (the closure's TANGENT slots, core ``HitShader.tangents``)
+        and a linked "Coat Normal" (the COAT_NORMAL slots, core ``prepared.coat_normals``).
+        Without programs each is reported and the shading normal / radial tangent used."""
         for name in names:
             sock = node.inputs.get(name)
             if sock is not None and sock.is_linked and follow_reroutes(sock) is not None:
-                if name in ("Normal", "Tangent") and self.linked is not None:
-                    # the program's shading normal; the closure's TANGENT slots
+                if name in ("Normal", "Tangent", "Coat Normal") and self.linked is not None:
+                    # the program's shading normal; the closure's TANGENT / COAT_NORMAL slots
                     self.linked.append((node, sock))
                     continue
                 what = "the shading normal" if "Normal" in name else "the radial tangent"
