@@ -539,6 +539,7 @@ class HitShader:
                     ins.true_normal[sel], ins.incoming[sel],
                     _unit_or(out["normal"], bent[hit[sel]]))
             h = sel.size
+            coat_normals(out["params"], ins.true_normal[sel], ins.incoming[sel])
             kinds.append(np.tile(tab.kind[f:f + k], h))
             w = np.tile(tab.weight[f:f + k], (h, 1))
             if out["weight"] is not None:  # the linked Mix factors of each closure here
@@ -613,6 +614,28 @@ class HitShader:
         tab, rows = self.closures_at(prim, u, v, d, mat, path)
         return self.diffuse_albedo(tab, rows, mat, texels.albedo(prim, u, v, mat), d, ns,
                                    albedo)
+
+
+def coat_normals(params, true_normal, incoming) -> None:
+    """Make the linked Coat Normals of programmed closure rows what the coat shades with,
+    in place: params (N, C, PARAM_COUNT) float32 (``interpreter.closure_values``), the
+    ``COAT_NORMAL`` slots of each (point, closure) that has one (non-zero) made unit
+    length and tilted as Cycles' maybe_ensure_valid_specular_reflection(sd, coat_normal)
+    (``normals.valid_specular_reflection``; true_normal, incoming (N, 3) as
+    ``ShadingInputs``). A zero or non-finite one becomes 0: the shading normal (Cycles'
+    safe_normalize_fallback to sd->N). Rows without one are untouched, so a material
+    without a Coat Normal link renders bit for bit as before."""
+    cn = params[:, :, cl.COAT_NORMAL:cl.COAT_NORMAL + 3]
+    has = np.any(cn != 0.0, axis=2)
+    if not has.any():
+        return
+    p, c = np.nonzero(has)
+    v = cn[p, c].astype(np.float64)
+    length = np.linalg.norm(v, axis=1)
+    ok = np.isfinite(length) & (length > 0)
+    unit = np.where(ok[:, None], v / np.where(ok, length, 1.0)[:, None], 0.0)
+    valid = normals.valid_specular_reflection(true_normal[p], incoming[p], unit)
+    params[p, c, cl.COAT_NORMAL:cl.COAT_NORMAL + 3] = np.where(ok[:, None], valid, 0.0)
 
 
 def _unit_or(normal, fallback) -> np.ndarray:

@@ -33,7 +33,7 @@ from .export_nodes import Closure, NodeReader, UnreadableTree, diffuse_closure, 
     follow_reroutes, kept_row
 from .export_shaders import HANDLERS as BSDF_HANDLERS
 from .export_shader import AttributeNames, UVMapNames, compile_sockets, mix_weight, \
-    opacity_product, weighted_sum
+    nested_opacity, opacity_product, weighted_sum
 from ..core.scene import closures as cl
 from ..core.shading import program as pg
 
@@ -89,6 +89,11 @@ class TreeReader(NodeReader):
             for first, clear, other in ((True, a, b), (False, b, a)):
                 if _pure_transparent(clear):
                     self.linked.append((node, sock))
+                    cut = {"node": node, "socket": sock, "take": first}  # other's share
+                    other.bsdfs = [dict(b, cuts=b.get("cuts", []) + [cut])
+                                   for b in other.bsdfs]
+                    other.emitters = [dict(e, cuts=e.get("cuts", []) + [cut])
+                                      for e in other.emitters]
                     other.cutouts = other.cutouts + [{
                         "node": node, "socket": sock.name, "weight": 1.0,
                         "kind": "mix_a" if first else "mix_b", "mean": clear.transparency}]
@@ -257,8 +262,21 @@ PROGRAM_SLOTS = {
     "Sheen Tint": cl.SHEEN_TINT, "Anisotropic": cl.ANISOTROPIC, "Anisotropy": cl.ANISOTROPIC,
     "Anisotropic Rotation": cl.ANISOTROPIC_ROTATION, "Rotation": cl.ANISOTROPIC_ROTATION,
     "Diffuse Roughness": cl.DIFFUSE_ROUGHNESS, "Tangent": cl.TANGENT,
+    "Coat Normal": cl.COAT_NORMAL,
 }
 """BSDF input socket name -> the closure slot a shader program writes (``_program``)."""
+
+
+def _may_emit(e) -> bool:
+    """An emitter (``Closure.emitters``) whose colour or strength is linked, or whose
+    constant colour x strength is not black (a Principled BSDF without emission is one)."""
+    color = compat.input_socket(e["node"], e["color"])
+    strength = compat.input_socket(e["node"], e["strength"])
+    if any(s is not None and s.is_linked for s in (color, strength)):
+        return True
+    c = np.asarray(color.default_value[:3], np.float64) if color is not None else np.ones(3)
+    k = float(strength.default_value) if strength is not None else 1.0
+    return bool(np.any(c * k != 0.0))
 
 
 def _program(mat, closure: Closure, reader: TreeReader, warnings: list[str],
@@ -313,8 +331,43 @@ def _program(mat, closure: Closure, reader: TreeReader, warnings: list[str],
         for i in index[node.as_pointer()]:
             targets.append((sock, pg.TARGET_CLOSURE, i, slot))
             rows.append(kept[i])
+    cutouts = [e for e in closure.cutouts if e["weight"] > 0 or e.get("factors")]
+    emitting = [e for e in closure.emitters if (e["weight"] > 0 or e.get("factors"))
+                and _may_emit(e)]
+    # nested: a cut-out under a Mix (its weight not 1, or linked factors above it), or
+    # a row / emitter outside some cut-out (beside it under an Add)
+    nested = cutouts if cutouts and (
+        any(abs(e["weight"] - 1.0) > 1e-9 or e.get("factors") for e in cutouts)
+        or any(len(b.get("cuts", [])) < len(cutouts) for b in kept + emitting)) else []
+    if nested and emitting:
+        # an emitter beside a nested cut-out: its emission is not divided by the opacity
+        for e in cutouts:
+            reader.unsupported_node(e["node"], f'input "{e["socket"]}" of node '
+                                    f'"{e["node"].name}" under another Mix or Add Shader '
+                                    f'in a material that emits (a programmed cut-out '
+                                    f'there must be the whole material)')
+        cutouts = nested = []
+    opacity_terms = None
+    if nested:
+        # A cut-out under another Mix / Add (issue 14): the opacity is 1 - the sum of
+        # the cut-outs' transparent shares, each times the factors above it, over the
+        # material's constant opacity (which ``Closure.as_row`` divides the rows by and
+        # the core multiplies the program's by); every row's per-hit weight is its
+        # factors times its share inside the cut-outs it is in (``cuts``) over that
+        # opacity, so a hit that picks the surface (probability opacity) sees the
+        # closures' own weights on average, as Cycles' Transparent BSDF mix.
+        base = float(np.clip(1.0 - closure.transparency, 0.0, 1.0))
+        opacity_terms = [(compat.input_socket(e["node"], e["socket"]), e["kind"],
+                          e.get("mean", 1.0), e["weight"] / base if base > 0 else 0.0,
+                          [(f["socket"], f["take"]) for f in e.get("factors", [])])
+                         for e in cutouts]
     for i, b in enumerate(kept):
-        if b.get("factors"):  # its weight's linked Mix factors, per hit (TARGET_WEIGHT)
+        if nested:
+            factors = [(f["socket"], f["take"]) for f in b.get("factors", [])
+                       + b.get("cuts", [])]
+            targets.append((mix_weight(factors, opacity_terms), pg.TARGET_WEIGHT, i, 0))
+            rows.append(("weight", b))
+        elif b.get("factors"):  # its weight's linked Mix factors, per hit (TARGET_WEIGHT)
             targets.append((mix_weight([(f["socket"], f["take"]) for f in b["factors"]]),
                             pg.TARGET_WEIGHT, i, 0))
             rows.append(("weight", b))
@@ -330,16 +383,10 @@ def _program(mat, closure: Closure, reader: TreeReader, warnings: list[str],
                  for e in closure.emitters if e["weight"] > 0]
         targets.append((weighted_sum(terms), pg.TARGET_EMISSION, 0, 0))
         rows.append(None)
-    cutouts = [e for e in closure.cutouts if e["weight"] > 0]
-    if any(abs(e["weight"] - 1.0) > 1e-9 for e in cutouts):
-        # The core multiplies the material's opacity by the program's and divides its
-        # closures by it: a programmed cut-out under another Mix / Add has no such form.
-        for e in cutouts:
-            reader.unsupported_node(e["node"], f'input "{e["socket"]}" of node '
-                                    f'"{e["node"].name}" under another Mix or Add Shader '
-                                    f'(a programmed cut-out must be the whole material)')
-        cutouts = []
-    if cutouts:
+    if nested:
+        targets.append((nested_opacity(opacity_terms), pg.TARGET_ALPHA, 0, 0))
+        rows.append("alpha")
+    elif cutouts:
         terms = [(compat.input_socket(e["node"], e["socket"]), e["kind"], e.get("mean", 1.0))
                  for e in cutouts]
         targets.append((opacity_product(terms), pg.TARGET_ALPHA, 0, 0))

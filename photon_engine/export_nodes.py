@@ -55,7 +55,11 @@ class Closure:
         ``node``, ``socket`` (input name) and ``kind``: "alpha" (Principled Alpha:
         opacity = clamp(value)), "mix_a" / "mix_b" (a Mix Shader whose Factor is linked
         and whose first / second shader is a Transparent BSDF of mean colour ``mean``:
-        opacity = 1 - (1 - fac) mean, resp. 1 - fac mean), and ``weight``.
+        opacity = 1 - (1 - fac) mean, resp. 1 - fac mean), ``weight`` (the constant Mix /
+        Add factor product above it) and ``factors`` (the linked ones, as a row's). The
+        closure rows and emitters it cuts hold its factor in their ``cuts`` (same form as
+        ``factors``: fac, 1 - fac or clamp(Alpha)): their share inside the cut-out, which
+        a cut-out nested under another Mix / Add needs (export_materials._program).
     """
 
     diffuse: np.ndarray = field(default_factory=lambda: np.zeros(3))
@@ -85,12 +89,14 @@ class Closure:
         to a node graph: each closure row and emitter keeps its weight and gets the factor
         (clamped fac if ``take``, else 1 - fac) appended to its ``factors``, which a
         shader program evaluates per hit (``TARGET_WEIGHT`` / the emission program); the
-        legacy lobes, transparency and cut-outs take ``value`` (the factor's constant
-        stand-in, fac or 1 - fac of the socket's own value)."""
+        legacy lobes and transparency take ``value`` (the factor's constant stand-in, fac
+        or 1 - fac of the socket's own value); a cut-out keeps its weight and gets the
+        factor too (the program computes its share)."""
         f = {"node": node, "socket": sock, "take": bool(take)}
         c = self.scaled(value)
         c.bsdfs = [dict(b, factors=b.get("factors", []) + [f]) for b in self.bsdfs]
         c.emitters = [dict(e, factors=e.get("factors", []) + [f]) for e in self.emitters]
+        c.cutouts = [dict(e, factors=e.get("factors", []) + [f]) for e in self.cutouts]
         return c
 
     def plus(self, other: "Closure") -> "Closure":
@@ -307,13 +313,14 @@ class NodeReader:
         """Report each input among ``names`` that is linked but not read. A linked
         "Normal" goes to the shader program instead when programs are compiled
         (``linked`` is a list: export_materials._program makes it the shading normal), so
-        does a linked "Tangent" (the closure's TANGENT slots, core ``HitShader.tangents``);
-        Coat Normal is reported: the shading normal is used."""
+        does a linked "Tangent" (the closure's TANGENT slots, core ``HitShader.tangents``)
+        and a linked "Coat Normal" (the COAT_NORMAL slots, core ``prepared.coat_normals``).
+        Without programs each is reported and the shading normal / radial tangent used."""
         for name in names:
             sock = node.inputs.get(name)
             if sock is not None and sock.is_linked and follow_reroutes(sock) is not None:
-                if name in ("Normal", "Tangent") and self.linked is not None:
-                    # the program's shading normal; the closure's TANGENT slots
+                if name in ("Normal", "Tangent", "Coat Normal") and self.linked is not None:
+                    # the program's shading normal; the closure's TANGENT / COAT_NORMAL slots
                     self.linked.append((node, sock))
                     continue
                 what = "the shading normal" if "Normal" in name else "the radial tangent"

@@ -1112,12 +1112,58 @@ def _factor_product(b, factors):
     return one if total is None else total
 
 
-def mix_weight(factors):
+def mix_weight(factors, opacity_terms=None):
     """A ``compile_sockets`` target (TARGET_WEIGHT) computing a closure's share under
     linked Mix Shader factors, [(factor socket, take)] (``export_nodes.Closure.factored``):
-    the product of clamp(fac) (take) or 1 - clamp(fac) along its path."""
+    the product of clamp(fac) (take) or 1 - clamp(fac) along its path; divided by the
+    opacity of ``nested_opacity(opacity_terms)`` when given (0 where it is 0)."""
     def build(b):
-        return _factor_product(b, factors)
+        w = _factor_product(b, factors)
+        if opacity_terms is None:
+            return w
+        out = b.new("f")
+        b.emit(pg.OP_MATH, [cn.MATH_OPS["DIVIDE"], 0],
+               [w, _nested_opacity(b, opacity_terms), b.const((0.0,), "f")], [out])
+        return out
+    return build
+
+
+def _nested_opacity(b, terms):
+    """The register value of 1 - sum over cut-outs [(socket, kind, mean, scale,
+    factors)] of scale x (its transparent share) x the product of ``factors`` (as
+    ``_factor_product``): the share is 1 - clamp(Alpha) ("alpha"), (1 - clamp(fac)) mean
+    ("mix_a"), clamp(fac) mean ("mix_b")."""
+    one, zero = b.const((1.0,), "f"), b.const((0.0,), "f")
+    total = one
+    for sock, kind, mean, scale, factors in terms:
+        v = b.as_kind(b.socket_value(sock, ()), "f")
+        c = b.new("f")
+        b.emit(pg.OP_CLAMP, [0], [v, zero, one], [c])
+        if kind != "mix_b":  # the transparent share 1 - alpha, 1 - fac
+            s = b.new("f")
+            b.emit(pg.OP_MATH, [cn.MATH_OPS["SUBTRACT"], 0], [one, c, zero], [s])
+            c = s
+        k = scale * (1.0 if kind == "alpha" else float(mean))
+        if factors:
+            t = b.new("f")
+            b.emit(pg.OP_MATH, [cn.MATH_OPS["MULTIPLY"], 0],
+                   [c, _factor_product(b, factors), zero], [t])
+            c = t
+        t = b.new("f")  # total - k x share
+        b.emit(pg.OP_MATH, [cn.MATH_OPS["MULTIPLY_ADD"], 0],
+               [c, b.const((-k,), "f"), total], [t])
+        total = t
+    c = b.new("f")
+    b.emit(pg.OP_CLAMP, [0], [total, zero, one], [c])
+    return c
+
+
+def nested_opacity(terms):
+    """A ``compile_sockets`` target (TARGET_ALPHA) computing the opacity of programmed
+    cut-outs nested under other Mix / Add Shaders (``_nested_opacity``; export_materials
+    ``_program``)."""
+    def build(b):
+        return _nested_opacity(b, terms)
     return build
 
 

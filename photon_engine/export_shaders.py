@@ -106,6 +106,9 @@ def principled(reader, node) -> Closure:
     if programmed:  # a node graph into Alpha: the program's opacity (export_materials)
         reader.linked.append((node, sock))
         c.cutouts = [{"node": node, "socket": "Alpha", "kind": "alpha", "weight": 1.0}]
+        cut = {"node": node, "socket": sock, "take": True}  # the surface's share: alpha
+        c.bsdfs = [dict(b, cuts=[cut]) for b in c.bsdfs]
+        c.emitters = [dict(e, cuts=[cut]) for e in c.emitters]
     if alpha < 1.0:
         c = c.scaled(alpha)
         c.transparency = 1.0 - alpha

@@ -141,7 +141,12 @@ T, W, SW, AX, AY, ROT_C, ROT_S, ETA, MODE, P0, Q0, RT, TT, EST, BECK = (
 # Oren-Nayar albedo; Q0 (3) F82's b / k; RT, TT (3) reflection and transmission tints;
 # EST the lobe's directional albedo per unit weight (luminance-free mean, for ``albedo``);
 # BECK 1 for a Beckmann microfacet lobe (GGX and dielectric rows), else 0 (GGX).
-NL = 25
+# OWN 1 for a lobe with a normal of its own, CN (3) that unit normal in the hit's local
+# frame (the Principled coat under a linked Coat Normal): the lobe sees wo, wi in a frame
+# about CN and its cosine is |wi . CN| (Cycles gives each closure its own N); OWN 0: the
+# shading normal, z.
+OWN, CN = 25, 26
+NL = 29
 MAX_LOBES = 8  # per closure (Principled: sheen, coat, metal, 2 transmission, specular, 2 base)
 FR_NONE, FR_DIELECTRIC, FR_SCHLICK, FR_F82, FR_CONDUCTOR = range(5)
 
@@ -328,9 +333,13 @@ def _diffuse(L, n, w0, w1, w2, sigma, r0, r1, r2):
 
 
 @njit(cache=True, error_model="numpy")
-def _principled(tab, L, n, W0, W1, W2, p, b0, b1, b2, wox, woy, woz, entering, abbe, lam):
+def _principled(tab, L, n, W0, W1, W2, p, b0, b1, b2, wox, woy, woz, entering, abbe, lam,
+                cnx=0.0, cny=0.0, cnz=0.0):
     """Principled BSDF v2 (svm_node_closure_bsdf, CLOSURE_BSDF_PRINCIPLED_ID); abbe, lam:
-    the transmission's dispersion at the path's wavelength (``transmission_ior``)."""
+    the transmission's dispersion at the path's wavelength (``transmission_ior``); cn: the
+    coat's own unit normal in the local frame (a linked Coat Normal), 0 for none: the coat
+    lobe, its albedo (the layering of the base below) and its tint's path length then go
+    by cos(wo, cn), as Cycles' coat closure with bsdf->N = coat_normal."""
     mu = woz
     multi = int(p[cl.DISTRIBUTION]) == cl.DISTRIBUTION_MULTI_GGX
     # Sheen on top
@@ -352,16 +361,26 @@ def _principled(tab, L, n, W0, W1, W2, p, b0, b1, b2, wox, woy, woz, entering, a
         f0c = fresnel.f0_from_ior(cior)
         fss = fresnel.dielectric_fss(cior)
         k = n
+        own = False
+        mu_c = mu
+        if cnx != 0.0 or cny != 0.0 or cnz != 0.0:
+            mu_o = cnx * wox + cny * woy + cnz * woz
+            if mu_o > 1e-7:  # else wo is below the coat normal: the shading normal shades
+                own = True
+                mu_c = min(mu_o, 1.0)
         n, est, dk = _ggx_lobe(tab, L, n, coat_w * W0, coat_w * W1, coat_w * W2, ca, ca,
                                1.0, 0.0, FR_DIELECTRIC, (f0c, f0c, f0c), (0.0, 0.0, 0.0),
-                               cior, mu, True, (fss, fss, fss))
+                               cior, mu_c, True, (fss, fss, fss))
+        if own:
+            L[k, OWN] = 1.0
+            L[k, CN], L[k, CN + 1], L[k, CN + 2] = cnx, cny, cnz
         W0, W1, W2 = _layer(coat_w * W0 * dk[0] * est[0], coat_w * W1 * dk[1] * est[1],
                             coat_w * W2 * dk[2] * est[2], W0, W1, W2)
         t0, t1, t2 = (max(p[cl.COAT_TINT], 0.0), max(p[cl.COAT_TINT + 1], 0.0),
                       max(p[cl.COAT_TINT + 2], 0.0))
         if t0 != 1.0 or t1 != 1.0 or t2 != 1.0:
             # Beer's law along the path refracted into a coat of unit thickness
-            cos_nt = np.sqrt(max(1.0 - (1.0 - mu * mu) / (cior * cior), 1e-12))
+            cos_nt = np.sqrt(max(1.0 - (1.0 - mu_c * mu_c) / (cior * cior), 1e-12))
             depth = 1.0 / cos_nt
             W0 *= 1.0 + coat_w * (t0 ** depth - 1.0)
             W1 *= 1.0 + coat_w * (t1 ** depth - 1.0)
@@ -486,9 +505,11 @@ def _thin_glass(tab, L, n, w0, w1, w2, alpha, ior, rtint, ttint, mu):
 
 
 @njit(cache=True, error_model="numpy")
-def _lobes(tab, m, c0, c1, c2, wox, woy, woz, entering, lam=0.0):
+def _lobes(tab, m, c0, c1, c2, wox, woy, woz, entering, lam=0.0, ux=1.0, uy=0.0, uz=0.0,
+           bx=0.0, by=1.0, bz=0.0, nx=0.0, ny=0.0, nz=1.0):
     """The lobe rows (n, NL) of material m for wo (local frame, wo.z > 0); lam the path's
-    wavelength in nm (0: RGB, the transmission lobes at their IOR)."""
+    wavelength in nm (0: RGB, the transmission lobes at their IOR); u, b, n: the local
+    frame's axes in world space (a world-space Coat Normal is taken into it)."""
     first = tab.first[m]
     count = tab.count[m]
     L = np.empty((max(count, 1) * MAX_LOBES, NL))
@@ -511,8 +532,19 @@ def _lobes(tab, m, c0, c1, c2, wox, woy, woz, entering, lam=0.0):
         multi = int(p[cl.DISTRIBUTION]) == cl.DISTRIBUTION_MULTI_GGX
         beck = int(p[cl.DISTRIBUTION]) == cl.DISTRIBUTION_BECKMANN
         if kind == cl.CLOSURE_PRINCIPLED:
+            gx, gy, gz = p[cl.COAT_NORMAL], p[cl.COAT_NORMAL + 1], p[cl.COAT_NORMAL + 2]
+            cnx = cny = cnz = 0.0
+            if gx != 0.0 or gy != 0.0 or gz != 0.0:
+                cnx = gx * ux + gy * uy + gz * uz
+                cny = gx * bx + gy * by + gz * bz
+                cnz = gx * nx + gy * ny + gz * nz
+                ln = np.sqrt(cnx * cnx + cny * cny + cnz * cnz)
+                if ln > 0.0:
+                    cnx, cny, cnz = cnx / ln, cny / ln, cnz / ln
+                else:
+                    cnx = cny = cnz = 0.0
             n = _principled(tab, L, n, W0, W1, W2, p, b0, b1, b2, wox, woy, woz, entering,
-                            tab.abbe[c], lam)
+                            tab.abbe[c], lam, cnx, cny, cnz)
         elif kind == cl.CLOSURE_DIFFUSE:
             n = _diffuse(L, n, W0 * col0, W1 * col1, W2 * col2, rough,
                          min(col0, 1.0), min(col1, 1.0), min(col2, 1.0))
@@ -750,9 +782,52 @@ def _ggx_fresnel(L, k, cos_ho):
 
 
 @njit(cache=True, error_model="numpy")
+def _own_frame(L, k):
+    """Lobe k's own frame (t, b about its normal CN; isotropic lobes only, so any
+    tangent): tx, ty, tz, bx, by, bz, nx, ny, nz in the local frame."""
+    nx, ny, nz = L[k, CN], L[k, CN + 1], L[k, CN + 2]
+    tx, ty, tz, bx, by, bz = sampling.basis(nx, ny, nz)
+    return tx, ty, tz, bx, by, bz, nx, ny, nz
+
+
+@njit(cache=True, error_model="numpy")
+def _into_own(L, k, x, y, z):
+    """A local-frame vector in lobe k's own frame (``OWN``)."""
+    tx, ty, tz, bx, by, bz, nx, ny, nz = _own_frame(L, k)
+    return x * tx + y * ty + z * tz, x * bx + y * by + z * bz, x * nx + y * ny + z * nz
+
+
+@njit(cache=True, error_model="numpy")
+def _out_of_own(L, k, x, y, z):
+    """A vector of lobe k's own frame back in the local frame."""
+    tx, ty, tz, bx, by, bz, nx, ny, nz = _own_frame(L, k)
+    return x * tx + y * bx + z * nx, x * ty + y * by + z * ny, x * tz + y * bz + z * nz
+
+
+@njit(cache=True, error_model="numpy")
+def _lobe_cos(L, k, wix, wiy, wiz):
+    """|cos| of wi (local frame) about lobe k's normal (its own, or z)."""
+    if L[k, OWN] > 0.5:
+        return abs(wix * L[k, CN] + wiy * L[k, CN + 1] + wiz * L[k, CN + 2])
+    return abs(wiz)
+
+
+@njit(cache=True, error_model="numpy")
+def _lobe_side(L, k, wix, wiy, wiz):
+    """wi's (local frame) height above lobe k's normal (its own, or z): its sign is the
+    side the lobe sent wi to."""
+    if L[k, OWN] > 0.5:
+        return wix * L[k, CN] + wiy * L[k, CN + 1] + wiz * L[k, CN + 2]
+    return wiz
+
+
+@njit(cache=True, error_model="numpy")
 def lobe_eval(L, k, wox, woy, woz, wix, wiy, wiz):
     """Lobe k's f (RGB, 1/sr, without the cosine, weight NOT applied) and pdf at (wo, wi),
-    local frame."""
+    local frame (a lobe with a normal of its own, ``OWN``, sees them in its frame)."""
+    if L[k, OWN] > 0.5:
+        wox, woy, woz = _into_own(L, k, wox, woy, woz)
+        wix, wiy, wiz = _into_own(L, k, wix, wiy, wiz)
     t = int(L[k, T])
     if t == L_LAMBERT:
         v = lambert.eval(wiz)
@@ -792,7 +867,20 @@ def lobe_eval(L, k, wox, woy, woz, wix, wiy, wiz):
 @njit(cache=True, error_model="numpy")
 def lobe_sample(L, k, wox, woy, woz, u1, u2, u3):
     """Sample lobe k (local frame): (wix, wiy, wiz, v0, v1, v2, pdf, delta, ok); for a delta
-    lobe v is the path weight f cos / probability (weight NOT applied), else unused."""
+    lobe v is the path weight f cos / probability (weight NOT applied), else unused. A lobe
+    with a normal of its own (``OWN``) samples in its frame; wi is returned in the local
+    frame."""
+    if L[k, OWN] > 0.5:
+        ox, oy, oz = _into_own(L, k, wox, woy, woz)
+        r = _lobe_sample_local(L, k, ox, oy, oz, u1, u2, u3)
+        x, y, z = _out_of_own(L, k, r[0], r[1], r[2])
+        return x, y, z, r[3], r[4], r[5], r[6], r[7], r[8]
+    return _lobe_sample_local(L, k, wox, woy, woz, u1, u2, u3)
+
+
+@njit(cache=True, error_model="numpy")
+def _lobe_sample_local(L, k, wox, woy, woz, u1, u2, u3):
+    """``lobe_sample`` in the lobe's own frame."""
     t = int(L[k, T])
     if t == L_LAMBERT:
         x, y, z, _, p = lambert.sample(u1, u2)
@@ -847,9 +935,9 @@ def lobes_eval(L, wox, woy, woz, wix, wiy, wiz):
         total += L[k, SW]
     if total <= 0.0:
         return 0.0, 0.0, 0.0, 0.0
-    ac = abs(wiz)
     for k in range(L.shape[0]):
         g0, g1, g2, pk = lobe_eval(L, k, wox, woy, woz, wix, wiy, wiz)
+        ac = _lobe_cos(L, k, wix, wiy, wiz)
         f0 += L[k, W] * g0 * ac
         f1 += L[k, W + 1] * g1 * ac
         f2 += L[k, W + 2] * g2 * ac
@@ -871,9 +959,9 @@ def lobes_eval_parts(L, wox, woy, woz, wix, wiy, wiz, cosine):
         total += L[k, SW]
     if total <= 0.0:
         return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
-    ac = abs(wiz) if cosine else 1.0
     for k in range(L.shape[0]):
         v0, v1, v2, pk = lobe_eval(L, k, wox, woy, woz, wix, wiy, wiz)
+        ac = _lobe_cos(L, k, wix, wiy, wiz) if cosine else 1.0
         v0, v1, v2 = L[k, W] * v0 * ac, L[k, W + 1] * v1 * ac, L[k, W + 2] * v2 * ac
         if _lobe_flags(L, k) == LOBE_DIFFUSE:
             d0 += v0
@@ -914,7 +1002,8 @@ def eval_bsdf(tab, m, c0, c1, c2, wox, woy, woz, wix, wiy, wiz, nsx, nsy, nsz,
         wix * nx + wiy * ny + wiz * nz
     if loz <= 0.0:
         return 0.0, 0.0, 0.0, 0.0
-    L = _lobes(tab, m, c0, c1, c2, lox, loy, loz, entering)
+    L = _lobes(tab, m, c0, c1, c2, lox, loy, loz, entering, 0.0, ux, uy, uz, bx, by, bz,
+               nx, ny, nz)
     return lobes_eval(L, lox, loy, loz, lix, liy, liz)
 
 
@@ -934,7 +1023,8 @@ def hit_lobes(tab, m, c0, c1, c2, wox, woy, woz, nsx, nsy, nsz, ngx, ngy, ngz, t
     F[11] = wox * nx + woy * ny + woz * nz
     if F[11] <= 0.0:
         return np.empty((1, NL))[:0], F
-    return _lobes(tab, m, c0, c1, c2, F[9], F[10], F[11], entering, lam), F
+    return _lobes(tab, m, c0, c1, c2, F[9], F[10], F[11], entering, lam, ux, uy, uz,
+                  bx, by, bz, nx, ny, nz), F
 
 
 @njit(cache=True, error_model="numpy")
@@ -978,7 +1068,8 @@ def sample_bsdf(tab, m, c0, c1, c2, wox, woy, woz, nsx, nsy, nsz, ngx, ngy, ngz,
         wox * nx + woy * ny + woz * nz
     if loz <= 0.0:
         return 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0
-    L = _lobes(tab, m, c0, c1, c2, lox, loy, loz, entering, lam)
+    L = _lobes(tab, m, c0, c1, c2, lox, loy, loz, entering, lam, ux, uy, uz, bx, by, bz,
+               nx, ny, nz)
     total = 0.0
     for k in range(L.shape[0]):
         total += L[k, SW]
@@ -1006,7 +1097,7 @@ def sample_bsdf(tab, m, c0, c1, c2, wox, woy, woz, nsx, nsy, nsz, ngx, ngy, ngz,
     wix, wiy, wiz = wix / ln, wiy / ln, wiz / ln
     # The geometric side must agree with the lobe's (as Cycles' samplers check ng).
     below = wix * ngx + wiy * ngy + wiz * ngz < 0.0
-    if below != (lz < 0.0):
+    if below != (_lobe_side(L, k, lx, ly, lz) < 0.0):
         return 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0
     flags = LOBE_TRANSMIT if below else 0
     if delta:
@@ -1036,7 +1127,8 @@ def sample_delta(tab, m, c0, c1, c2, wox, woy, woz, nsx, nsy, nsz, ngx, ngy, ngz
         wox * nx + woy * ny + woz * nz
     if loz <= 0.0:
         return 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0
-    L = _lobes(tab, m, c0, c1, c2, lox, loy, loz, entering, lam)
+    L = _lobes(tab, m, c0, c1, c2, lox, loy, loz, entering, lam, ux, uy, uz, bx, by, bz,
+               nx, ny, nz)
     total = 0.0
     singular = 0.0
     for k in range(L.shape[0]):
@@ -1071,7 +1163,7 @@ def sample_delta(tab, m, c0, c1, c2, wox, woy, woz, nsx, nsy, nsz, ngx, ngy, ngz
     ln = np.sqrt(wix * wix + wiy * wiy + wiz * wiz)
     wix, wiy, wiz = wix / ln, wiy / ln, wiz / ln
     below = wix * ngx + wiy * ngy + wiz * ngz < 0.0
-    if below != (lz < 0.0):  # as sample_bsdf: the geometric side must agree with the lobe's
+    if below != (_lobe_side(L, k, lx, ly, lz) < 0.0):  # as sample_bsdf: the geometric side must agree with the lobe's
         return 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, share, 0
     q = singular / swk
     return (wix, wiy, wiz, L[k, W] * v0 * q, L[k, W + 1] * v1 * q, L[k, W + 2] * v2 * q,
@@ -1090,13 +1182,16 @@ def albedo(tab, m, c0, c1, c2, wox, woy, woz, nsx, nsy, nsz):
     ux, uy, uz, bx, by, bz = frame(nsx, nsy, nsz, 1.0, 0.0, 0.0)
     lox = wox * ux + woy * uy + woz * uz
     loy = wox * bx + woy * by + woz * bz
-    L = _lobes(tab, m, c0, c1, c2, lox, loy, max(cz, 1e-7), True)
+    L = _lobes(tab, m, c0, c1, c2, lox, loy, max(cz, 1e-7), True, 0.0, ux, uy, uz,
+               bx, by, bz, nsx, nsy, nsz)
     d0 = d1 = d2 = a0 = a1 = a2 = 0.0
     for k in range(L.shape[0]):
         e = L[k, EST]
         if int(L[k, T]) == L_GGX:
-            # the Fresnel estimate at wo times the single-scattering albedo
-            g0, g1, g2 = _ggx_fresnel(L, k, cz)
+            # the Fresnel estimate at wo (about the lobe's own normal) times the
+            # single-scattering albedo
+            g0, g1, g2 = _ggx_fresnel(L, k, _lobe_side(L, k, lox, loy, max(cz, 1e-7))
+                                      if L[k, OWN] > 0.5 else cz)
         else:
             g0 = g1 = g2 = 1.0
         v0, v1, v2 = L[k, W] * e * g0, L[k, W + 1] * e * g1, L[k, W + 2] * e * g2

@@ -78,7 +78,10 @@ METAL_K = 32               # 3 slots
 TANGENT = 35               # 3 slots: a linked Tangent input (world space, any length); 0 =
                            # unlinked: Cycles' default, the radial tangent about the
                            # object's Z axis (core.prepared.HitShader.tangents)
-PARAM_COUNT = 38
+COAT_NORMAL = 38           # 3 slots: a linked Coat Normal (Principled; world space, made
+                           # unit and valid by core.prepared.HitShader.shade); 0 = unlinked:
+                           # the coat shades with the shading normal
+PARAM_COUNT = 41
 
 
 def default_params() -> np.ndarray:
@@ -115,7 +118,7 @@ _SLOTS = {
     "diffuse_roughness": (DIFFUSE_ROUGHNESS, 1), "subsurface_weight": (SUBSURFACE_WEIGHT, 1),
     "thin_wall": (THIN_WALL, 1), "distribution": (DISTRIBUTION, 1),
     "fresnel_type": (FRESNEL_TYPE, 1), "metal_n": (METAL_N, 3), "metal_k": (METAL_K, 3),
-    "tangent": (TANGENT, 3),
+    "tangent": (TANGENT, 3), "coat_normal": (COAT_NORMAL, 3),
 }
 PARAM_NAMES = tuple(_SLOTS)
 """The keyword names ``params()`` accepts, one per slot group."""

@@ -415,7 +415,7 @@ def closure_params(program: pg.ShaderProgram, inputs: ShadingInputs,
     float32, "emission": (N, 3) or None, "alpha": (N,) or None, "normal": (N, 3) or
     None, "weight": (N, C) float64 or None}``: each program output written into its
     slot, the others copied from params; "weight" the factor of each closure's weight
-    (TARGET_WEIGHT, clamped to [0, 1]; 1 for the rows without one), None when the
+    (TARGET_WEIGHT, non-negative; 1 for the rows without one), None when the
     program has no TARGET_WEIGHT output.
     """
     return closure_values(program, evaluate(program, inputs, images), params)
@@ -436,10 +436,11 @@ def closure_values(program: pg.ShaderProgram, values: np.ndarray, params: np.nda
         elif target == pg.TARGET_WEIGHT:
             if result["weight"] is None:
                 result["weight"] = np.ones((n, rows.shape[1]), np.float64)
-            # a factor outside [0, 1] (or NaN) means nothing: the exporter clamps each
-            # Mix factor, so only rounding can leave it
-            w = np.nan_to_num(values[:, o].astype(np.float64), nan=0.0)
-            result["weight"][:, closure] *= np.clip(w, 0.0, 1.0)
+            # the exporter clamps each Mix factor (a product of them stays in [0, 1]);
+            # a cut-out under another Mix divides it by the opacity (above 1 is
+            # meant there); NaN or infinity means nothing
+            w = np.nan_to_num(values[:, o].astype(np.float64), nan=0.0, posinf=0.0)
+            result["weight"][:, closure] *= np.maximum(w, 0.0)
         elif target == pg.TARGET_ALPHA:
             result["alpha"] = values[:, o].copy()
         else:

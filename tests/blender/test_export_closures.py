@@ -19,6 +19,7 @@ pytestmark = [pytest.mark.blender, pytest.mark.api]
 
 photon_map = load_extension_package()
 from photon_map.core.scene import closures as cl  # noqa: E402
+from photon_map.core.shading import program as pg  # noqa: E402
 from photon_map.photon_engine.compat import ensure_node_tree  # noqa: E402
 
 VERSION = tuple(bpy.app.version[:2])
@@ -247,17 +248,18 @@ def _only_warning(result, material):
     return msgs[0]
 
 
-def test_linked_coat_normal_input_is_reported_once_per_material():
-    # Normal is compiled into the material's program (test_shader_normals.py); Coat
-    # Normal is still reported.
+def test_linked_coat_normal_input_is_compiled_into_the_coat_normal_slots():
+    # Normal is compiled into the material's program (test_shader_normals.py); so is Coat
+    # Normal, into the closure's COAT_NORMAL slots (tests/blender/test_shader_coat_normal.py).
     new_scene()
-    mat, node = shader("Bumpy", 'ShaderNodeBsdfPrincipled')
+    mat, node = shader("Bumpy", 'ShaderNodeBsdfPrincipled', {"Coat Weight": 1.0}.items())
     bump = mat.node_tree.nodes.new('ShaderNodeBump')
     mat.node_tree.links.new(bump.outputs["Normal"], node.inputs["Coat Normal"])
-    scenes.add_plane(size=1.0, location=(5.0, 0.0, 0.0), material=mat, name="Second")
     result, _ = export_planes(mat)
-    msg = _only_warning(result, "Bumpy")
-    assert '"Principled BSDF"' in msg and '"Coat Normal"' in msg and "not supported" in msg
+    assert not [w for w in result.warnings if "Bumpy" in w], result.warnings
+    program = result.scene.materials.programs[0]
+    out = program.outputs[program.outputs[:, 1] == pg.TARGET_CLOSURE]
+    assert sorted(out[:, 3]) == [cl.COAT_NORMAL, cl.COAT_NORMAL + 1, cl.COAT_NORMAL + 2]
 
 
 def test_ior_not_positive_is_read_as_one_with_a_warning():

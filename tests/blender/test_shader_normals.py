@@ -84,17 +84,17 @@ def sun_plane(make_material, rotation_z=0.0):
     return scene
 
 
-def render_photon_map(scene):
-    scenes.use_photon_map(scene, samples=4, global_photons=5000, caustic_photons=500,
+def render_photon_map(scene, samples=4):
+    scenes.use_photon_map(scene, samples=samples, global_photons=5000, caustic_photons=500,
                           final_gather_rays=4)
     return scenes.render_passes(scene)["Combined"][..., :3].astype(np.float64)
 
 
-def render_cycles(scene):
+def render_cycles(scene, samples=16):
     scene.render.engine = 'CYCLES'
     c = scene.cycles
     c.device = 'CPU'
-    c.samples = 16
+    c.samples = samples
     c.use_denoising = False
     c.use_adaptive_sampling = False
     c.max_bounces = 0

@@ -56,6 +56,9 @@ CASES = {
         roughness=0.5, transmission=0.5, coat_weight=0.7, coat_roughness=0.3,
         coat_tint=(0.9, 0.7, 0.6), sheen_weight=0.8, sheen_roughness=0.4,
         diffuse_roughness=0.5, anisotropic=0.4))],
+    "principled_coat_normal": [dict(kind=cl.CLOSURE_PRINCIPLED, params=dict(
+        roughness=0.5, coat_weight=1.0, coat_roughness=0.3, coat_tint=(0.9, 0.8, 0.7),
+        coat_normal=(0.3, -0.2, 0.93)))],
     "principled_thin_wall": [dict(kind=cl.CLOSURE_PRINCIPLED, params=dict(
         roughness=0.5, transmission=1.0, thin_wall=1.0))],
     "mix": [dict(kind=cl.CLOSURE_DIFFUSE, weight=0.4, params=dict(color=(0.8, 0.2, 0.2))),
@@ -452,3 +455,51 @@ def test_anisotropic_rotation_quarter_turn_swaps_the_roughness_axes(kind):
         swapped = closure.eval_many(t, 1, wo, wi, N_UP, N_UP, TANGENT, True)
         np.testing.assert_allclose(turned, swapped, rtol=1e-9, atol=1e-12)
     assert np.abs(turned[:, 0] / np.maximum(plain[:, 0], 1e-12) - 1.0).max() > 0.05
+
+
+def _coat_only(coat_normal=(0.0, 0.0, 0.0), roughness=0.3):
+    """A Principled BSDF that is its coat alone (black base, Specular IOR Level 0)."""
+    return dict(kind=cl.CLOSURE_PRINCIPLED, params=dict(
+        color=0.0, specular_level=0.0, coat_weight=1.0, coat_roughness=roughness,
+        coat_tint=(0.9, 0.6, 0.3), coat_normal=coat_normal))
+
+
+@pytest.mark.parametrize("roughness", [0.3, 0.05])
+def test_a_coat_normal_shades_the_coat_as_that_shading_normal_would(roughness):
+    """Coat Normal n' (Cycles: the coat closure's own N): a coat-only Principled BSDF
+    shaded about N_UP with coat normal n' is, for eval and pdf at every direction, the
+    same BSDF with no coat normal shaded about n' (the coat's frame, its cosine and its
+    albedo go by n'); sampling it gives the pdf and path weights eval reports."""
+    n2 = np.array([0.35, -0.25, 0.9])
+    n2 /= np.linalg.norm(n2)
+    mats = contract.Materials.from_list([{"closures": [_coat_only(tuple(n2), roughness)]},
+                                         {"closures": [_coat_only(roughness=roughness)]}])
+    t = closure.table(mats)
+    rng = np.random.default_rng(3)
+    wi = rng.normal(size=(400, 3))
+    wi /= np.linalg.norm(wi, axis=1)[:, None]
+    tested = 0
+    for wo in (_wo(10.0), _wo(50.0, 120.0), _wo(70.0, 250.0), _wo(40.0, 300.0)):
+        if (2.0 * (wo @ n2) * n2 - wo) @ N_UP < 0.1:
+            continue  # its mirror about n' is below the surface (the shader makes it valid)
+        tested += 1
+        own = closure.eval_many(t, 0, wo, wi, N_UP, N_UP, TANGENT, True)
+        about = closure.eval_many(t, 1, wo, wi, n2, N_UP, TANGENT, True)
+        # directions below the true surface: neither (the shading side rule of eval)
+        keep = (wi @ N_UP > 0) & (wi @ n2 > 0)
+        # (the coat normal is stored float32: equal to its rounding)
+        np.testing.assert_allclose(own[keep], about[keep], rtol=1e-5, atol=1e-12)
+        assert own[keep, 0].max() > 0.0
+        u = rng.random((2000, 3))
+        s = closure.sample_many(t, 0, wo, N_UP, N_UP, TANGENT, True, u)
+        ok = s[:, 7] > 0
+        # as many land above the true surface as from the coat shaded about n'
+        s2 = closure.sample_many(t, 1, wo, n2, N_UP, TANGENT, True, u)
+        assert ok.mean() > 0.2 and ok.mean() == pytest.approx((s2[:, 7] > 0).mean(), abs=0.01)
+        back = closure.eval_many(t, 0, wo, s[ok, :3], N_UP, N_UP, TANGENT, True)
+        np.testing.assert_allclose(s[ok, 6], back[:, 3], rtol=1e-6)
+        np.testing.assert_allclose(s[ok, 3:6], back[:, :3] / back[:, 3:4], rtol=1e-6)
+        # the albedo estimate (layering, Russian roulette) by n' too
+        np.testing.assert_allclose(closure.albedo_at(t, 0, wo, N_UP),
+                                   closure.albedo_at(t, 1, wo, n2), rtol=1e-5, atol=1e-12)
+    assert tested >= 2
