@@ -69,9 +69,7 @@ class RenderSettings:
     caustic_photons: int = 100_000
     """Photons emitted for the caustic map (light -> specular+ -> diffuse paths)."""
     photon_max_bounces: int = 8
-    """Maximum number of bounces a photon makes before it is dropped (the global map of
-    final gathering: one less, so that every indirect term makes photon_max_bounces + 1
-    reflections, as Cycles' max_bounces does; core/photons/tracing.py)."""
+    """Maximum number of bounces a photon makes before it is dropped."""
     projection_map: bool = True
     """Aim caustic photons at the specular objects only (flux weighted by the aimed fraction)."""
     photon_importance: bool = True

@@ -442,11 +442,6 @@ def trace_photons(prepared: PreparedScene, settings: RenderSettings,
     n_caustic = int(settings.caustic_photons)
     seed = int(settings.seed)
     max_bounces = int(settings.photon_max_bounces)
-    # Final gathering reflects at the camera's hit and at the gather hit before it reads
-    # the global map, one reflection more than the caustic map and the preview read: its
-    # map (the one with direct photons) bounces one less, so that every indirect term
-    # makes photon_max_bounces + 1 reflections, as Cycles' max_bounces does (issue 13).
-    global_bounces = max_bounces - 1 if include_direct else max_bounces
     diffuse_any = bool(np.any(prepared.has_diffuse & prepared.used_materials))
     spec_any = bool(np.any(prepared.specular_objects))
     ls = prepared.light_set
@@ -626,7 +621,7 @@ def trace_photons(prepared: PreparedScene, settings: RenderSettings,
     if build_global:
         g_store, cancelled = _trace_map(
             prepared, sources, global_counts, [(None, None)] * len(sources),
-            MODE_GLOBAL, global_rule, seed, global_bounces, MAP_GLOBAL, counters, on_progress,
+            MODE_GLOBAL, global_rule, seed, max_bounces, MAP_GLOBAL, counters, on_progress,
             should_stop, 0, total_work, g_flux, g_medium)
     if build_caustic and not cancelled:
         t0 = time.perf_counter()

@@ -372,8 +372,7 @@ def test_white_furnace_stays_bounded(albedo):
     """Camera in a closed emissive box of albedo a (no other light): the exact answer
     L = L_e / (1 - a) is 1000 L_e at a = 0.999 and infinite at a = 1. Photons that
     bounce at most B = 128 times cut the series: emission, direct light and the gathered
-    map (a^2 ... a^(B+1): final gathering's map bounces B - 1 times, issue 13) give
-    sum_{i <= B+1} a^i, finite at a = 1 too; the render holds
+    map (a^2 ... a^(B+2)) give sum_{i <= B+2} a^i, finite at a = 1 too; the render holds
     that within 3 % (the noise of 4 samples, the gather's k / (k - 1) bias). Emission
     is two-sided (as in Cycles): half the photons leave the box at once."""
     bounces = 128
