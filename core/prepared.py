@@ -54,15 +54,16 @@ from .scene.bounds import Targets, bounding_sphere, object_spheres
 from .scene.checks import SceneError
 from .scene.closures import CLOSURE_PRINCIPLED
 from .scene.contract import CAMERA_ORTHOGRAPHIC, Scene
-from .scene.media import DENSITY_SLOTS
+from .scene.media import DENSITY_SLOTS, WORLD
 
 
 def density_fields(scene: Scene, shader: "HitShader") -> DensityFields | None:
     """The heterogeneous media's densities (core/media/density.py): each medium's density
     program bound to the interpreter with the Position (world), Object and Generated
     coordinates of the medium's object (``shader``'s transforms, as at a surface hit of
-    it), its majorant measured over its boundary's box; None when every medium is
-    homogeneous."""
+    it; the World's: the position for both, as Cycles without an object), its majorant
+    measured over its boundary's box (the World's: ``world_medium_box``); None when every
+    medium is homogeneous."""
     media = scene.media
     rows = np.flatnonzero(media.density_texture >= 0)
     if rows.size == 0:
@@ -81,15 +82,40 @@ def density_fields(scene: Scene, shader: "HitShader") -> DensityFields | None:
         def evaluate(p, prog=prog, obj=int(media.bounds[r]), varies=varies):
             n = p.shape[0]
             world = p + shader.origin
-            local, generated = shader.object_point(np.full(n, obj), world)
+            if obj == WORLD:  # no object: Object and Generated are the position (Cycles)
+                local = generated = world
+            else:
+                local, generated = shader.object_point(np.full(n, obj), world)
             inputs = ShadingInputs.build(world, np.zeros((n, 3), np.float32),
                                          object_coords=local, generated=generated)
             out = interpreter.evaluate(prog, inputs, scene.program_images)
             return out if varies else out[:, 0]
         evaluators[r] = evaluate
-        tri = media.boundary[media.boundary_medium == r].reshape(-1, 3).astype(np.float64)
-        boxes[r] = (tri.min(axis=0), tri.max(axis=0))
+        if int(media.bounds[r]) == WORLD:
+            boxes[r] = world_medium_box(scene)
+        else:
+            tri = media.boundary[media.boundary_medium == r].reshape(-1, 3).astype(np.float64)
+            boxes[r] = (tri.min(axis=0), tri.max(axis=0))
     return DensityFields(evaluators, boxes, media.names, colour)
+
+
+WORLD_BOX_MARGIN = 0.01
+"""The box of a World volume of varying density is the scene's box widened by this
+fraction of its diagonal on every side (``world_medium_box``)."""
+
+
+def world_medium_box(scene: Scene) -> tuple[np.ndarray, np.ndarray]:
+    """(lo, hi) (3,) float64 render-frame metres: the box a World volume of varying density
+    fills (docs/volumes.md "World volume of varying density"): the mesh's vertices, the
+    media's boundaries and the camera's position, widened by WORLD_BOX_MARGIN of its
+    diagonal (at least 1 mm). Outside it the World's varying part is empty: its rays reach
+    infinity, which no tracking walks."""
+    pts = np.concatenate([scene.mesh.vertices.reshape(-1, 3).astype(np.float64),
+                          scene.media.boundary.reshape(-1, 3).astype(np.float64),
+                          np.asarray(scene.camera.to_world, np.float64)[None, :3, 3]])
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    pad = max(WORLD_BOX_MARGIN * float(np.linalg.norm(hi - lo)), 1e-3)
+    return lo - pad, hi + pad
 
 
 @dataclass

@@ -1167,6 +1167,15 @@ def nested_opacity(terms):
     return build
 
 
+def constant(values):
+    """A ``compile_sockets`` target of a constant: a float or a colour (3,) (where a node
+    has no socket for a slot the program fills, e.g. a Volume Absorption's Absorption
+    Color)."""
+    values = tuple(float(v) for v in np.atleast_1d(values))
+    kind = "f" if len(values) == 1 else "c"
+    return lambda b: b.const(values, kind)
+
+
 def weighted_sum(terms):
     """A ``compile_sockets`` target computing sum_k weight_k x colour_k x strength_k (a
     colour) from [(colour socket, strength socket or None, weight float[, factors])]: a

@@ -23,11 +23,14 @@ renderer does. Since the sixth slice the varying node may sit under Add / Mix Sh
 its coefficients (times the Mix factors above it) make the heterogeneous row and the rest
 of the sum a homogeneous row ``homogeneous_part`` in the same object (export.py). A
 varying colour (issue 16): a Principled Volume's linked Color / Absorption Color or a Volume
-Scatter's linked Color makes that node the varying one too; its program has seven outputs
-(density, Color, Absorption Color) and its row holds weights (core/scene/media.py). Any
-other linked input (a Volume Absorption's Color, a second varying node in the same
-material, the World's Density or Color) is reported by node and input and its own value
-used. The World's Volume fills all space (``world_medium``); a
+Scatter's or Volume Absorption's linked Color makes that node the varying one too; its
+program has seven outputs (density, Color, Absorption Color; a Volume Absorption's
+Absorption Color 0) and its row holds weights (core/scene/media.py). The World's Volume
+varies the same way (one medium: its varying node beside other volume shaders is reported
+and its own values used; core/media/regions.py confines its varying part to a box around
+the scene). Any other linked input (a second varying node in the same material or World)
+is reported by node and input and its own value used. The World's Volume fills all space
+(``world_medium``); a
 mesh material's Volume fills the inside of every object using it (``material_medium``;
 export.py makes one medium per object and material, bounded by that object's faces of the
 material, and leaves a volume-only material's faces out of the surfaces: they are null
@@ -43,7 +46,7 @@ from ..core.shading import program as pg
 from ..core.shading.color import blackbody_rec709
 from . import compat
 from .export_nodes import follow_reroutes
-from .export_shader import REC709_TO_SCENE_LINEAR, compile_sockets
+from .export_shader import REC709_TO_SCENE_LINEAR, compile_sockets, constant
 
 
 CLOSURE_WEIGHT_CUTOFF = 1e-5
@@ -159,8 +162,10 @@ def _read(sock, owner, warnings, depth=0, linked=None, weight=1.0) -> _Medium:
               1.0 - fac)
         m.add(_read(node.inputs[2], owner, warnings, depth + 1, linked, weight * fac), fac)
     elif kind == "ShaderNodeVolumeAbsorption":
-        c = _value(node, "Color", owner, warnings, 3)
-        rho, varies, _ = _density(node, owner, warnings, linked)
+        rho, varies, colour = _density(node, owner, warnings, linked, ("Color",))
+        # A varying colour: the row's sigma_a is the weight max(1 - C, 0) of the program's
+        # Color multiplies (its Absorption Color slots hold 0)
+        c = np.zeros(3) if colour else _value(node, "Color", owner, warnings, 3)
         m.sigma_a = np.maximum(1.0 - c, 0.0) * rho
     elif kind == "ShaderNodeVolumeScatter":
         rho, varies, colour = _density(node, owner, warnings, linked, ("Color",))
@@ -229,9 +234,19 @@ def world_medium(world, warnings: list[str]) -> dict | None:
     sock = _volume_socket(compat.node_tree(world), "ShaderNodeOutputWorld")
     if sock is None:
         return None
-    m = _read(sock, f"World '{world.name}'", warnings)
-    return {"sigma_a": m.sigma_a, "sigma_s": m.sigma_s, "anisotropy": m.anisotropy,
-            "emission": m.emission, "bounds": WORLD, "name": world.name}
+    owner = f"World '{world.name}'"
+    read: list[str] = []
+    row = _varying_row(world, sock, owner, read)
+    if "homogeneous_part" in row:
+        # One World medium only (core/scene/media.py): the varying node's own values
+        warnings.append(f"{owner}: a volume node of varying density or colour beside "
+                        f"other volume shaders (Add / Mix) is not supported on the World; "
+                        f"using the inputs' own values")
+        m = _read(sock, owner, warnings)
+        row = _row(m, world.name)
+    else:
+        warnings.extend(read)
+    return {**row, "bounds": WORLD}
 
 
 def material_medium(mat, warnings: list[str]) -> dict | None:
@@ -241,21 +256,33 @@ def material_medium(mat, warnings: list[str]) -> dict | None:
     sock = _volume_socket(compat.node_tree(mat), "ShaderNodeOutputMaterial")
     if sock is None:
         return None
+    return _varying_row(mat, sock, f'Material "{mat.name}"', warnings)
+
+
+def _varying_row(owner_id, sock, owner, warnings) -> dict:
+    """The medium of the Volume socket ``sock`` of a material or World ``owner_id`` as a
+    row (``_row``) with, where a volume node varies, its ``density_program`` (its row then
+    holds the varying node's coefficients at density 1, and the rest of an Add / Mix is its
+    ``homogeneous_part``); ``owner`` names it in ``warnings``."""
     linked = []
-    m = _read(sock, f'Material "{mat.name}"', warnings, linked=linked)
+    m = _read(sock, owner, warnings, linked=linked)
     if not linked:
-        return _row(m, mat.name)
+        return _row(m, owner_id.name)
     sockets, het = linked
     colour = [sockets[n] for n in ("Color", "Absorption Color")
               if n in sockets and _linked(sockets[n].node, n)]
     targets = [(sockets["Density"], pg.TARGET_DENSITY, 0, 0)]
     if colour:
         # Color and Absorption Color, slots 1-3 and 4-6 (a Volume Scatter has no
-        # Absorption Color: its Color fills them, read by nothing since its sigma_a is 0)
+        # Absorption Color: its Color fills them, read by nothing since its sigma_a is 0; a
+        # Volume Absorption's are 0: sigma_a = max(1 - C, 0) rho, Cycles' definition)
+        if sockets["Color"].node.bl_idname == "ShaderNodeVolumeAbsorption":
+            absorption = constant((0.0, 0.0, 0.0))
+        else:
+            absorption = sockets.get("Absorption Color", sockets["Color"])
         targets += [(sockets["Color"], pg.TARGET_DENSITY, 0, 1),
-                    (sockets.get("Absorption Color", sockets["Color"]), pg.TARGET_DENSITY,
-                     0, 4)]
-    comp = compile_sockets(mat, targets)
+                    (absorption, pg.TARGET_DENSITY, 0, 4)]
+    comp = compile_sockets(owner_id, targets)
     warnings.extend(comp.warnings)
     if comp.program is None:  # the graph folds to a constant density (and colour)
         rho = max(float(comp.constant[0][0]), 0.0)
@@ -268,13 +295,13 @@ def material_medium(mat, warnings: list[str]) -> dict | None:
         het.sigma_a, het.sigma_s, het.g_weight = het.sigma_a * rho, het.sigma_s * rho, \
             het.g_weight * rho  # the emission does not scale with the density
         m.add(het, 1.0)
-        return _row(m, mat.name)
-    row = _row(het, mat.name)
+        return _row(m, owner_id.name)
+    row = _row(het, owner_id.name)
     row["density_program"] = comp.program
     if np.any(m.sigma_a > 0) or np.any(m.sigma_s > 0) or np.any(m.emission > 0):
         # The rest of an Add / Mix: a homogeneous medium in the same object (export.py
         # makes it a row of its own; overlapping media add, as in Cycles' volume stack)
-        row["homogeneous_part"] = _row(m, mat.name)
+        row["homogeneous_part"] = _row(m, owner_id.name)
     return row
 
 

@@ -162,35 +162,14 @@ def render_block_on_worker(scene_payload_, settings_values, token, start, stop):
     t0 = time.perf_counter()
     fields = entry[0].medium.fields if entry[0].medium is not None else None
     if fields is not None:  # this block's clipping alone (the fields count every pass)
-        counted, peak = dict(fields.clipped), dict(fields.clipped_max)
-        fields.clipped_max.update({m: 0.0 for m in peak})
+        fields.take_clipping()
     sums = entry[1].render_block(start, stop)
     stats = dict(sums.stats)
     if fields is not None:
-        stats["medium_clipping"] = {
-            m: (fields.names[m], fields.majorant[m], n - counted[m], fields.clipped_max[m])
-            for m, n in fields.clipped.items() if n > counted[m]}
-        fields.clipped_max.update({m: max(v, fields.clipped_max[m]) for m, v in peak.items()})
+        stats["medium_clipping"] = fields.take_clipping()
     stats["time_tasks"] = time.perf_counter() - t0
     stats["initial_radius"] = entry[1].r1
     return sums.start, sums.stop, sums.radiance, stats
-
-
-def merge_clipping(total: dict, block: dict) -> None:
-    """Add a block's ``medium_clipping`` ({medium row: (name, majorant, tracked points
-    clipped, largest density clipped)}, ``render_block_on_worker``) to total, in place."""
-    for m, (name, majorant, n, peak) in block.items():
-        _, _, n0, peak0 = total.get(m, (name, majorant, 0, 0.0))
-        total[m] = (name, majorant, n0 + n, max(peak0, peak))
-
-
-def clipping_warnings(total: dict) -> list[str]:
-    """stats["medium_warnings"] of the merged clipping (``merge_clipping``), the messages
-    of a render on one machine (``density.clipping_warnings``)."""
-    return density.clipping_warnings({m: v[0] for m, v in total.items()},
-                                     {m: v[1] for m, v in total.items()},
-                                     {m: v[2] for m, v in sorted(total.items())},
-                                     {m: v[3] for m, v in total.items()})
 
 
 def _core_names() -> list[str]:
@@ -310,7 +289,7 @@ def render(scene: Scene, settings: RenderSettings, client, on_progress: Progress
                 bytes_per_block = max(bytes_per_block, radiance.nbytes)
                 time_tasks += stats.pop("time_tasks", 0.0)
                 r1 = stats.pop("initial_radius", r1)
-                merge_clipping(clipping, stats.pop("medium_clipping", {}))
+                density.merge_clipping(clipping, stats.pop("medium_clipping", {}))
                 t0 = time.perf_counter()
                 merged = image.add(sppm.PassSums(a, b, radiance, stats))
                 time_merge += time.perf_counter() - t0
@@ -343,7 +322,7 @@ def render(scene: Scene, settings: RenderSettings, client, on_progress: Progress
                   "memory_estimate": need, "bytes_per_block": bytes_per_block,
                   "time_scatter": time_scatter, "time_merge": time_merge,
                   "time_tasks": time_tasks, "tasks": tasks,
-                  "medium_warnings": clipping_warnings(clipping)})
+                  "medium_warnings": density.clipping_warnings(clipping)})
     return RenderOutput(passes={"combined": image.radiance()}, stats=stats, cancelled=cancelled)
 
 

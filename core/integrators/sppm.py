@@ -105,6 +105,7 @@ from numba import njit, prange
 from .. import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
 from .. import sampling
 from ..materials import bsdf, closure, microfacet
+from ..media import density
 from ..passes import ProgressFn, RenderOutput, StopFn, TileFn
 from ..photons.hash_grid import HashGrid, within
 from ..photons.store import STORE_ALL, STORE_NOT_DIRECT
@@ -456,6 +457,7 @@ class PassRenderer:
         lobes = prepared.lobes
         self.bsdf_points = lobes["non_lambert"] | (lobes["diffuse"] & lobes["rough"])
         self._radii = radius_schedule(self.r1, self.alpha, 1)
+        self._clipping = {}  # the media's density clipping over this renderer's passes
         # Each continuation walks at most split_depth bounces, so that every depth of the
         # camera walk and of MAX_SPLITS continuations fits the random streams' 4096.
         depth = int(settings.max_specular_depth)
@@ -686,12 +688,14 @@ class PassRenderer:
                 if self.direct == "shadow_rays" else "photons (standard SPPM: no shadow rays)"}
 
     def medium_warnings(self) -> list[str]:
-        """The heterogeneous media's density clipping so far (DensityFields.warnings, over
-        every pass this renderer made), as photon_mapping.render's stats["medium_warnings"]."""
+        """The heterogeneous media's density clipping so far (over every pass this renderer
+        made: ``DensityFields.take_clipping`` summed), as photon_mapping.render's
+        stats["medium_warnings"]."""
         medium = self.prepared.medium
         if medium is None or medium.fields is None:
             return []
-        return medium.fields.warnings()
+        density.merge_clipping(self._clipping, medium.fields.take_clipping())
+        return density.clipping_warnings(self._clipping)
 
 
 # --- one machine ----------------------------------------------------------------------------

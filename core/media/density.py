@@ -47,8 +47,9 @@ class DensityFields:
     evaluators: {medium row: evaluate(points (K, 3) float64 metres) -> (K,) float} the
     program's value, or for the rows in ``colour`` (a varying colour) -> (K, 7): the
     density, Color (3), Absorption Color (3) (core/scene/media.py); boxes: {medium row:
-    (lo, hi) (3,) metres} the region the majorant covers (the medium's boundary box);
-    names: the media's names.
+    (lo, hi) (3,) metres} the region the majorant covers (the medium's boundary box; the
+    World's: the box its varying part fills, core/media/regions.py); names: the media's
+    names.
 
     A colour medium's "density" is six factors per point (``principled_volume_coefficients``:
     the absorption's per channel, then the scattering's, each rho x a colour term), which
@@ -60,8 +61,13 @@ class DensityFields:
         self.evaluators = dict(evaluators)
         self.names = tuple(names)
         self.colour = frozenset(int(m) for m in colour)
+        self.boxes = {m: (np.asarray(boxes[m][0], np.float64), np.asarray(boxes[m][1], np.float64))
+                      for m in self.evaluators}
         self.clipped = {m: 0 for m in self.evaluators}
         self.clipped_max = {m: 0.0 for m in self.evaluators}
+        # The same since the last ``take_clipping``
+        self._since = {m: 0 for m in self.evaluators}
+        self._since_max = {m: 0.0 for m in self.evaluators}
         self.grids = {m: MajorantGrid.measure(self._largest(m), *boxes[m])
                       for m in self.evaluators}
         # The medium's bound over its whole box (the decisions' figure)
@@ -130,8 +136,11 @@ class DensityFields:
         over = v > b
         if over.any():
             hit = over if v.ndim == 1 else over.any(axis=1)
-            self.clipped[m] += int(hit.sum())
-            self.clipped_max[m] = max(self.clipped_max[m], float(v[over].max()))
+            count, peak = int(hit.sum()), float(v[over].max())
+            self.clipped[m] += count
+            self.clipped_max[m] = max(self.clipped_max[m], peak)
+            self._since[m] += count
+            self._since_max[m] = max(self._since_max[m], peak)
             v = np.minimum(v, b)
         return v
 
@@ -194,20 +203,39 @@ class DensityFields:
             return out
         return rho
 
+    def take_clipping(self) -> dict:
+        """The clipping since the last call (or since the fields were made), then restarted:
+        {medium row: (name, majorant, tracked points clipped, largest density clipped)} of
+        the media that clipped (``merge_clipping``'s block; ``warnings`` keeps the totals)."""
+        out = {m: (self.names[m], self.majorant[m], n, self._since_max[m])
+               for m, n in self._since.items() if n}
+        self._since = {m: 0 for m in self._since}
+        self._since_max = {m: 0.0 for m in self._since_max}
+        return out
+
     def warnings(self) -> list[str]:
-        """One message per medium whose majorant a tracked point exceeded."""
-        return clipping_warnings(self.names, self.majorant, self.clipped, self.clipped_max)
+        """One message per medium whose majorant a tracked point exceeded (every tracked
+        point since the fields were made)."""
+        return clipping_warnings({m: (self.names[m], self.majorant[m], n, self.clipped_max[m])
+                                  for m, n in self.clipped.items() if n})
 
 
-def clipping_warnings(names, majorant, clipped, clipped_max) -> list[str]:
-    """``DensityFields.warnings`` from its figures (a Dask render adds its workers' counts,
-    core/integrators/distributed.py): names and majorant indexed by medium row, clipped
-    {row: tracked points clipped}, clipped_max {row: the largest density clipped}."""
-    return [f"medium '{names[m]}': the density reached {clipped_max[m]:.4g} at "
+def merge_clipping(total: dict, block: dict) -> None:
+    """Add a block's clipping ({medium row: (name, majorant, tracked points clipped,
+    largest density clipped)}, ``DensityFields.take_clipping``) to total, in place."""
+    for m, (name, majorant, n, peak) in block.items():
+        _, _, n0, peak0 = total.get(m, (name, majorant, 0, 0.0))
+        total[m] = (name, majorant, n0 + n, max(peak0, peak))
+
+
+def clipping_warnings(total: dict) -> list[str]:
+    """One message per medium of ``total`` ({medium row: (name, majorant, tracked points
+    clipped, largest density clipped)}, ``merge_clipping``) that clipped, by row."""
+    return [f"medium '{name}': the density reached {peak:.4g} at "
             f"{n} tracked points, above the majorant of their cells (at most "
-            f"{majorant[m]:.4g}; measured per cell of a {GRID}^3 grid x {SAFETY}); "
+            f"{majorant:.4g}; measured per cell of a {GRID}^3 grid x {SAFETY}); "
             f"clipped there (biased: the texture has features finer than the grid)"
-            for m, n in clipped.items() if n]
+            for _, (name, majorant, n, peak) in sorted(total.items()) if n]
 
 
 class MajorantGrid:

@@ -1,5 +1,5 @@
 """The media the renderer integrates and which of them fill each stretch of a ray: the
-World's homogeneous volume (all space) and homogeneous media inside closed meshes.
+World's volume (all space) and media inside closed meshes.
 
 The volume stack (Cycles' rule, docs/volumes.md "Volume stack"): a point lies in the
 World's medium and in every mesh medium whose closed boundary holds it, and all of them are
@@ -20,6 +20,12 @@ their medium without a per-path state, and a camera or light inside a medium mes
 it. Where a mesh is open or a ray grazes an edge between two triangles, the two rules can
 differ (Cycles' stack then keeps or drops the medium for the rest of that path, this one
 only along that line).
+
+A World volume of varying density (docs/volumes.md) fills a box around the scene
+(``DensityFields.boxes``, core/prepared.py ``world_medium_box``) and nothing outside it:
+the box's faces are one more boundary (bit WORLD_BOX_BIT of a stretch's mask), so a
+stretch of it is finite as the trackers need, and light from infinity (the sun, the
+World's light) reaches the box unattenuated.
 
 Units: metres; coefficients in 1/m, emission in W/(m^3 sr).
 """
@@ -42,6 +48,9 @@ from .tracking import ratio_tracking_batch
 
 MAX_MESH_MEDIA = 62
 """Mesh media a scene may hold: a stretch's set of media is a bit mask in an int64."""
+
+WORLD_BOX_BIT = MAX_MESH_MEDIA
+"""The mask bit of the stretches inside the box of a World volume of varying density."""
 
 MAX_CROSSINGS = 256
 """Boundary crossings a walk follows along one ray before it raises (a mesh made of more
@@ -140,8 +149,6 @@ class Medium:
         e2 = tri[:, 2].astype(np.float64) - tri[:, 0]
         self.tri_normal = np.ascontiguousarray(np.cross(e1, e2))
         self.accel = Accelerator(tri, threads=threads) if tri.shape[0] else None
-        w = self.world
-        self.world_sigma_t = (self.sigma_a[w] + self.sigma_s[w]) if w >= 0 else np.zeros(3)
         self.scatters = bool(np.any(self.sigma_s > 0))
         self.emits = bool(np.any(self.emission > 0))
         # Heterogeneous rows: their coefficients scale with rho(x) (``fields``)
@@ -150,6 +157,12 @@ class Medium:
         if self.het.any() and fields is None:
             raise ValueError("regions.Medium: heterogeneous media need their DensityFields")
         self.heterogeneous = bool(self.het.any())
+        w = self.world
+        # A World of varying density fills its box only (module doc): nothing extinguishes
+        # the rays from infinity outside it
+        self.world_box = fields.boxes[w] if w >= 0 and self.het[w] else None
+        self.world_sigma_t = (self.sigma_a[w] + self.sigma_s[w]) \
+            if w >= 0 and self.world_box is None else np.zeros(3)
 
     def close(self) -> None:
         if self.accel is not None:
@@ -221,6 +234,8 @@ class Medium:
         n = o.shape[0]
         t_end = np.ascontiguousarray(np.broadcast_to(np.asarray(t_end, np.float64), (n,)))
         ct, cb, cf = self._crossings(o, d)
+        if self.world_box is not None:
+            ct, cb, cf = _with_box_crossings(ct, cb, cf, o, d, *self.world_box)
         count = np.empty(n, np.int64)
         _count_kernel(ct, t_end, count)
         start = np.zeros(n + 1, np.int64)
@@ -263,7 +278,9 @@ class Medium:
         sa, ss, em, gs = np.zeros((k, 3)), np.zeros((k, 3)), np.zeros((k, 3)), np.zeros(k)
         fld, ha, hs, maj = np.full(k, -1, np.int64), np.zeros((k, 3)), np.zeros((k, 3)), np.zeros(k)
         for j, key in enumerate(keys):
-            rows = [self.world] if self.world >= 0 else []
+            world = self.world >= 0 and (self.world_box is None
+                                         or (int(key) >> WORLD_BOX_BIT) & 1)
+            rows = [self.world] if world else []
             rows += [r for b in range(len(self.bit_rows)) if (int(key) >> b) & 1
                      for r in self.bit_rows[b]]
             for r in rows:
@@ -305,13 +322,7 @@ def renderable(media: Media, extent: float, threads: int = 0,
     """The Medium of ``media`` as the renderer takes it, or None when there is no medium or
     none has an effect (every coefficient and emission 0: the scene then renders exactly as
     without media). ``fields``: the densities of the heterogeneous media (core/prepared.py
-    binds their programs); ``seed``: the render seed of the ratio-tracking walks. Raises SceneError naming the medium for a heterogeneous World
-    volume (its rays reach infinity; not supported yet)."""
-    for i in range(media.count):
-        if int(media.density_texture[i]) != -1 and int(media.bounds[i]) == WORLD:
-            name = media.names[i] if i < len(media.names) else f"medium {i}"
-            raise SceneError(f"medium '{name}': a World volume of varying density is not "
-                             f"supported yet (only media inside closed meshes)")
+    binds their programs); ``seed``: the render seed of the ratio-tracking walks."""
     if not (np.any(media.sigma_a > 0) or np.any(media.sigma_s > 0)
             or np.any(media.emission > 0)):
         return None
@@ -416,6 +427,28 @@ def _het_before_kernel(start, factor, before, through):
         through[i, 0] *= c0
         through[i, 1] *= c1
         through[i, 2] *= c2
+
+
+def _with_box_crossings(ct, cb, cf, o, d, lo, hi):
+    """``Medium._crossings``' (N, C) distances, bits and front flags with the crossings of
+    the box [lo, hi] (3,) metres added (bit WORLD_BOX_BIT; entering: a front face), each row
+    in order of distance (inf padded): the slab test of the rays o + t d, t > 0."""
+    inside = (o >= lo) & (o <= hi)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ta, tb = (lo - o) / d, (hi - o) / d
+    flat = d == 0.0
+    near = np.where(flat, np.where(inside, -np.inf, np.inf), np.minimum(ta, tb)).max(axis=1)
+    far = np.where(flat, np.where(inside, np.inf, -np.inf), np.maximum(ta, tb)).min(axis=1)
+    hit = far > np.maximum(near, 0.0)
+    t_in = np.where(hit & (near > 0.0), near, np.inf)
+    t_out = np.where(hit, far, np.inf)
+    n = ct.shape[0]
+    ct = np.concatenate([ct, t_in[:, None], t_out[:, None]], axis=1)
+    cb = np.concatenate([cb, np.full((n, 2), WORLD_BOX_BIT, np.int64)], axis=1)
+    cf = np.concatenate([cf, np.ones((n, 1), bool), np.zeros((n, 1), bool)], axis=1)
+    order = np.argsort(ct, axis=1, kind="stable")
+    return (np.take_along_axis(ct, order, 1), np.take_along_axis(cb, order, 1),
+            np.take_along_axis(cf, order, 1))
 
 
 def _walk_keys(o, d, row) -> np.ndarray:

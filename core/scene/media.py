@@ -58,7 +58,9 @@ class Media:
         is the medium's density rho(x) (dimensionless; the coefficients above are at rho 1).
     programs: tuple of ``core.shading.program.ShaderProgram``, the density programs; they
         read the Object and Generated coordinates of the medium's object (``bounds``:
-        ``Mesh.object_to_world``, ``Mesh.object_texspace``) and world positions.
+        ``Mesh.object_to_world``, ``Mesh.object_texspace``; the World's: the position)
+        and world positions. A World medium's varying part fills a box around the scene
+        (core/media/regions.py).
     names: tuple of str, one per medium (the material or World name, for messages).
     boundary: (B, 3, 3) float32, world-space corners (metres) of the triangles that bound
         the mesh media, wound so that the geometric normal (v1 - v0) x (v2 - v0) points

@@ -16,7 +16,7 @@ from core.prepared import prepare
 from core.scene import camera as camera_mod
 from core.scene import shapes
 from core.scene.contract import (CAMERA_ORTHOGRAPHIC, LIGHT_POINT, Camera, Lights, Materials,
-                                 Scene, SceneError)
+                                 Scene)
 from core.scene.media import Media
 from core.settings import RenderSettings
 
@@ -130,9 +130,12 @@ def test_volume_direct_matches_the_single_scattering_integral():
     np.testing.assert_allclose(got, want, rtol=0.01)
 
 
-def test_media_the_renderer_does_not_take_yet_are_refused_by_name():
+def test_a_heterogeneous_medium_without_its_density_fields_is_refused():
+    """A World volume of varying density renders (in a box around the scene:
+    tests/core/media/test_heterogeneous.py); its density needs the prepared scene's
+    DensityFields, without which the Medium refuses it."""
     textured = Media.from_list([{"sigma_s": [1, 1, 1], "density_texture": 0, "name": "Smoke"}])
-    with pytest.raises(SceneError, match="medium 'Smoke'.*World volume of varying density"):
+    with pytest.raises(ValueError, match="heterogeneous media need their DensityFields"):
         regions.renderable(textured, 1.0)
 
 
