@@ -7,6 +7,8 @@
   only to a light with a size); the camera sees the lit cone and the floor.
 - ``fog_caustic``: the same, with a glass sphere (IOR 1.5, radius 0.25 m) 1.2 m above the
   floor under the spot: the volumetric caustic (the focused cone in the fog below it).
+- ``fog_caustic_1m``: fog_caustic with the spot light's radius 1 m (WIDE_LIGHT), where
+  Cycles converges on the caustic (WIDE_RUNS: 8 seeds of 1024 samples).
 
 Cycles renders full transport with BOUNCES bounces of every kind (volume bounces
 included, caustics on, no clamping, the 1-pixel box filter of
@@ -45,9 +47,10 @@ CYCLES_SEEDS = 32
 is found only by phase-sampled rays that pass the sphere and hit the 0.1 m light, so the
 per-render mean is heavy-tailed: 2 x 2048 spp read 0.0110, 64 x 512 spp 0.0123 +- 0.0002.
 A larger light makes Cycles converge (an index-matched sphere, IOR 1, against no sphere:
--13 % at 0.1 m, -9 % at 0.4 m, -1.2 % at 1 m), but at 1 m Photon Map's photons, which leave
-a soft-falloff light as from a sphere where shadow rays see a disk facing the point, are
-+28 % brighter than Cycles: benchmarks/media_light_radius.py, docs/volumes.md."""
+-13 % at 0.1 m, -9 % at 0.4 m, -1.2 % at 1 m): the ``_1m`` scenes (WIDE_LIGHT). There
+Photon Map's photons, which leave a soft-falloff light as from a sphere where shadow rays
+see a disk facing the point, are +28 % brighter than Cycles:
+benchmarks/media_light_radius.py, docs/volumes.md."""
 BOUNCES = 8
 FOG = {"Color": (0.7, 0.7, 0.7, 1.0), "Density": 0.25, "Anisotropy": 0.3}
 
@@ -89,8 +92,26 @@ def fog_spot_scene(resolution=RESOLUTION, sphere=False):
     return scene
 
 
+WIDE_LIGHT = 1.0
+"""The spot light's radius (metres) in the ``_1m`` scenes. With it Cycles converges on the
+volumetric caustic (an index-matched sphere changes its mean by -1.2 %, 2 x 512 spp)."""
+WIDE_RUNS = (1024, 8)
+"""(samples, seeds) of the ``_1m`` references: the caustic is soft there, 2 x 512 spp
+already had the image mean to ~1 %."""
+
+
+def wide_light(build):
+    """``build`` with the spot light's radius set to WIDE_LIGHT."""
+    def make():
+        scene = build()
+        bpy.data.lights["Spot"].shadow_soft_size = WIDE_LIGHT
+        return scene
+    return make
+
+
 SCENES = {"fog_spot": lambda: fog_spot_scene(),
-          "fog_caustic": lambda: fog_spot_scene(sphere=True)}
+          "fog_caustic": lambda: fog_spot_scene(sphere=True),
+          "fog_caustic_1m": wide_light(lambda: fog_spot_scene(sphere=True))}
 
 
 def configure_cycles_media(scene, samples, seed=0):
@@ -102,9 +123,11 @@ def configure_cycles_media(scene, samples, seed=0):
     return scene
 
 
-def fingerprint() -> str:
+def fingerprint(name: str = "fog_spot") -> str:
     parts = [inspect.getsource(fog_world), inspect.getsource(fog_spot_scene),
              inspect.getsource(configure_cycles_media), repr((RESOLUTION, BOUNCES, FOG))]
+    if name.endswith("_1m"):
+        parts.append(inspect.getsource(wide_light) + repr(WIDE_LIGHT))
     return hashlib.sha256("\n".join(parts).encode()).hexdigest()[:16]
 
 
@@ -115,7 +138,8 @@ def reference_path(name) -> pathlib.Path:
 def load_reference(name) -> dict:
     """The cached Cycles render of ``name``: image (H, W, 3), its halves image_a and image_b
     (the odd and the even seeds), block_sigma, samples, fingerprint."""
-    return ref.load_cached(reference_path(name), fingerprint(), f"cycles_media_reference.py {name}")
+    return ref.load_cached(reference_path(name), fingerprint(name),
+                           f"cycles_media_reference.py {name}")
 
 
 PHOTON_MAP_SETTINGS = dict(samples=16, seed=1, global_photons=100_000, caustic_photons=100_000,
@@ -170,8 +194,8 @@ def save_reference(path, build, samples, seeds, stamp):
 
 def main(names=None):
     for name in names or list(SCENES):
-        save_reference(reference_path(name), SCENES[name], CYCLES_SAMPLES, CYCLES_SEEDS,
-                       fingerprint())
+        samples, seeds = WIDE_RUNS if name.endswith("_1m") else (CYCLES_SAMPLES, CYCLES_SEEDS)
+        save_reference(reference_path(name), SCENES[name], samples, seeds, fingerprint(name))
 
 
 if __name__ == "__main__":

@@ -72,14 +72,15 @@ def test_an_index_matched_glass_sphere_changes_nothing_in_fog(fog_spot):
                           "the sphere that hit the light, and an index-matched sphere (IOR 1), "
                           "which must change nothing, darkens its image by 13 % (0.1 m light, "
                           "8 x 2048 spp), 9 % (0.4 m, 4 x 1024 spp), 1.2 % (1 m, 2 x 512 spp). "
-                          "With the 1 m light Cycles converges, but Photon Map is then +32.5 % "
-                          "(+28 % without the sphere): its photons leave a soft-falloff light as "
-                          "from a sphere, Cycles' and its own shadow rays see a disk facing the "
-                          "point (docs/volumes.md, 'The volumetric caustic against Cycles')",
+                          "So the test renders fog_caustic_1m (1 m light, where Cycles converges; "
+                          "8 x 1024 spp reference), where Photon Map is +32.5 % (+28 % without "
+                          "the sphere): its photons leave a soft-falloff light as from a sphere, "
+                          "Cycles' and its own shadow rays see a disk facing the point "
+                          "(docs/volumes.md, 'The volumetric caustic against Cycles')",
                    strict=False)
 def test_volumetric_caustic_matches_cycles():
-    passes = _render("fog_caustic")
-    f = _figures("fog_caustic", passes)
+    passes = _render("fog_caustic_1m")
+    f = _figures("fog_caustic_1m", passes)
     assert passes["Volume Indirect"].mean() > 0
     assert np.all(np.abs(f["channel"]) < 0.03), f["channel"]
     assert f["worst_block"] < 0.10, f["blocks"]
