@@ -69,7 +69,10 @@ class RenderSettings:
     caustic_photons: int = 100_000
     """Photons emitted for the caustic map (light -> specular+ -> diffuse paths)."""
     photon_max_bounces: int = 8
-    """Maximum number of bounces a photon makes before it is dropped."""
+    """Maximum number of bounces a photon makes before it is dropped, as Cycles' Max
+    Bounces: every estimate makes at most photon_max_bounces + 1 reflections, so the photons
+    that final-gather rays read (one reflection after the camera's hit) are those of at
+    most photon_max_bounces - 1 bounces (core/photons/tracing.py, "Bounces")."""
     projection_map: bool = True
     """Aim caustic photons at the specular objects only (flux weighted by the aimed fraction)."""
     photon_importance: bool = True

@@ -13,7 +13,8 @@ homogeneous stretches of [0, t_hit] in order (``Medium.stretches``):
   ``n_diff`` (a later surface photon is indirect light, not a caustic), after Russian
   roulette on the weight (survive with p = min(1, max w), flux / p);
 - where it collides, a volume photon is stored for the final-gather rays (every collision
-  of the global emission) and, for the camera rays, by the rules below (its scattered flux, position and
+  of the global emission within their bounce limit, photon_max_bounces - 1:
+  core/photons/tracing.py, "Bounces") and, for the camera rays, by the rules below (its scattered flux, position and
   propagation direction), by the rules of the maps (core/photons/store.py's surface
   rules carried to media):
   - global emission (MODE_GLOBAL): after at least one diffuse or volume bounce; straight
@@ -169,25 +170,29 @@ def flight_through(medium, st, o, d, pid, seed: int, map_id: int, bounce: int):
 
 class VolumeStore:
     """Stored volume photons, appended per bounce: positions, flux (W), propagation
-    directions, (n, 3) float32 each, and whether the camera rays' map holds them (n,)
-    bool, in emission order."""
+    directions, (n, 3) float32 each, whether the camera rays' map holds them (n,) bool,
+    and whether the final-gather rays' map does (one flag per bounce: its photons are
+    within the gather rays' bounce limit, core/photons/tracing.py), in emission order."""
 
     def __init__(self):
-        self.pos, self.flux, self.dir, self.camera = [], [], [], []
+        self.pos, self.flux, self.dir, self.camera, self.gathered = [], [], [], [], []
 
-    def add(self, flag, camera, pos, flux, direction):
+    def add(self, flag, camera, pos, flux, direction, gathered=True):
         idx = np.flatnonzero(flag)
         if idx.size:
             self.pos.append(pos[idx])
             self.flux.append(flux[idx])
             self.dir.append(direction[idx])
             self.camera.append(camera[idx])
+            self.gathered.append((idx.size, bool(gathered)))
 
     def take(self):
-        """(positions, flux, directions (M, 3) float32, camera (M,) bool); the store is
-        emptied."""
+        """(positions, flux, directions (M, 3) float32, camera (M,) bool, gathered (M,)
+        bool); the store is emptied."""
         out = tuple(np.concatenate(parts) if parts else np.zeros((0, 3), np.float32)
                     for parts in (self.pos, self.flux, self.dir))
         camera = np.concatenate(self.camera) if self.camera else np.zeros(0, bool)
-        self.pos, self.flux, self.dir, self.camera = [], [], [], []
-        return (*out, camera)
+        gathered = np.repeat([g for _, g in self.gathered],
+                             [n for n, _ in self.gathered]).astype(bool)
+        self.pos, self.flux, self.dir, self.camera, self.gathered = [], [], [], [], []
+        return (*out, camera, gathered)

@@ -14,6 +14,19 @@ irradiance, W/m^2):
 - caustic: photons aimed at the specular objects (projection map, ``caustic_photons``),
   stored at the first diffuse hit of paths light -> specular+ -> diffuse.
 
+Bounces (issue 13): Cycles' Max Bounces B lets a camera path reflect B + 1 times (the
+light sampled at its (B + 1)-th vertex). A photon stored after b bounces makes b + 1
+reflections where it is read at the camera ray's hit or along a camera segment (the
+caustic map, the preview's global map, the volume maps of camera rays, SPPM), b + 2 where
+a final-gather ray reads it (the global map with direct photons, the volume photons
+along gather rays: x, then the gather hit). So with ``photon_max_bounces`` P the maps
+read at the camera's hit keep photons of up to P bounces and those read by final-gather
+rays up to P - 1 (``gather_bounces``): every estimate makes at most P + 1 reflections, as
+Cycles does with B = P. One trace serves both: the global emission's photons are traced
+to P bounces; the surface photons of its last bounce are not shaded when only final
+gathering reads them (the wavefront is not even intersected without a medium), and its
+last bounce's volume photons are kept for the camera rays' map only.
+
 Sources: the lights, emissive triangles, the world background and the emissive media
 inside closed meshes (core/photons/medium_emission.py: their photons start with one
 diffuse-like bounce counted, since no shadow ray samples a medium, and emit no caustic
@@ -69,9 +82,9 @@ class PhotonMaps:
     global_emitted / caustic_emitted: photons emitted for each map (their flux is already
     divided by these counts). stats: counts, times, which maps were built and why not.
     volume_map / volume_caustic_map: the volume photons of the global and the caustic
-    emission for camera rays, volume_gather_map: every collision of the global emission,
-    for final-gather rays (core/photons/medium_flight.py); None without a scattering
-    medium."""
+    emission for camera rays, volume_gather_map: every collision of the global emission
+    after at most photon_max_bounces - 1 bounces, for final-gather rays (module doc,
+    "Bounces"; core/photons/medium_flight.py); None without a scattering medium."""
 
     global_map: PhotonMap | None
     caustic_map: PhotonMap | None
@@ -95,11 +108,20 @@ class _Medium:
     store_direct: bool = False
 
 
-def _fly(medium: _Medium, hits, o, d, f, pid, n_diff, n_spec, seed, map_id, bounce, mode, last):
+def gather_bounces(max_bounces: int) -> int:
+    """The most bounces a photon read by a final-gather ray has made (module doc,
+    "Bounces"): photon_max_bounces - 1, so that a gathered estimate makes photon_max_bounces
+    + 1 reflections like the caustic map's, as Cycles' Max Bounces."""
+    return int(max_bounces) - 1
+
+
+def _fly(medium: _Medium, hits, o, d, f, pid, n_diff, n_spec, seed, map_id, bounce, mode, last,
+         gathered=True):
     """The free flights of one wavefront (core/photons/medium_flight.py): stores its volume
     photons and returns (prim with the collided photons as misses, so the surface kernel
     leaves them, collided (n,) bool, alive, o_new, d_new, f_new of the collided ones);
-    the passing photons' flux f is weighted in place."""
+    the passing photons' flux f is weighted in place. gathered: False when this bounce is
+    past ``gather_bounces`` (its photons go to the camera rays' map only)."""
     n = o.shape[0]
     m = medium.medium
     t_hit = np.where(hits.prim >= 0, hits.t.astype(np.float64), np.inf)
@@ -115,7 +137,7 @@ def _fly(medium: _Medium, hits, o, d, f, pid, n_diff, n_spec, seed, map_id, boun
                              st.g, np.int64(seed), dims, np.int64(bounce), mode,
                              medium.caustic_apart, medium.store_direct, last, *pre, *out)
     collided, v_store, v_camera, v_pos, v_flux, v_dir, alive, o_new, d_new, f_new = out
-    medium.vstore.add(v_store, v_camera, v_pos, v_flux, v_dir)
+    medium.vstore.add(v_store, v_camera, v_pos, v_flux, v_dir, gathered)
     prim = np.where(collided, -1, hits.prim).astype(hits.prim.dtype)
     return prim, collided, alive, o_new, d_new, f_new
 
@@ -123,11 +145,19 @@ def _fly(medium: _Medium, hits, o, d, f, pid, n_diff, n_spec, seed, map_id, boun
 def _trace_chunk(prepared: PreparedScene, em: emission.Emitted, pid: np.ndarray, mode: int,
                  store_rule: int, max_bounces: int, seed: int, map_id: int,
                  store: PhotonStore, counters: dict, medium: _Medium | None = None,
-                 first_bounces: int = 0) -> None:
+                 first_bounces: int = 0, surface_bounces: int | None = None,
+                 volume_gather: int | None = None) -> None:
     """Trace one chunk of emitted photons through every bounce into ``store`` (and, in a
     medium, its volume photons into ``medium.vstore``). first_bounces: the diffuse-like
     bounces the photons start with (``medium_emission.FIRST_BOUNCES`` for an emissive
-    medium's, whose direct light no shadow ray takes)."""
+    medium's, whose direct light no shadow ray takes). surface_bounces: the most bounces
+    a stored surface photon has made, max_bounces (None) or max_bounces - 1 (then the last
+    bounce's surface hits are not shaded; module doc, "Bounces"). volume_gather: the most
+    bounces a volume photon of the final-gather rays' map has made (None: max_bounces)."""
+    surface_bounces = max_bounces if surface_bounces is None else int(surface_bounces)
+    if not max_bounces - 1 <= surface_bounces <= max_bounces:
+        raise ValueError(f"surface_bounces {surface_bounces} with max_bounces {max_bounces}")
+    volume_gather = max_bounces if volume_gather is None else int(volume_gather)
     keep = np.any(em.flux > 0, axis=1)
     if keep.all():  # the usual case: no boolean indexing (~30 ns per (N, 3) row)
         o, d, f = em.origin.astype(np.float32), em.direction.astype(np.float32), em.flux
@@ -143,7 +173,8 @@ def _trace_chunk(prepared: PreparedScene, em: emission.Emitted, pid: np.ndarray,
     accel = prepared.accel
     for bounce in range(max_bounces + 1):
         n = o.shape[0]
-        if n == 0:
+        shaded = bounce <= surface_bounces  # False only at the last bounce
+        if n == 0 or (not shaded and medium is None):
             break
         t0 = time.perf_counter()
         hits = accel.intersect(o, d)
@@ -164,7 +195,10 @@ def _trace_chunk(prepared: PreparedScene, em: emission.Emitted, pid: np.ndarray,
         if medium is not None:
             prim, collided, v_alive, v_o, v_d, v_f = _fly(
                 medium, hits, o, d, f, pid, n_diff, n_spec, seed, map_id, bounce, mode,
-                bounce == max_bounces)
+                bounce == max_bounces, bounce <= volume_gather)
+        if not shaded:  # the last bounce's volume photons only: nothing goes on
+            counters["time_scatter"] += time.perf_counter() - t1
+            break
         path = photon_path(prepared, hits.t)
         tab, rows, nrm = photon_closures(prepared, prim, hits.u, hits.v, d, path)
         tan = photon_tangents(prepared, prim, hits.u, hits.v, tab, rows)
@@ -245,11 +279,14 @@ def photon_tangents(prepared, prim, u, v, tab, rows) -> np.ndarray:
 
 def _trace_map(prepared, sources, counts, targets_per_source, mode, store_rule, seed: int,
                max_bounces: int, map_id, counters, on_progress=None, should_stop=None,
-               done_before=0, total_work=0, flux_out=None, medium: _Medium | None = None):
+               done_before=0, total_work=0, flux_out=None, medium: _Medium | None = None,
+               surface_bounces: int | None = None, volume_gather: int | None = None):
     """Emit counts[s] photons from each source and trace them; returns (store, cancelled).
     on_progress(fraction, message) after each chunk, should_stop() -> True ends the map
     between chunks. flux_out: optional (S, 3) float64 array, += the flux each source
-    emitted (watts). medium: the World's medium the photons fly through (None: vacuum)."""
+    emitted (watts). medium: the World's medium the photons fly through (None: vacuum).
+    surface_bounces, volume_gather: the bounce limits of the surface photons and of the
+    final-gather rays' volume photons (``_trace_chunk``; None: max_bounces)."""
     store = PhotonStore()
     first_id = 0
     done = done_before
@@ -285,7 +322,8 @@ def _trace_map(prepared, sources, counts, targets_per_source, mode, store_rule, 
             t1 = time.perf_counter()
             _trace_chunk(prepared, em, pid, mode, store_rule, max_bounces, seed, map_id,
                          store, counters, medium,
-                         medium_emission.FIRST_BOUNCES if from_medium else 0)
+                         medium_emission.FIRST_BOUNCES if from_medium else 0,
+                         surface_bounces, volume_gather)
             counters["time_tracing"] += time.perf_counter() - t1
             done += count
             if on_progress is not None:
@@ -310,19 +348,22 @@ MIN_VOLUME_RADIUS = 1e-7
 
 def _volume_maps(medium: _Medium | None, k: int, counters: dict):
     """(camera map, final-gather map): VolumePhotonMaps of a medium's stored volume
-    photons, the camera rays' subset and all of them; None where fewer than 2 were stored.
+    photons, the camera rays' subset and those within the final-gather rays' bounces
+    (``gather_bounces``); None where fewer than 2 were stored or none is selected.
     Radii: the distance to the k-th nearest of all of them (itself counted), computed
     once for both maps (the k-NN is the maps' main cost: the camera map's radii are those
-    of a k / (its share of the photons) search, a little sharper)."""
+    of a k / (its share of the photons) search, a little sharper; each photon's kernel
+    integrates to 1 whatever its radius, so leaving photons out of a map keeps the others'
+    estimate unbiased)."""
     if medium is None:
         return None, None
     t0 = time.perf_counter()
-    pos, flux, direction, camera = medium.vstore.take()
+    pos, flux, direction, camera, gathered = medium.vstore.take()
     if pos.shape[0] < 2:
         return None, None
     radii = np.maximum(photon_radii(pos, min(int(k), pos.shape[0])), MIN_VOLUME_RADIUS)
     maps = []
-    for sel in (camera, slice(None)):
+    for sel in (camera, slice(None) if gathered.all() else gathered):
         p = pos[sel]
         maps.append(VolumePhotonMap(p, flux[sel], direction[sel], radii[sel])
                     if p.shape[0] else None)
@@ -384,7 +425,7 @@ def trace_stored_photons(prepared: PreparedScene, sources: list, n_photons: int,
         out = (pos, flux, direction, counters)
     if not volume:
         return out
-    return (*out, None if medium is None else medium.vstore.take())
+    return (*out, None if medium is None else medium.vstore.take()[:4])
 
 
 _KIND_NAMES = {0: "point", 1: "spot", 2: "sun", 3: "area"}
@@ -442,6 +483,10 @@ def trace_photons(prepared: PreparedScene, settings: RenderSettings,
     n_caustic = int(settings.caustic_photons)
     seed = int(settings.seed)
     max_bounces = int(settings.photon_max_bounces)
+    # Final-gather rays read the global map with direct photons and the volume photons
+    # one reflection later than the camera's hit (module doc, "Bounces").
+    gathered = gather_bounces(max_bounces)
+    surface_bounces = gathered if include_direct else max_bounces
     diffuse_any = bool(np.any(prepared.has_diffuse & prepared.used_materials))
     spec_any = bool(np.any(prepared.specular_objects))
     ls = prepared.light_set
@@ -592,7 +637,8 @@ def trace_photons(prepared: PreparedScene, settings: RenderSettings,
     if build_global:
         purpose = ("final gathering (direct light included)" if include_direct
                    else "indirect light (stored after the first diffuse bounce)")
-        decisions.append(f"global map: {int(global_counts.sum()):,} photons for {purpose}")
+        decisions.append(f"global map: {int(global_counts.sum()):,} photons for {purpose}, "
+                         f"stored after at most {surface_bounces} bounces")
     if build_caustic:
         decisions.append(f"caustic map: {int(caustic_counts.sum()):,} photons {caustic_how}")
     c_slot = {src.index: j for j, src in enumerate(caustic_sources)} if build_caustic else {}
@@ -622,7 +668,7 @@ def trace_photons(prepared: PreparedScene, settings: RenderSettings,
         g_store, cancelled = _trace_map(
             prepared, sources, global_counts, [(None, None)] * len(sources),
             MODE_GLOBAL, global_rule, seed, max_bounces, MAP_GLOBAL, counters, on_progress,
-            should_stop, 0, total_work, g_flux, g_medium)
+            should_stop, 0, total_work, g_flux, g_medium, surface_bounces, gathered)
     if build_caustic and not cancelled:
         t0 = time.perf_counter()
         c_store, cancelled = _trace_map(
@@ -637,7 +683,8 @@ def trace_photons(prepared: PreparedScene, settings: RenderSettings,
         decisions.append(f"volume photons in media {medium.name}: "
                          f"{len(volume_map) if volume_map else 0:,} global "
                          f"({len(volume_gather_map) if volume_gather_map else 0:,} with the "
-                         f"direct ones, for final gathering), "
+                         f"direct ones and at most {gathered} bounces, for final "
+                         f"gathering), "
                          f"{len(volume_caustic_map) if volume_caustic_map else 0:,} caustic")
         if counters.get("medium_dropped"):
             decisions.append(f"emissive media: {counters['medium_dropped']:,} photons found no "

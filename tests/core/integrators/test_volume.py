@@ -142,9 +142,13 @@ def test_a_heterogeneous_medium_without_its_density_fields_is_refused():
 def test_photon_pass_stores_the_flux_each_scattering_order_carries():
     """A point light in infinite fog of per-channel albedo a = sigma_s / sigma_t (a tiny
     far floor only so that photons are traced): every photon collides, the k-th
-    collisions carry Phi a^k in each channel, so the final-gather map (every collision of
-    bounces 0..B) holds Phi sum_{k=1..B+1} a^k and the camera map (the light's first
-    collisions are the shadow rays') Phi sum_{k=2..B+1} a^k; within 2 % (20k photons)."""
+    collisions carry Phi a^k in each channel, so the camera map (collisions after 0..B
+    bounces, read where a camera ray scatters: B + 1 scatterings at most, as Cycles' Max
+    Bounces B; the light's first collisions are the shadow rays') holds Phi sum_{k=2..B+1}
+    a^k and the final-gather map (every collision of bounces 0..B-1: a gather ray reads it
+    one scattering after the camera's hit, issue 13) Phi sum_{k=1..B} a^k; within 2 %
+    (20k photons). With the order a^(B+1) the gather map would be 27 / 11 / 2 % high
+    (R / G / B); the camera map without it 30 / 18 / 6 % low."""
     sa, ss = np.array([0.05, 0.2, 0.35]), np.array([0.45, 0.3, 0.15])
     a = ss / (sa + ss)
     lights = Lights.from_list([{"kind": LIGHT_POINT, "position": [0, 0, 0], "power": 10.0}])
@@ -161,7 +165,7 @@ def test_photon_pass_stores_the_flux_each_scattering_order_carries():
     phi = maps.stats["per_source"][0]["global_flux"]
     orders = np.array([a ** k for k in range(1, bounces + 2)])
     np.testing.assert_allclose(maps.volume_gather_map.flux.sum(axis=0, dtype=np.float64),
-                               phi * orders.sum(axis=0), rtol=0.02)
+                               phi * orders[:-1].sum(axis=0), rtol=0.02)
     np.testing.assert_allclose(maps.volume_map.flux.sum(axis=0, dtype=np.float64),
                                phi * orders[1:].sum(axis=0), rtol=0.02)
     assert maps.global_map is None or len(maps.global_map) < 10  # the floor is out of reach
