@@ -143,9 +143,9 @@ T, W, SW, AX, AY, ROT_C, ROT_S, ETA, MODE, P0, Q0, RT, TT, EST, BECK = (
 # BECK 1 for a Beckmann microfacet lobe (GGX and dielectric rows), else 0 (GGX).
 # OWN 1 for a lobe with a normal of its own, CN (3) that unit normal in the hit's local
 # frame (the Principled coat under a linked Coat Normal, and its sheen, about the mix of
-# the shading normal and the coat normal by the coat weight): the lobe sees wo, wi in a frame
-# about CN and its cosine is |wi . CN| (Cycles gives each closure its own N); OWN 0: the
-# shading normal, z.
+# the shading normal and the coat normal by the coat weight): the lobe sees wo, wi in a
+# frame about CN and its cosine is |wi . CN| (Cycles gives each closure its own N); OWN 0:
+# the shading normal, z.
 OWN, CN = 25, 26
 NL = 29
 MAX_LOBES = 8  # per closure (Principled: sheen, coat, metal, 2 transmission, specular, 2 base)
