@@ -24,6 +24,8 @@ asks this module instead of testing ``bpy.app.version`` itself:
   reads it as the closure contract's default. It also returns None for an input Blender
   hides (5.2: the Metallic BSDF's IOR / Extinction under F82, Base Color / Edge Tint
   under Physical Conductor), which Cycles does not read either.
+- The Bump node reads its height one whole ray differential away up to 4.3, 0.1 of one
+  in 4.4, and its "Filter Width" input (default 0.1) from 4.5 (``BUMP_FILTER_WIDTH``).
 - EEVEE's engine id is "BLENDER_EEVEE_NEXT" in 4.2 to 4.5 (``EEVEE``).
 - The compositor: from 5.0 a ``CompositorNodeTree`` node group in
   ``scene.compositing_node_group`` whose Group Output "Image" is the result; before, the
@@ -57,6 +59,14 @@ VORONOI_PCG_HASH = VERSION >= (5, 0, 0)
 """Cycles' Voronoi places its feature points with the PCG integer hashes from Blender 5.0
 (Cycles commit c24e0712c, June 2025); 4.x hashed the cells' float coordinates with lookup3
 (the shader program's Voronoi flag 2)."""
+
+
+BUMP_FILTER_WIDTH = 1.0 if VERSION < (4, 4, 0) else 0.1
+"""The Bump node's offset w (in pixels of the ray differential: the height is read at
+P + w dPdx and P + w dPdy) where the node has no "Filter Width" input (before 4.5): a
+whole differential up to 4.3, 0.1 in 4.4 (Cycles commit d132f2a13, Jan 2025, "reduce ray
+differentials size for bump mapping": BUMP_DX 0.1); 4.5 made it the input, default 0.1
+(commit 9f427b00d)."""
 
 
 def exit_process(code: int):

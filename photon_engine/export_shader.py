@@ -1026,10 +1026,11 @@ def _bump(b, node, path):
     """Bump (core/shading/normals.py ``bump``): the Height subgraph is compiled three
     times, at the point and with every input read at P + w dPdx and P + w dPdy (w the
     Filter Width, dPdx / dPdy the hit's footprint: core ``HitShader.footprint``), as
-    Cycles evaluates it at the ray differential's offsets. Blender 4.2 has no Filter
-    Width: 0.1, Cycles' constant then."""
+    Cycles evaluates it at the ray differential's offsets. Before 4.5 the node has no
+    Filter Width: that Cycles' constant (``compat.BUMP_FILTER_WIDTH``: 1 up to 4.3, 0.1
+    in 4.4)."""
     sock = _find_input(node, "Filter Width")
-    width = float(sock.default_value) if sock is not None else 0.1
+    width = float(sock.default_value) if sock is not None else compat.BUMP_FILTER_WIDTH
     if sock is not None and sock.is_linked:
         b.warn(("bumpw", path, node.name), f"node '{node.name}': a linked Filter Width is "
                f"not supported; its value {width:g} is used (Cycles reads it as a constant)")

@@ -142,9 +142,10 @@ T, W, SW, AX, AY, ROT_C, ROT_S, ETA, MODE, P0, Q0, RT, TT, EST, BECK = (
 # EST the lobe's directional albedo per unit weight (luminance-free mean, for ``albedo``);
 # BECK 1 for a Beckmann microfacet lobe (GGX and dielectric rows), else 0 (GGX).
 # OWN 1 for a lobe with a normal of its own, CN (3) that unit normal in the hit's local
-# frame (the Principled coat under a linked Coat Normal): the lobe sees wo, wi in a frame
-# about CN and its cosine is |wi . CN| (Cycles gives each closure its own N); OWN 0: the
-# shading normal, z.
+# frame (the Principled coat under a linked Coat Normal, and its sheen, about the mix of
+# the shading normal and the coat normal by the coat weight): the lobe sees wo, wi in a
+# frame about CN and its cosine is |wi . CN| (Cycles gives each closure its own N); OWN 0:
+# the shading normal, z.
 OWN, CN = 25, 26
 NL = 29
 MAX_LOBES = 8  # per closure (Principled: sheen, coat, metal, 2 transmission, specular, 2 base)
@@ -339,18 +340,43 @@ def _principled(tab, L, n, W0, W1, W2, p, b0, b1, b2, wox, woy, woz, entering, a
     the transmission's dispersion at the path's wavelength (``transmission_ior``); cn: the
     coat's own unit normal in the local frame (a linked Coat Normal), 0 for none: the coat
     lobe, its albedo (the layering of the base below) and its tint's path length then go
-    by cos(wo, cn), as Cycles' coat closure with bsdf->N = coat_normal."""
+    by cos(wo, cn), as Cycles' coat closure with bsdf->N = coat_normal; the sheen lobe
+    (its frame, LTC and albedo) by normalize(mix(z, cn, min(coat weight, 1))), as Cycles'
+    sheen closure. Where wo is below cn both keep the shading normal."""
     mu = woz
     multi = int(p[cl.DISTRIBUTION]) == cl.DISTRIBUTION_MULTI_GGX
-    # Sheen on top
     sheen_w = max(p[cl.SHEEN_WEIGHT], 0.0)
     coat_w = max(p[cl.COAT_WEIGHT], 0.0)
+    # The coat's own normal: cn where wo is above it, else the shading normal shades
+    own = False
+    mu_c = mu
+    if cnx != 0.0 or cny != 0.0 or cnz != 0.0:
+        mu_o = cnx * wox + cny * woy + cnz * woz
+        if mu_o > 1e-7:
+            own = True
+            mu_c = min(mu_o, 1.0)
+    # Sheen on top, about normalize(mix(n, cn, saturate(coat weight))) as Cycles' sheen
+    # closure (the shading normal without a coat normal; wo is above both, so above it)
     if sheen_w > CUTOFF:
         s0 = sheen_w * max(p[cl.SHEEN_TINT], 0.0) * W0
         s1 = sheen_w * max(p[cl.SHEEN_TINT + 1], 0.0) * W1
         s2 = sheen_w * max(p[cl.SHEEN_TINT + 2], 0.0) * W2
-        n, alb = _sheen_lobe(tab, L, n, s0, s1, s2, min(max(p[cl.SHEEN_ROUGHNESS], 0.0), 1.0),
-                             mu, wox, woy)
+        t = min(coat_w, 1.0)
+        k = n
+        if own and t > 0.0:
+            snx, sny, snz = t * cnx, t * cny, 1.0 - t + t * cnz
+            ln = np.sqrt(snx * snx + sny * sny + snz * snz)
+            snx, sny, snz = snx / ln, sny / ln, snz / ln
+            sox, soy, soz = _into_frame(snx, sny, snz, wox, woy, woz)
+            n, alb = _sheen_lobe(tab, L, n, s0, s1, s2,
+                                 min(max(p[cl.SHEEN_ROUGHNESS], 0.0), 1.0),
+                                 min(soz, 1.0), sox, soy)
+            if n > k:
+                L[k, OWN] = 1.0
+                L[k, CN], L[k, CN + 1], L[k, CN + 2] = snx, sny, snz
+        else:
+            n, alb = _sheen_lobe(tab, L, n, s0, s1, s2,
+                                 min(max(p[cl.SHEEN_ROUGHNESS], 0.0), 1.0), mu, wox, woy)
         if alb > 0.0:
             W0, W1, W2 = _layer(s0 * alb, s1 * alb, s2 * alb, W0, W1, W2)
     # Coat
@@ -361,13 +387,6 @@ def _principled(tab, L, n, W0, W1, W2, p, b0, b1, b2, wox, woy, woz, entering, a
         f0c = fresnel.f0_from_ior(cior)
         fss = fresnel.dielectric_fss(cior)
         k = n
-        own = False
-        mu_c = mu
-        if cnx != 0.0 or cny != 0.0 or cnz != 0.0:
-            mu_o = cnx * wox + cny * woy + cnz * woz
-            if mu_o > 1e-7:  # else wo is below the coat normal: the shading normal shades
-                own = True
-                mu_c = min(mu_o, 1.0)
         n, est, dk = _ggx_lobe(tab, L, n, coat_w * W0, coat_w * W1, coat_w * W2, ca, ca,
                                1.0, 0.0, FR_DIELECTRIC, (f0c, f0c, f0c), (0.0, 0.0, 0.0),
                                cior, mu_c, True, (fss, fss, fss))
@@ -791,10 +810,16 @@ def _own_frame(L, k):
 
 
 @njit(cache=True, error_model="numpy")
+def _into_frame(nx, ny, nz, x, y, z):
+    """A local-frame vector in the frame (``sampling.basis``) about the unit normal n."""
+    tx, ty, tz, bx, by, bz = sampling.basis(nx, ny, nz)
+    return x * tx + y * ty + z * tz, x * bx + y * by + z * bz, x * nx + y * ny + z * nz
+
+
+@njit(cache=True, error_model="numpy")
 def _into_own(L, k, x, y, z):
     """A local-frame vector in lobe k's own frame (``OWN``)."""
-    tx, ty, tz, bx, by, bz, nx, ny, nz = _own_frame(L, k)
-    return x * tx + y * ty + z * tz, x * bx + y * by + z * bz, x * nx + y * ny + z * nz
+    return _into_frame(L[k, CN], L[k, CN + 1], L[k, CN + 2], x, y, z)
 
 
 @njit(cache=True, error_model="numpy")
@@ -946,12 +971,14 @@ def lobes_eval(L, wox, woy, woz, wix, wiy, wiz):
 
 
 @njit(cache=True, error_model="numpy")
-def lobes_eval_parts(L, wox, woy, woz, wix, wiy, wiz, cosine):
+def lobes_eval_parts(L, wox, woy, woz, wix, wiy, wiz, cosine, side=0.0):
     """``lobes_eval`` split by lobe kind: (diffuse-like f |cos| RGB, glossy f |cos| RGB,
     pdf), local frame; without the |cos| factor (f alone, 1/sr) unless ``cosine``. The
     diffuse-like part (Lambert, Oren-Nayar, translucent, sheen) is what the photon maps and
     final gathering carry; the glossy part (rough microfacet lobes) is what camera paths
-    reach by sampling the BSDF."""
+    reach by sampling the BSDF. side: 0 every lobe; else wi's side of the true surface (1
+    above, -1 below) and only the lobes whose own normal puts wi on that side count
+    (``parts_at``)."""
     d0 = d1 = d2 = g0 = g1 = g2 = 0.0
     pdf = 0.0
     total = 0.0
@@ -960,6 +987,8 @@ def lobes_eval_parts(L, wox, woy, woz, wix, wiy, wiz, cosine):
     if total <= 0.0:
         return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
     for k in range(L.shape[0]):
+        if side != 0.0 and (_lobe_side(L, k, wix, wiy, wiz) < 0.0) != (side < 0.0):
+            continue
         v0, v1, v2, pk = lobe_eval(L, k, wox, woy, woz, wix, wiy, wiz)
         ac = _lobe_cos(L, k, wix, wiy, wiz) if cosine else 1.0
         v0, v1, v2 = L[k, W] * v0 * ac, L[k, W + 1] * v1 * ac, L[k, W + 2] * v2 * ac
@@ -1030,17 +1059,22 @@ def hit_lobes(tab, m, c0, c1, c2, wox, woy, woz, nsx, nsy, nsz, ngx, ngy, ngz, t
 @njit(cache=True, error_model="numpy")
 def parts_at(L, F, wix, wiy, wiz, ngx, ngy, ngz, sided, cosine):
     """``lobes_eval_parts`` of ``hit_lobes``' (L, F) at the world direction wi: (d0, d1,
-    d2, g0, g1, g2, pdf). With ``sided`` a wi whose geometric side (wi . ng < 0:
-    transmitted) disagrees with its shading side gives 0, as ``sample_bsdf`` refuses such a
-    sample (photons gathered from both sides: only transmitting lobes see the far side)."""
+    d2, g0, g1, g2, pdf). With ``sided`` (photons gathered from both sides) a lobe counts
+    only where wi's side of the true surface (wi . ng < 0: transmitted) agrees with its
+    side of that lobe's own normal (``_lobe_side``: the shading normal, or the coat's /
+    sheen's normal of its own), as ``sample_bsdf`` refuses a sample of lobe k that the two
+    put on different sides and as Cycles evaluates each closure by its own N: so only
+    transmitting lobes see the far side, and a coat whose normal keeps wi above it still
+    reflects where a bumped base normal puts wi below."""
     if L.shape[0] == 0:
         return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
     lix = wix * F[0] + wiy * F[1] + wiz * F[2]
     liy = wix * F[3] + wiy * F[4] + wiz * F[5]
     liz = wix * F[6] + wiy * F[7] + wiz * F[8]
-    if sided and (wix * ngx + wiy * ngy + wiz * ngz < 0.0) != (liz < 0.0):
-        return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
-    return lobes_eval_parts(L, F[9], F[10], F[11], lix, liy, liz, cosine)
+    side = 0.0
+    if sided:
+        side = -1.0 if wix * ngx + wiy * ngy + wiz * ngz < 0.0 else 1.0
+    return lobes_eval_parts(L, F[9], F[10], F[11], lix, liy, liz, cosine, side)
 
 
 @njit(cache=True, error_model="numpy")
@@ -1266,6 +1300,30 @@ def eval_many(tab: ClosureTable, m: int, wo, wi, ns, ng, t, entering: bool) -> n
     out = np.empty((wi.shape[0], 4))
     _vec_eval(tab, int(m), np.asarray(wo, np.float64), wi,
               *(np.asarray(v, np.float64) for v in (ns, ng, t)), bool(entering), out)
+    return out
+
+
+@njit(cache=True, error_model="numpy")
+def _vec_parts(tab, m, wo, wi, ns, ng, t, entering, sided, out):
+    for i in range(wi.shape[0]):
+        r = eval_parts(tab, m, 1.0, 1.0, 1.0, wo[0], wo[1], wo[2], wi[i, 0], wi[i, 1],
+                       wi[i, 2], ns[0], ns[1], ns[2], ng[0], ng[1], ng[2], t[0], t[1], t[2],
+                       entering, sided)
+        for c in range(7):
+            out[i, c] = r[c]
+
+
+def parts_many(tab: ClosureTable, m: int, wo, wi, ns, ng, t, entering: bool,
+               sided: bool) -> np.ndarray:
+    """``eval_parts`` for directions wi (N, 3) at one hit (texel colour 1): (N, 7) float64
+    rows diffuse-like f |cos| (3), glossy f |cos| (3), pdf. With ``sided`` the pdf is the
+    density ``sample_bsdf``'s accepted directions have (each lobe's where its side agrees
+    with the true surface's)."""
+    wi = np.ascontiguousarray(wi, np.float64).reshape(-1, 3)
+    out = np.empty((wi.shape[0], 7))
+    _vec_parts(tab, int(m), np.asarray(wo, np.float64), wi,
+               *(np.asarray(v, np.float64) for v in (ns, ng, t)), bool(entering),
+               bool(sided), out)
     return out
 
 

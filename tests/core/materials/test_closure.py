@@ -59,6 +59,9 @@ CASES = {
     "principled_coat_normal": [dict(kind=cl.CLOSURE_PRINCIPLED, params=dict(
         roughness=0.5, coat_weight=1.0, coat_roughness=0.3, coat_tint=(0.9, 0.8, 0.7),
         coat_normal=(0.3, -0.2, 0.93)))],
+    "principled_sheen_coat_normal": [dict(kind=cl.CLOSURE_PRINCIPLED, params=dict(
+        roughness=0.5, sheen_weight=1.0, sheen_roughness=0.4, coat_weight=0.6,
+        coat_roughness=0.3, coat_normal=(0.3, -0.2, 0.93)))],
     "principled_thin_wall": [dict(kind=cl.CLOSURE_PRINCIPLED, params=dict(
         roughness=0.5, transmission=1.0, thin_wall=1.0))],
     "mix": [dict(kind=cl.CLOSURE_DIFFUSE, weight=0.4, params=dict(color=(0.8, 0.2, 0.2))),
@@ -99,7 +102,10 @@ def _chi2_pvalue(tab, name, wo, entering, n=120_000, n_theta=16, n_phi=32, sub=2
     C, P = np.meshgrid(cc, pc, indexing="ij")
     st = np.sqrt(1 - C ** 2)
     wi = np.stack([st * np.cos(P), st * np.sin(P), C], -1).reshape(-1, 3)
-    pdf = closure.eval_many(tab, m, wo, wi, N_UP, N_UP, TANGENT, entering)[:, 3]
+    # the density of the accepted samples: each lobe's pdf where the true surface's side
+    # agrees with the lobe's own (a lobe with a normal of its own, tilted from ng, sends
+    # some samples below the surface, which the sampler refuses as Cycles' does)
+    pdf = closure.parts_many(tab, m, wo, wi, N_UP, N_UP, TANGENT, entering, True)[:, 6]
     cell = (2 / (n_theta * sub)) * (2 * np.pi / (n_phi * sub))
     exp = (pdf.reshape(n_theta, sub, n_phi, sub).sum(axis=(1, 3)) * cell * n)
     obs = np.append(obs.ravel(), n - ok.sum())
@@ -410,10 +416,15 @@ def test_eval_parts_split_the_bsdf_by_lobe_kind(tab, name):
         if name.startswith(("glossy", "metal", "glass", "refraction")):
             assert d0 == d1 == d2 == 0.0
         # sided: the geometric side decides (here ng = ns): reflection lobes see nothing
-        # below, Translucent nothing above
+        # below, Translucent nothing above; a coat (and sheen) with a normal of its own
+        # sees nothing from below the surface either, even where that normal has it above
         s = closure.eval_parts(tab, m, 1.0, 1.0, 1.0, *wo, *w, *N_UP, *N_UP, *TANGENT, True,
                                True)
-        np.testing.assert_allclose(s, (d0, d1, d2, g0, g1, g2, p), rtol=1e-12, atol=1e-15)
+        if name.endswith("coat_normal") and w[2] < 0.0:
+            np.testing.assert_array_equal(s, np.zeros(7))
+        else:
+            np.testing.assert_allclose(s, (d0, d1, d2, g0, g1, g2, p), rtol=1e-12,
+                                       atol=1e-15)
 
 
 def test_lobe_masks_name_the_non_lambert_diffuse_lobes(tab):
@@ -423,7 +434,8 @@ def test_lobe_masks_name_the_non_lambert_diffuse_lobes(tab):
     non_lambert = {n for n, v in zip(NAMES, masks["non_lambert"]) if v}
     # principled_layers: Diffuse Roughness and sheen; mix: its Diffuse row keeps the
     # default roughness 0.5 (Oren-Nayar); the thin wall's base is all transmission
-    assert non_lambert == {"oren_nayar", "translucent", "sheen", "principled_layers", "mix"}
+    assert non_lambert == {"oren_nayar", "translucent", "sheen", "principled_layers",
+                           "principled_sheen_coat_normal", "mix"}
     assert {n for n, v in zip(NAMES, masks["diffuse_transmits"]) if v} == {"translucent"}
 
 
@@ -503,3 +515,71 @@ def test_a_coat_normal_shades_the_coat_as_that_shading_normal_would(roughness):
         np.testing.assert_allclose(closure.albedo_at(t, 0, wo, N_UP),
                                    closure.albedo_at(t, 1, wo, n2), rtol=1e-5, atol=1e-12)
     assert tested >= 2
+
+
+def _unit(v):
+    v = np.asarray(v, np.float64)
+    return v / np.linalg.norm(v)
+
+
+@pytest.mark.parametrize("coat_weight", [0.6, 1.0, 0.0])
+def test_the_sheen_under_a_coat_normal_shades_about_their_mix(coat_weight):
+    """Cycles' Principled sheen closure: N = normalize(mix(N, coat normal, saturate(coat
+    weight))) (svm/closure.h, since 4.0): a Principled BSDF of its sheen alone (black base,
+    Specular IOR Level 0) with a coat normal cn and a coat of weight w, shaded about ns,
+    has for diffuse-like part (eval and the albedo its layering reads) the Sheen BSDF of
+    the same roughness shaded about that mix (about ns for w = 0; neither about ns nor cn
+    for w = 0.6: the test would fail for either)."""
+    ns, cn = _unit([0.25, 0.1, 1.0]), _unit([-0.35, 0.2, 0.9])
+    mix = _unit(ns + min(coat_weight, 1.0) * (cn - ns))
+    rows = [{"closures": [dict(kind=cl.CLOSURE_PRINCIPLED, params=dict(
+                color=0.0, specular_level=0.0, sheen_weight=1.0, sheen_roughness=0.4,
+                coat_weight=coat_weight, coat_roughness=0.3, coat_normal=tuple(cn)))]},
+            {"closures": [dict(kind=cl.CLOSURE_SHEEN, params=dict(color=1.0,
+                                                                  roughness=0.4))]}]
+    t = closure.table(contract.Materials.from_list(rows))
+    rng = np.random.default_rng(8)
+    wi = rng.normal(size=(300, 3))
+    wi /= np.linalg.norm(wi, axis=1)[:, None]
+    for wo in (_wo(20.0), _wo(55.0, 140.0), _wo(60.0, 40.0)):
+        assert wo @ ns > 0 and wo @ cn > 0
+        keep = (wi @ ns > 0) & (wi @ mix > 0) & (wi @ N_UP > 0)
+        d = closure.parts_many(t, 0, wo, wi[keep], ns, N_UP, TANGENT, True, False)[:, :3]
+        ref = closure.eval_many(t, 1, wo, wi[keep], mix, N_UP, TANGENT, True)[:, :3]
+        assert ref.max() > 0.0
+        # (the coat normal is stored float32: equal to its rounding)
+        np.testing.assert_allclose(d, ref, rtol=2e-5, atol=1e-9)
+        a_principled = closure.albedo_at(t, 0, wo, ns)
+        np.testing.assert_allclose(a_principled[:3], closure.albedo_at(t, 1, wo, mix)[:3],
+                                   rtol=2e-5)
+
+
+def test_the_gathered_side_is_each_lobes_own():
+    """parts_at(sided): a lobe sees a photon's direction wi only where wi's side of the
+    true surface (ng) agrees with its side of the lobe's own normal, as Cycles evaluates
+    each closure by its own N. A coat whose normal is the true one (z) over a base bumped
+    40 degrees towards +x: wi 30 degrees above the surface on the -x side is below the
+    bumped normal but above the coat's, so the coat reflects it (near its mirror direction)
+    where the shading normal's side used to reject the whole closure; wi from below the
+    surface on the +x side is above the bumped normal: the base's lobes must not see it
+    (nothing transmits)."""
+    ng = N_UP
+    ns = np.array([np.sin(np.radians(40.0)), 0.0, np.cos(np.radians(40.0))])
+    t = closure.table(contract.Materials.from_list([{"closures": [dict(
+        kind=cl.CLOSURE_PRINCIPLED, params=dict(color=0.8, roughness=0.5, coat_weight=1.0,
+                                                coat_roughness=0.3,
+                                                coat_normal=(0.0, 0.0, 1.0)))]}]))
+    wo = _unit([np.cos(np.radians(35.0)), 0.0, np.sin(np.radians(35.0))])
+    args = (t, 0, 1.0, 1.0, 1.0, *wo)
+    frame = (*ns, *ng, *TANGENT, True)
+    above = _unit([-np.cos(np.radians(30.0)), 0.0, np.sin(np.radians(30.0))])
+    assert above @ ns < 0 < above @ ng
+    sided = np.array(closure.eval_parts(*args, *above, *frame, True))
+    free = np.array(closure.eval_parts(*args, *above, *frame, False))
+    assert sided[3] > 0.1 and sided[6] > 0.0  # the coat's glossy reflection and its pdf
+    np.testing.assert_array_equal(sided, free)  # the base lobes see nothing below ns
+    behind = _unit([0.5, 0.0, -0.2])
+    assert behind @ ns > 0 > behind @ ng
+    assert closure.eval_parts(*args, *behind, *frame, False)[0] > 0.0  # base: ns side
+    np.testing.assert_array_equal(closure.eval_parts(*args, *behind, *frame, True),
+                                  np.zeros(7))
