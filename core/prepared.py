@@ -266,6 +266,10 @@ class HitShader:
                        else np.asarray(mesh.origin, np.float64))
         self.bumped = np.array([p is not None and _reads_bump(p) for p in progs],
                                bool).reshape(mats.count)
+        # the input sources (SOURCE_*) each material's program reads: ``inputs`` builds
+        # only those (the Object coordinates alone were 0.3 s of a textured camera pass)
+        self.program_sources = [frozenset() if p is None else frozenset(
+            p.instructions[p.instructions[:, 0] == pg.OP_INPUT, 1].tolist()) for p in progs]
         # materials running the same program (equal instructions, constants, tables and
         # outputs; -1: none) share one evaluation at a batch's hits (``shade``)
         self.program_group = _program_groups(progs)
@@ -290,7 +294,11 @@ class HitShader:
             return np.full(pos.shape[0], self.pixel_angle)
         return self.pixel_angle * np.linalg.norm(pos - self.camera_position, axis=1)
 
-    def inputs(self, prim, u, v, d, bump=False, path=None
+    def sources(self, mat) -> frozenset:
+        """The input sources (SOURCE_*) the programs of materials mat (int array) read."""
+        return frozenset().union(*(self.program_sources[m] for m in np.unique(mat)))
+
+    def inputs(self, prim, u, v, d, bump=False, path=None, reads=None
                ) -> tuple[ShadingInputs, np.ndarray]:
         """The ShadingInputs of N hits (prim (N,) int32 triangles, Embree barycentrics u, v
         (N,), d (N, 3) the arriving unit directions) and their materials (N,) int32. bump:
@@ -299,7 +307,10 @@ class HitShader:
         differential_from_compact, make_orthonormals), reached by moving the barycentrics
         in the triangle's plane. path: the Light Path node's outputs for the rays that
         reached the hits (``ShadingInputs.light_path``: (N, K) or (K,) float32, the
-        caller's context, core/shading/light_path.py; None: zeros)."""
+        caller's context, core/shading/light_path.py; None: zeros). reads: the
+        sources (SOURCE_*) the programs to run read (``sources``; None: every one): the
+        others are left at ``ShadingInputs.build``'s defaults, which no such program
+        reads (position, both normals and incoming are always the hits')."""
         pos, ngf, nsf, mat, _, front = geometry.facing_surface_points(
             self.tri_vertices, self.tri_normals, self.tri_material, prim, u, v,
             np.ascontiguousarray(d, np.float64), self.extent)
@@ -320,30 +331,50 @@ class HitShader:
             d3 = np.concatenate([d, d, d])
             p3 = path if path is None or np.ndim(path) == 1 else np.concatenate([path] * 3)
             ins, _ = self.inputs(np.concatenate([prim] * 3), np.concatenate(us),
-                                 np.concatenate(vs), d3, path=p3)
+                                 np.concatenate(vs), d3, path=p3, reads=reads)
             return replace(ins, bump_points=prim.shape[0]), mat
+
+        def read(*sources):
+            return reads is None or not reads.isdisjoint(sources)
         world = pos + self.origin
         obj = self.tri_object[prim]
-        local, generated = self.object_point(obj, world)
-        # Normals to object space: n_obj ~ A^T n_world for a world normal inv(A)^T n_obj.
-        onrm = np.einsum("nji,nj->ni", self.linear[obj], nsf)
-        onrm /= np.maximum(np.linalg.norm(onrm, axis=1), 1e-30)[:, None]
+        given = {}
+        if read(pg.SOURCE_GENERATED, pg.SOURCE_OBJECT):
+            local, generated = self.object_point(obj, world)
+            given.update(generated=generated, object_coords=local)
+        if read(pg.SOURCE_OBJECT_NORMAL):
+            # Normals to object space: n_obj ~ A^T n_world for a world normal inv(A)^T n_obj.
+            onrm = np.einsum("nji,nj->ni", self.linear[obj], nsf)
+            onrm /= np.maximum(np.linalg.norm(onrm, axis=1), 1e-30)[:, None]
+            given.update(object_normal=onrm)
+        if read(pg.SOURCE_OBJECT_LOCATION):
+            given.update(object_location=self.location[obj])
+        if read(pg.SOURCE_OBJECT_COLOR):
+            given.update(object_color=self.object_info[obj, :3])
+        if read(pg.SOURCE_OBJECT_RANDOM):
+            given.update(object_random=self.object_info[obj, 3])
+        if read(pg.SOURCE_OBJECT_INDEX):
+            given.update(object_index=self.object_info[obj, 4])
+        if read(pg.SOURCE_OBJECT_ALPHA):
+            given.update(object_alpha=self.object_info[obj, 5])
+        if read(pg.SOURCE_MATERIAL_INDEX):
+            given.update(material_index=self.pass_index[mat])
+        if read(pg.SOURCE_BACKFACING):
+            given.update(backfacing=(~front).astype(np.float32))
         w = (1.0 - u - v).astype(np.float64)
-        uv = self._uv_maps(prim, u, v, w)
+        if read(pg.SOURCE_UV):
+            given.update(uv=self._uv_maps(prim, u, v, w))
+        if read(pg.SOURCE_ATTRIBUTE_COLOR, pg.SOURCE_ATTRIBUTE_ALPHA):
+            given.update(attributes=self._attributes(prim, u, v, w))
+        if read(pg.SOURCE_TANGENT, pg.SOURCE_TANGENT_SIGN):
+            given.update(tangents=self._tangents(prim, u, v, w))
+        if read(pg.SOURCE_NORMAL_TO_WORLD):
+            given.update(normal_to_world=np.transpose(self.to_object[obj][:, :3, :3],
+                                                      (0, 2, 1)))
+        if read(pg.SOURCE_LIGHT_PATH):
+            given.update(light_path=path)
         ins = ShadingInputs.build(world, nsf, true_normal=ngf, incoming=-np.asarray(d),
-                                  backfacing=(~front).astype(np.float32),
-                                  generated=generated, object_coords=local,
-                                  object_normal=onrm, object_location=self.location[obj],
-                                  object_color=self.object_info[obj, :3],
-                                  object_random=self.object_info[obj, 3],
-                                  object_index=self.object_info[obj, 4],
-                                  object_alpha=self.object_info[obj, 5],
-                                  material_index=self.pass_index[mat], uv=uv,
-                                  attributes=self._attributes(prim, u, v, w),
-                                  tangents=self._tangents(prim, u, v, w),
-                                  light_path=path,
-                                  normal_to_world=np.transpose(self.to_object[obj][:, :3, :3],
-                                                               (0, 2, 1)))
+                                  **given)
         return ins, mat
 
     def emission_at(self, prim, u, v, d, mat, emission=None, path=None) -> np.ndarray:
@@ -360,7 +391,7 @@ class HitShader:
         hit = np.flatnonzero(self.emission_programmed[mat])
         out = np.array(emission, np.float64, copy=True)
         ins, _ = self.inputs(prim[hit], u[hit], v[hit], np.asarray(d)[hit],
-                             path=_path_rows(path, hit))
+                             path=_path_rows(path, hit), reads=self.sources(mat[hit]))
         for m in np.unique(mat[hit]):
             sel = np.flatnonzero(mat[hit] == m)
             prog = self.programs[m]
@@ -386,7 +417,8 @@ class HitShader:
         tv = self.tri_vertices[prim].astype(np.float64)
         n = np.cross(tv[:, 1] - tv[:, 0], tv[:, 2] - tv[:, 0])
         n /= np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
-        ins, _ = self.inputs(prim, np.asarray(u), np.asarray(v), -n, path=path)
+        ins, _ = self.inputs(prim, np.asarray(u), np.asarray(v), -n, path=path,
+                             reads=self.sources(mat[self.alpha_programmed[mat]]))
         for m in np.unique(mat):
             if not self.alpha_programmed[m]:
                 continue
@@ -544,7 +576,7 @@ class HitShader:
         n_mat, n_cl = tab.first.shape[0], tab.kind.shape[0]
         ins, _ = self.inputs(prim[hit], u[hit], v[hit], np.asarray(d)[hit],
                              bump=bool(self.bumped[mat[hit]].any()),
-                             path=_path_rows(path, hit))
+                             path=_path_rows(path, hit), reads=self.sources(mat[hit]))
         rows = np.array(mat, np.int32, copy=True)
         kinds, weights, params, textures, firsts, counts, abbes = [], [], [], [], [], [], []
         done = 0

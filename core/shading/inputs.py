@@ -113,8 +113,10 @@ class ShadingInputs:
         lp = np.ascontiguousarray(np.zeros((n, light_path.COUNT)) if lp is None else
                                   np.broadcast_to(lp, (n, light_path.COUNT)), np.float32)
         for k, a in {**vec, **scal, "uv": uv, "attributes": attr, "position": p,
-                     "tangents": tan, "normal_to_world": n2w, "light_path": lp}.items():
-            if not np.all(np.isfinite(a)):
+                     "normal": nrm, "tangents": tan, "normal_to_world": n2w,
+                     "light_path": lp}.items():
+            # the defaults are finite (copies of position and normal, or constants)
+            if (k in optional or k in ("position", "normal")) and not np.all(np.isfinite(a)):
                 raise ValueError(f"ShadingInputs.{k} has a non-finite value")
         bump = int(get("bump_points", 0))
         if bump and n != 3 * bump:
