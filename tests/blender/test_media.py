@@ -71,7 +71,11 @@ def test_absorption_plus_scatter_add_and_a_linked_density_is_named():
     np.testing.assert_allclose(media.sigma_s[0], [0.2, 0.1, 0.05], rtol=1e-6)
     np.testing.assert_allclose(media.sigma_a[0], [0.2, 0.0, 0.4], rtol=1e-6)
     np.testing.assert_allclose(media.anisotropy[0], -0.3, rtol=1e-6)  # the only lobe
+    # The World holds one medium row, so a varying node beside other volume shaders
+    # falls back to the inputs' own values: the reason, then the node and input
     assert result.warnings == [
+        "World 'Haze': a volume node of varying density or colour beside other volume "
+        "shaders (Add / Mix) is not supported on the World; using the inputs' own values",
         f"World 'Haze': input 'Density' of node '{absorb.name}' is linked (textured or "
         f"heterogeneous media are not supported yet); using its own value"]
 
