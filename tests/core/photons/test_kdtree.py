@@ -312,6 +312,31 @@ def test_nearest_compatible_kernel_equals_brute_force(k, rng):
         assert 0 < (want >= 0).sum() < want.size  # some hits, some misses
 
 
+@pytest.mark.parametrize("shape", ["duplicates", "grid"])
+def test_nearest_compatible_kernel_with_distance_ties(shape, rng):
+    """Many points at exactly the query's nearest distance, each with one random side's
+    normal: the kernel's first search of the nearest point alone (k = 1) must pick the
+    tie's lowest index as the k-search does, and where that point's side disagrees the
+    next one in (distance, index) order."""
+    pts = point_set(shape, rng, 343)
+    tree, _, axis = balance(pts)
+    axes = np.eye(3)[rng.integers(0, 3, tree.shape[0])] * rng.choice([-1.0, 1.0],
+                                                                     (tree.shape[0], 1))
+    sites = np.ascontiguousarray(axes[:, None, :])  # one side per point
+    queries = queries_for(pts, rng)
+    normals = np.eye(3)[rng.integers(0, 3, queries.shape[0])] * rng.choice(
+        [-1.0, 1.0], (queries.shape[0], 1))
+    for k in (1, 2, 6):
+        r2 = np.float32(4.0)
+        want = compatible_brute(tree, queries, normals, k, r2, sites, 0.5)
+        out = np.empty(queries.shape[0], np.int64)
+        kdtree.nearest_compatible_kernel(tree, axis, tree_depth(tree.shape[0]), queries,
+                                         normals, query_order(queries), k, r2,
+                                         search_growth(k), sites, 0.5, out)
+        np.testing.assert_array_equal(out, want, err_msg=f"k={k}")
+        assert (want >= 0).sum() > 0 and (want < 0).sum() > 0
+
+
 def test_two_sided_sites_equal_two_entries_per_point(rng):
     """The radiance cache keeps one site per surface point with both sides' normals; it
     used to be a map of 2 N entries (each position twice, one normal each) searched for
