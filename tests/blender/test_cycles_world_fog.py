@@ -34,7 +34,7 @@ def test_varying_world_fog_channel_means_match_cycles(fog_room):
     combined = fog_room["Combined"][..., :3].mean()
     assert fog_room["Volume Direct"][..., :3].mean() > 0.1 * combined  # measured 0.20
     assert fog_room["Volume Indirect"][..., :3].mean() > 0.1 * combined  # measured 0.24
-    assert np.all(np.abs(f["channel"]) < 0.03), f["channel"]  # measured +0.29 %
+    assert np.all(np.abs(f["channel"]) < 0.03), f["channel"]  # measured +0.29 to +0.37 %
 
 
 def test_varying_world_fog_block_means_match_cycles(fog_room):
@@ -45,4 +45,4 @@ def test_varying_world_fog_block_means_match_cycles(fog_room):
     # (measured: sigma at most 0.35 % of a block)
     cycles_sigma = reference["block_sigma"] / ref.block_means(reference["image"])
     assert np.all(3.0 * cycles_sigma[counted] < 0.05), cycles_sigma
-    assert f["worst_block"] < 0.10, f["blocks"]  # measured 3.4 %
+    assert f["worst_block"] < 0.10, f["blocks"]  # measured 3.4 to 3.9 %
