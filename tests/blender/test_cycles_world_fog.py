@@ -34,7 +34,7 @@ def test_varying_world_fog_channel_means_match_cycles(fog_room):
     combined = fog_room["Combined"][..., :3].mean()
     assert fog_room["Volume Direct"][..., :3].mean() > 0.1 * combined  # measured 0.20
     assert fog_room["Volume Indirect"][..., :3].mean() > 0.1 * combined  # measured 0.24
-    assert np.all(np.abs(f["channel"]) < 0.03), f["channel"]  # measured +0.29 to +0.37 %
+    assert np.all(np.abs(f["channel"]) < 0.03), f["channel"]  # measured +0.25 to +0.37 %
 
 
 def test_varying_world_fog_block_means_match_cycles(fog_room):
