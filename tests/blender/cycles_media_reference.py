@@ -149,9 +149,10 @@ PHOTON_MAP_SETTINGS = dict(samples=16, seed=1, global_photons=100_000, caustic_p
 test_cycles_mesh_media.py)."""
 
 
-def render_photon_map(scene) -> dict:
-    """Every pass of a Photon Map render of ``scene`` at PHOTON_MAP_SETTINGS."""
-    scenes.use_photon_map(scene, **PHOTON_MAP_SETTINGS)
+def render_photon_map(scene, **overrides) -> dict:
+    """Every pass of a Photon Map render of ``scene`` at PHOTON_MAP_SETTINGS, with
+    ``overrides`` (settings of the same names) in their place."""
+    scenes.use_photon_map(scene, **dict(PHOTON_MAP_SETTINGS, **overrides))
     return scenes.render_passes(scene)
 
 
