@@ -258,14 +258,15 @@ class Medium:
                 maj[het] = self.fields.segment_majorant(fld[het], o[ray[het]], d[ray[het]],
                                                         t0[het], t1[het])
                 # Each walk's stream is keyed by its segment's origin and direction bits
-                # and its row: the same for the same call whatever runs before or beside it
-                # (photon chunks may run in threads)
+                # and its stretch's place along the ray, never by its place in the batch:
+                # the same whatever runs before or beside it (photon chunks run in
+                # threads, the camera pass's tiles adapt to their time)
                 T = ratio_tracking_batch(self.fields.along(fld[het], maj[het], ha[het], hs[het]),
                                          o[ray[het]],
                                          d[ray[het]], t0[het], t1[het], np.arange(het.size),
                                          ha[het] + hs[het], maj[het], self.seed,
                                          sampling.stream(sampling.MEDIUM_TRANSMITTANCE),
-                                         index=_walk_keys(o[ray[het]], d[ray[het]], het))
+                                         index=_walk_keys(o[ray[het]], d[ray[het]], het - start[ray[het]]))
                 factor = np.ones((s, 3))
                 factor[het] = T
                 _het_before_kernel(start, factor, before, through)
@@ -451,15 +452,29 @@ def _with_box_crossings(ct, cb, cf, o, d, lo, hi):
             np.take_along_axis(cf, order, 1))
 
 
-def _walk_keys(o, d, row) -> np.ndarray:
+def _walk_keys(o, d, stretch) -> np.ndarray:
     """(N,) int64 random-stream keys of N walks: a hash of the float64 bits of their
-    origins, directions (N, 3) and rows (N,) int64."""
+    origins, directions (N, 3) and their stretches' places along their rays (N,) int64,
+    then of each key's rank among equal keys in the batch (identical segments, as in the
+    tests' tiled rays, still get independent walks; a render's rays are all distinct, so
+    its keys do not depend on how its rays are batched)."""
     bits = np.concatenate([np.ascontiguousarray(o, np.float64).view(np.uint64),
                            np.ascontiguousarray(d, np.float64).view(np.uint64),
-                           np.asarray(row, np.int64).astype(np.uint64)[:, None]], axis=1)
+                           np.asarray(stretch, np.int64).astype(np.uint64)[:, None]], axis=1)
     key = np.zeros(bits.shape[0], np.uint64)
+    for k in range(bits.shape[1]):
+        key = _mix(key, bits[:, k])
+    order = np.argsort(key, kind="stable")
+    ranked = key[order]
+    first = np.r_[True, ranked[1:] != ranked[:-1]]
+    rank = np.empty(key.shape[0], np.uint64)
+    at = np.arange(key.shape[0])
+    rank[order] = (at - np.maximum.accumulate(np.where(first, at, 0))).astype(np.uint64)
+    return _mix(key, rank).view(np.int64)
+
+
+def _mix(key, bits) -> np.ndarray:
+    """One round of the walk-key hash: (N,) uint64 keys mixed with (N,) uint64 bits."""
     with np.errstate(over="ignore"):
-        for k in range(bits.shape[1]):
-            key = (key ^ bits[:, k]) * np.uint64(0x9E3779B97F4A7C15)
-            key ^= key >> np.uint64(29)
-    return key.view(np.int64)
+        key = (key ^ bits) * np.uint64(0x9E3779B97F4A7C15)
+        return key ^ (key >> np.uint64(29))
