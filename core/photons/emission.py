@@ -23,7 +23,7 @@ Units are those of lights.py (Cycles'): strength S = colour x power.
   shadow ray from X takes towards the same disk point). Later events inherit it. The
   disk point lies h^2 / t behind the origin, inside the light's ball, and the photon
   takes that stretch's transmittance at its first event (core/photons/tracing.py).
-  Share of a facing disk's rays at distance d = r accepted: ~0.29 (tending to 1 far away).
+  Share of the rays reaching a point at d = r that pass: 0.29 (0.79 at 2 r, 0.96 at 5 r).
 - Spot: directions uniform in the cone of half angle spot_size / 2 about -Z, each photon
   weighted by Cycles' smoothstep falloff.
 - Sun: directions uniform in the sun's cone; for each, a point uniform on the disc of the
