@@ -8,6 +8,22 @@ Units are those of lights.py (Cycles'): strength S = colour x power.
   the sphere's front surface; uniform points on that disk and uniform w give exactly a
   Lambertian sphere of radiance S / (4 pi^2 r^2). Total flux S (point),
   S / (4 pi) x integral of the falloff over the cone (spot).
+- Soft falloff (radius r > 0, not a sphere): Cycles' light, and the shadow rays'
+  (``lights.kernels``), is a disk of radius r and the same radiance L = S / (4 pi^2 r^2)
+  centred on the light's centre c and facing the receiving point X, which sees it under
+  atan(r / d), d = |X - c|, where the rays above (a sphere's field) reach X from
+  asin(r / d). Those rays hold every ray of the facing disk, with density known in ray
+  space (dA_perp dw), so a photon keeps its ray and flux and is tested at its first event
+  X: does its line cross the plane through c perpendicular to X - c within r of c? With
+  h the line's distance from c and a = (X - c) . w the event's distance along the line
+  past the foot of c (its distance t along the ray: the origin is that foot), the
+  crossing lies d h / a from c, so the test is a >= near = h^2 / sqrt(r^2 - h^2): the
+  photon carries nothing when its first event is closer than ``near`` and its flux
+  unchanged beyond (the radiances are equal and its spot falloff, by w, is what the
+  shadow ray from X takes towards the same disk point). Later events inherit it. The
+  disk point lies h^2 / t behind the origin, inside the light's ball, and the photon
+  takes that stretch's transmittance at its first event (core/photons/tracing.py).
+  Share of the rays reaching a point at d = r that pass: 0.29 (0.79 at 2 r, 0.96 at 5 r).
 - Spot: directions uniform in the cone of half angle spot_size / 2 about -Z, each photon
   weighted by Cycles' smoothstep falloff.
 - Sun: directions uniform in the sun's cone; for each, a point uniform on the disc of the
@@ -75,11 +91,19 @@ class Emitted:
     """A batch of photons leaving the lights (float64).
 
     origin: (N, 3) metres; direction: (N, 3) unit; flux: (N, 3) watts per photon.
+    near, lead: (N,) float64 or None, the photons of a soft-falloff light (module doc,
+    "Soft falloff"): a photon's first event (surface hit or collision in a medium) at a
+    distance t < near[i] metres along its first ray carries nothing; at t >= near[i] the
+    point of the facing disk its light comes from lies lead[i] / t metres behind its
+    origin (lead = h^2 m^2, h the line's distance from the light's centre), a stretch
+    whose transmittance the photon takes at that event.
     """
 
     origin: np.ndarray
     direction: np.ndarray
     flux: np.ndarray
+    near: np.ndarray | None = None
+    lead: np.ndarray | None = None
 
 
 def boxes_in_front(targets: Targets, point, normal, slack: float = 0.0) -> np.ndarray:
@@ -247,9 +271,21 @@ def _aim(px, py, pz, tc, tr, tcdf, u0, u1, u2):
     return sampling.to_world(x, y, z, vx / dn, vy / dn, vz / dn)
 
 
+@njit(cache=True, error_model="numpy")
+def facing_disk_near(h2, r2):
+    """The least distance a (metres) past the foot of the light's centre c at which a
+    point X of a line at squared distance h2 from c sees that line cross the disk of
+    squared radius r2 through c facing X: h^2 / sqrt(r^2 - h^2) (module doc, "Soft
+    falloff"); inf when the line misses every such disk (h >= r)."""
+    if h2 >= r2:
+        return np.inf
+    return h2 / np.sqrt(r2 - h2)
+
+
 @njit(cache=True, parallel=True, error_model="numpy")
-def _emit_local(q, u0, u1, u2, u3, u4, inv_n, tc, tr, tp, tcdf, o, d, f):
-    """Point and spot lights (see module doc); aimed when there are targets."""
+def _emit_local(q, u0, u1, u2, u3, u4, inv_n, tc, tr, tp, tcdf, o, d, f, near, lead):
+    """Point and spot lights (see module doc); aimed when there are targets. near, lead
+    (N,): written for a soft-falloff light of radius > 0 (``Emitted``), else left."""
     cx, cy, cz = q[lk.P_POS], q[lk.P_POS + 1], q[lk.P_POS + 2]
     azx, azy, azz = q[lk.P_AZ], q[lk.P_AZ + 1], q[lk.P_AZ + 2]
     radius = q[lk.P_RADIUS]
@@ -284,6 +320,10 @@ def _emit_local(q, u0, u1, u2, u3, u4, inv_n, tc, tr, tp, tcdf, o, d, f):
             ox += radius * (x * tx + y * bx) + lift * dx
             oy += radius * (x * ty + y * by) + lift * dy
             oz += radius * (x * tz + y * bz) + lift * dz
+            if q[lk.P_SPHERE] <= 0.0:
+                h2 = radius * radius * (x * x + y * y)
+                lead[i] = h2
+                near[i] = facing_disk_near(h2, radius * radius)
         o[i, 0], o[i, 1], o[i, 2] = ox, oy, oz
 
 
@@ -506,7 +546,10 @@ def emit(source: Source, light_set: LightSet, emissive: EmissiveTriangles, world
             if tr.size:
                 # Origins spread over a disk of the light's radius: grow the targets by it.
                 tr = tr + light_set.radius[i]
-            _emit_local(q, u0, u1, u2, u3, u4, inv_n, tc, tr, tp, tcdf, o, d, f)
+            near, lead = np.zeros(count), np.zeros(count)
+            _emit_local(q, u0, u1, u2, u3, u4, inv_n, tc, tr, tp, tcdf, o, d, f, near, lead)
+            if light_set.radius[i] > 0 and not light_set.sphere[i]:
+                return Emitted(o, d, f, near, lead)
     return Emitted(o, d, f)
 
 

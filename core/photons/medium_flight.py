@@ -47,7 +47,7 @@ stay far below it)."""
 @njit(cache=True, parallel=True, error_model="numpy")
 def fly_kernel(o, d, flux, pid, n_diff, n_spec, start, t0, t1, sigma_a, sigma_s, g, seed, dims,
                bounce, mode, caustic_apart, store_direct, last, pre, pre_t, pre_s, pre_w,
-               collided, v_store, v_camera, v_pos, v_flux, v_dir, alive, o_new, d_new, f_new):
+               near, collided, v_store, v_camera, v_pos, v_flux, v_dir, alive, o_new, d_new, f_new):
     """One free flight per photon (module doc).
 
     Inputs: o, d (N, 3) float32 origins and unit directions of travel; flux (N, 3)
@@ -59,6 +59,9 @@ def fly_kernel(o, d, flux, pid, n_diff, n_spec, start, t0, t1, sigma_a, sigma_s,
     bounce the wavefront's index; mode MODE_GLOBAL / MODE_CAUSTIC. Heterogeneous stretches
     come tracked already (``pre`` (S,) bool; their delta-tracking flight: pre_t (S,)
     metres from t0, pre_s (S,) bool scattered, pre_w (S, 3) weights; ``flight_through``).
+    near: (N,) float64 metres, or (0,): a soft-falloff light's photons at their first
+    flight (core/photons/emission.py, "Soft falloff"), whose collision closer than near[i]
+    carries nothing (collided, neither stored nor going on).
     Outputs: collided (N,) bool; v_store (N,) bool, a volume photon is stored, v_camera
     (N,) bool, it belongs to the camera rays' map (the rules of the module doc; the
     global emission's map for final-gather rays takes every collision, as the global
@@ -98,6 +101,8 @@ def fly_kernel(o, d, flux, pid, n_diff, n_spec, start, t0, t1, sigma_a, sigma_s,
             flux[i, 2] *= w2
             continue
         collided[i] = True
+        if near.shape[0] and t < near[i]:
+            continue
         dx, dy, dz = np.float64(d[i, 0]), np.float64(d[i, 1]), np.float64(d[i, 2])
         px = np.float64(o[i, 0]) + t * dx
         py = np.float64(o[i, 1]) + t * dy

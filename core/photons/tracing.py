@@ -116,12 +116,15 @@ def gather_bounces(max_bounces: int) -> int:
 
 
 def _fly(medium: _Medium, hits, o, d, f, pid, n_diff, n_spec, seed, map_id, bounce, mode, last,
-         gathered=True):
+         gathered=True, near=None, lead=None):
     """The free flights of one wavefront (core/photons/medium_flight.py): stores its volume
     photons and returns (prim with the collided photons as misses, so the surface kernel
     leaves them, collided (n,) bool, alive, o_new, d_new, f_new of the collided ones);
     the passing photons' flux f is weighted in place. gathered: False when this bounce is
-    past ``gather_bounces`` (its photons go to the camera rays' map only)."""
+    past ``gather_bounces`` (its photons go to the camera rays' map only). near, lead (n,):
+    a soft-falloff light's photons at their first flight (``emission.Emitted``): a
+    collision closer than near carries nothing, and every first event at t >= near takes
+    the transmittance of the lead / t metres behind the origin (``_lead_transmittance``)."""
     n = o.shape[0]
     m = medium.medium
     t_hit = np.where(hits.prim >= 0, hits.t.astype(np.float64), np.inf)
@@ -135,11 +138,41 @@ def _fly(medium: _Medium, hits, o, d, f, pid, n_diff, n_spec, seed, map_id, boun
     medium_flight.fly_kernel(o, d, f, pid, n_diff, n_spec, st.start, st.t0, st.t1,
                              np.ascontiguousarray(st.sigma_a), np.ascontiguousarray(st.sigma_s),
                              st.g, np.int64(seed), dims, np.int64(bounce), mode,
-                             medium.caustic_apart, medium.store_direct, last, *pre, *out)
+                             medium.caustic_apart, medium.store_direct, last, *pre,
+                             np.zeros(0) if near is None else near, *out)
     collided, v_store, v_camera, v_pos, v_flux, v_dir, alive, o_new, d_new, f_new = out
+    if near is not None:
+        # The first event's distance: the collision's (stored or going on), else the
+        # surface hit's; collisions that neither store nor go on carry nothing further.
+        carried = np.flatnonzero(v_store | alive)
+        t_event = t_hit.copy()
+        t_event[collided] = np.inf
+        pos = np.where(v_store[carried, None], v_pos[carried], o_new[carried])
+        t_event[carried] = np.linalg.norm(pos.astype(np.float64) - o[carried], axis=1)
+        j, tr = _lead_transmittance(m, o, d, t_event, near, lead)
+        passing = ~collided[j]
+        f[j[passing]] *= tr[passing]
+        c = j[~passing]
+        v_flux[c] *= tr[~passing].astype(np.float32)
+        f_new[c] *= tr[~passing]
     medium.vstore.add(v_store, v_camera, v_pos, v_flux, v_dir, gathered)
     prim = np.where(collided, -1, hits.prim).astype(hits.prim.dtype)
     return prim, collided, alive, o_new, d_new, f_new
+
+
+def _lead_transmittance(medium: regions.Medium, o, d, t_event, near, lead):
+    """The transmittance of the stretch behind a soft-falloff light's photons (``_fly``):
+    for first events at t_event (n,) metres (inf: none) from origins o along unit d (n, 3),
+    the point of the disk facing the event lies lead / t_event metres behind o
+    (core/photons/emission.py, "Soft falloff"), and Cycles' shadow ray crosses that
+    stretch too. Returns (rows (k,) int64 with such a stretch, transmittance (k, 3))."""
+    j = np.flatnonzero((lead > 0.0) & np.isfinite(t_event) & (t_event >= near)
+                       & (t_event > 0.0))
+    if j.size == 0:
+        return j, np.ones((0, 3))
+    back = lead[j] / t_event[j]
+    dj = d[j].astype(np.float64)
+    return j, medium.transmittance(o[j].astype(np.float64) - back[:, None] * dj, dj, back)
 
 
 def _trace_chunk(prepared: PreparedScene, em: emission.Emitted, pid: np.ndarray, mode: int,
@@ -159,12 +192,15 @@ def _trace_chunk(prepared: PreparedScene, em: emission.Emitted, pid: np.ndarray,
         raise ValueError(f"surface_bounces {surface_bounces} with max_bounces {max_bounces}")
     volume_gather = max_bounces if volume_gather is None else int(volume_gather)
     keep = np.any(em.flux > 0, axis=1)
+    near, lead = em.near, em.lead
     if keep.all():  # the usual case: no boolean indexing (~30 ns per (N, 3) row)
         o, d, f = em.origin.astype(np.float32), em.direction.astype(np.float32), em.flux
     else:
         idx = np.flatnonzero(keep)
         o, d = em.origin[idx].astype(np.float32), em.direction[idx].astype(np.float32)
         f, pid = em.flux[idx], pid[idx]
+        if near is not None:
+            near, lead = near[idx], lead[idx]
     n_diff = np.full(o.shape[0], first_bounces, np.int32)
     n_spec = np.zeros(o.shape[0], np.int32)
     lam = np.zeros(o.shape[0])  # nm; 0 = RGB, until a dispersive surface (scatter.py)
@@ -192,10 +228,15 @@ def _trace_chunk(prepared: PreparedScene, em: emission.Emitted, pid: np.ndarray,
         f2 = np.empty((n, 3))
         surf = prepared.surfaces
         prim = hits.prim
+        first = near if bounce == 0 else None
         if medium is not None:
             prim, collided, v_alive, v_o, v_d, v_f = _fly(
                 medium, hits, o, d, f, pid, n_diff, n_spec, seed, map_id, bounce, mode,
-                bounce == max_bounces, bounce <= volume_gather)
+                bounce == max_bounces, bounce <= volume_gather, first, lead)
+        if first is not None:
+            # A soft-falloff light's photon hitting a surface before ``near`` carries
+            # nothing there (emission.py, "Soft falloff"): it ends as a miss.
+            prim = np.where(hits.t < first, -1, prim).astype(prim.dtype)
         if not shaded:  # the last bounce's volume photons only: nothing goes on
             counters["time_scatter"] += time.perf_counter() - t1
             break
