@@ -24,20 +24,22 @@ from .color import blend, rgb_to_hsv, hsv_to_rgb, rgb_to_hsl, hsl_to_rgb, \
     blackbody_rec709, wavelength_xyz, WAVELENGTH_SCALE
 from .facing import fresnel_node, layer_weight
 from .textures import checker, gradient, white_noise, wave, magic, brick
-from .noise import noise_texture
-from .voronoi import voronoi_texture
+from .noise import noise_texture, noise_texture3_rows, NOISE_FBM, \
+    SCRATCH_ROWS as NOISE_SCRATCH_ROWS
+from .voronoi import voronoi_texture, voronoi_f1_3d_rows, F1, EUCLIDEAN, \
+    SCRATCH_ROWS as VORONOI_SCRATCH_ROWS
 from .images import image_sample, image_projected
 from .normals import bump, normal_map, tangent
 from ..scene.images import ProgramImages
 
 _F = pg.FIRST_OPERAND
-_CHUNK = 256
+_CHUNK = 128  # points a chunk: its registers (n_registers x 1 kB) stay in cache
 
 
 @njit(inline="always", **dict(cache=True, error_model="numpy"))
-def _load_row(r, o, src, idx, i, P, N, Ng, I, back, gen, obj, objn, oloc, orand, ocol, oidx, uv,
-              attr, tan, n2w, oalpha, midx, lp):
-    """Source src (index idx) of row i of the inputs into registers r[o:o + 3]."""
+def _load_row(R, col, o, src, idx, i, P, N, Ng, I, back, gen, obj, objn, oloc, orand, ocol, oidx,
+              uv, attr, tan, n2w, oalpha, midx, lp):
+    """Source src (index idx) of row i of the inputs into registers R[o:o + 3, col]."""
     if src == 0:
         a = P
     elif src == 1:
@@ -59,295 +61,331 @@ def _load_row(r, o, src, idx, i, P, N, Ng, I, back, gen, obj, objn, oloc, orand,
     else:
         a = P  # not used below
     if src == 22:  # SOURCE_LIGHT_PATH, output idx
-        r[o] = lp[i, idx]
-        r[o + 1] = r[o]
-        r[o + 2] = r[o]
+        R[o, col] = lp[i, idx]
+        R[o + 1, col] = R[o, col]
+        R[o + 2, col] = R[o, col]
     elif src == 20 or src == 21:  # SOURCE_OBJECT_ALPHA, SOURCE_MATERIAL_INDEX
-        r[o] = oalpha[i] if src == 20 else midx[i]
-        r[o + 1] = r[o]
-        r[o + 2] = r[o]
+        R[o, col] = oalpha[i] if src == 20 else midx[i]
+        R[o + 1, col] = R[o, col]
+        R[o + 2, col] = R[o, col]
     elif src == 4 or src == 10 or src == 14:
-        r[o] = back[i] if src == 4 else (orand[i] if src == 10 else oidx[i])
-        r[o + 1] = r[o]
-        r[o + 2] = r[o]
+        R[o, col] = back[i] if src == 4 else (orand[i] if src == 10 else oidx[i])
+        R[o + 1, col] = R[o, col]
+        R[o + 2, col] = R[o, col]
     elif src == 8:
         if idx < uv.shape[0]:
-            r[o], r[o + 1] = uv[idx, i, 0], uv[idx, i, 1]
+            R[o, col], R[o + 1, col] = uv[idx, i, 0], uv[idx, i, 1]
         else:
-            r[o], r[o + 1] = 0.0, 0.0
-        r[o + 2] = 0.0
+            R[o, col], R[o + 1, col] = 0.0, 0.0
+        R[o + 2, col] = 0.0
     elif src == 11 or src == 12:
         if idx < attr.shape[0]:
             if src == 11:
-                r[o], r[o + 1], r[o + 2] = attr[idx, i, 0], attr[idx, i, 1], attr[idx, i, 2]
+                for c in range(3):
+                    R[o + c, col] = attr[idx, i, c]
             else:
-                r[o] = r[o + 1] = r[o + 2] = attr[idx, i, 3]
+                R[o, col] = R[o + 1, col] = R[o + 2, col] = attr[idx, i, 3]
         else:
-            r[o] = r[o + 1] = r[o + 2] = 0.0
+            R[o, col] = R[o + 1, col] = R[o + 2, col] = 0.0
     elif src == 15 or src == 16:  # SOURCE_TANGENT, SOURCE_TANGENT_SIGN
         if idx < tan.shape[0]:
             if src == 15:
-                r[o], r[o + 1], r[o + 2] = tan[idx, i, 0], tan[idx, i, 1], tan[idx, i, 2]
+                for c in range(3):
+                    R[o + c, col] = tan[idx, i, c]
             else:
-                r[o] = r[o + 1] = r[o + 2] = tan[idx, i, 3]
+                R[o, col] = R[o + 1, col] = R[o + 2, col] = tan[idx, i, 3]
         else:
-            r[o] = r[o + 1] = r[o + 2] = 0.0
+            R[o, col] = R[o + 1, col] = R[o + 2, col] = 0.0
     elif src == 17:  # SOURCE_NORMAL_TO_WORLD, row idx
-        r[o], r[o + 1], r[o + 2] = n2w[i, idx, 0], n2w[i, idx, 1], n2w[i, idx, 2]
+        R[o, col], R[o + 1, col], R[o + 2, col] = n2w[i, idx, 0], n2w[i, idx, 1], n2w[i, idx, 2]
     else:
-        r[o], r[o + 1], r[o + 2] = a[i, 0], a[i, 1], a[i, 2]
+        R[o, col], R[o + 1, col], R[o + 2, col] = a[i, 0], a[i, 1], a[i, 2]
 
 
 @njit(inline="always", **dict(cache=True, error_model="numpy"))
-def _load_input(r, ins, i, stride, P, N, Ng, I, back, gen, obj, objn, oloc, orand, ocol, oidx,
+def _load_input(R, col, ins, i, stride, P, N, Ng, I, back, gen, obj, objn, oloc, orand, ocol, oidx,
                 uv, attr, tan, n2w, oalpha, midx, lp):
-    """OP_INPUT ins at point i. A bump offset (ins[3] 1 or 2, with stride = the points'
-    count: the offset rows follow them) reads the source at P + w dPdx (or dPdy), w =
-    ins[4] BUMP_WIDTH_UNIT, interpolated linearly from the point to its row at P + dPdx
-    (every input is affine in the barycentrics over a triangle, the normal nearly so)."""
+    """OP_INPUT ins at point i (row i of the inputs) into column col of the registers.
+    A bump offset (ins[3] 1 or 2, with stride = the points' count: the offset rows
+    follow them) reads the source at P + w dPdx (or dPdy), w = ins[4] BUMP_WIDTH_UNIT,
+    interpolated linearly from the point to its row at P + dPdx (every input is affine
+    in the barycentrics over a triangle, the normal nearly so)."""
     src, idx, o = ins[1], ins[2], ins[_F]
     if src == 18 or src == 19:  # SOURCE_BUMP_DPDX / DPDY
         j = i + (1 if src == 18 else 2) * stride
         for c in range(3):
-            r[o + c] = (np.float64(P[j, c]) - np.float64(P[i, c])) if stride > 0 else 0.0
+            R[o + c, col] = (np.float64(P[j, c]) - np.float64(P[i, c])) if stride > 0 else 0.0
         return
-    _load_row(r, o, src, idx, i, P, N, Ng, I, back, gen, obj, objn, oloc, orand, ocol, oidx,
+    _load_row(R, col, o, src, idx, i, P, N, Ng, I, back, gen, obj, objn, oloc, orand, ocol, oidx,
               uv, attr, tan, n2w, oalpha, midx, lp)
     if ins[3] != 0 and stride > 0:
-        x, y, z = r[o], r[o + 1], r[o + 2]
-        _load_row(r, o, src, idx, i + ins[3] * stride, P, N, Ng, I, back, gen, obj, objn,
+        x, y, z = R[o, col], R[o + 1, col], R[o + 2, col]
+        _load_row(R, col, o, src, idx, i + ins[3] * stride, P, N, Ng, I, back, gen, obj, objn,
                   oloc, orand, ocol, oidx, uv, attr, tan, n2w, oalpha, midx, lp)
         w = ins[4] * pg.BUMP_WIDTH_UNIT
-        r[o] = x + w * (r[o] - x)
-        r[o + 1] = y + w * (r[o + 1] - y)
-        r[o + 2] = z + w * (r[o + 2] - z)
+        R[o, col] = x + w * (R[o, col] - x)
+        R[o + 1, col] = y + w * (R[o + 1, col] - y)
+        R[o + 2, col] = z + w * (R[o + 2, col] - z)
 
 
 @njit(inline="always", **dict(cache=True, error_model="numpy"))
-def _run(r, ins, tables, im_bytes, im_shorts, im_floats, im_tiles, im_first, im_count, px):
-    """Execute one instruction (not OP_INPUT) on register file r (float64); the im_*
-    arrays are ``ProgramImages``' fields, px a (8,) float64 scratch."""
+def _run(R, col, ins, tables, im_bytes, im_shorts, im_floats, im_tiles, im_first, im_count, px):
+    """Execute one instruction (not OP_INPUT) at one point: column col of the registers R
+    (n_registers, chunk) float64; the im_* arrays are ``ProgramImages``' fields, px a (8,)
+    float64 scratch."""
     op = ins[0]
     a = ins[_F:]
     if op == pg.OP_MATH:
-        v = math_op(ins[1], r[a[0]], r[a[1]], r[a[2]])
-        r[a[3]] = clamp(v, 0.0, 1.0) if ins[2] else v
+        v = math_op(ins[1], R[a[0], col], R[a[1], col], R[a[2], col])
+        R[a[3], col] = clamp(v, 0.0, 1.0) if ins[2] else v
     elif op == pg.OP_VECTOR_MATH:
-        x, y, z, s = vector_math(ins[1], r[a[0]], r[a[0] + 1], r[a[0] + 2], r[a[1]],
-                                 r[a[1] + 1], r[a[1] + 2], r[a[2]], r[a[2] + 1], r[a[2] + 2],
-                                 r[a[3]])
-        r[a[4]], r[a[4] + 1], r[a[4] + 2], r[a[5]] = x, y, z, s
+        x, y, z, s = vector_math(ins[1], R[a[0], col], R[a[0] + 1, col], R[a[0] + 2, col],
+                                 R[a[1], col], R[a[1] + 1, col], R[a[1] + 2, col], R[a[2], col],
+                                 R[a[2] + 1, col], R[a[2] + 2, col], R[a[3], col])
+        R[a[4], col], R[a[4] + 1, col], R[a[4] + 2, col], R[a[5], col] = x, y, z, s
     elif op == pg.OP_MIX_FLOAT:
-        t = clamp(r[a[0]], 0.0, 1.0) if ins[1] else r[a[0]]
-        r[a[3]] = r[a[1]] * (1.0 - t) + r[a[2]] * t
+        t = clamp(R[a[0], col], 0.0, 1.0) if ins[1] else R[a[0], col]
+        R[a[3], col] = R[a[1], col] * (1.0 - t) + R[a[2], col] * t
     elif op == pg.OP_MIX_VECTOR or op == pg.OP_MIX_VECTOR_NONUNIFORM:
         for c in range(3):
-            t = r[a[0] + c] if op == pg.OP_MIX_VECTOR_NONUNIFORM else r[a[0]]
+            t = R[a[0] + c, col] if op == pg.OP_MIX_VECTOR_NONUNIFORM else R[a[0], col]
             if ins[1]:
                 t = clamp(t, 0.0, 1.0)
-            r[a[3] + c] = r[a[1] + c] * (1.0 - t) + r[a[2] + c] * t
+            R[a[3] + c, col] = R[a[1] + c, col] * (1.0 - t) + R[a[2] + c, col] * t
     elif op == pg.OP_MIX_COLOR:
-        t = clamp(r[a[0]], 0.0, 1.0) if ins[2] else r[a[0]]
-        x, y, z = blend(ins[1], t, r[a[1]], r[a[1] + 1], r[a[1] + 2], r[a[2]], r[a[2] + 1],
-                        r[a[2] + 2])
+        t = clamp(R[a[0], col], 0.0, 1.0) if ins[2] else R[a[0], col]
+        x, y, z = blend(ins[1], t, R[a[1], col], R[a[1] + 1, col], R[a[1] + 2, col], R[a[2], col],
+                        R[a[2] + 1, col], R[a[2] + 2, col])
         if ins[3]:
             x, y, z = clamp(x, 0.0, 1.0), clamp(y, 0.0, 1.0), clamp(z, 0.0, 1.0)
-        r[a[3]], r[a[3] + 1], r[a[3] + 2] = x, y, z
+        R[a[3], col], R[a[3] + 1, col], R[a[3] + 2, col] = x, y, z
     elif op == pg.OP_MAP_RANGE:
-        r[a[6]] = map_range(ins[1], ins[2], r[a[0]], r[a[1]], r[a[2]], r[a[3]], r[a[4]],
-                            r[a[5]])
+        R[a[6], col] = map_range(ins[1], ins[2], R[a[0], col], R[a[1], col], R[a[2], col],
+                                 R[a[3], col], R[a[4], col], R[a[5], col])
     elif op == pg.OP_VECTOR_MAP_RANGE:
         for c in range(3):
-            r[a[6] + c] = vector_map_range_1(ins[1], ins[2], r[a[0] + c], r[a[1] + c],
-                                             r[a[2] + c], r[a[3] + c], r[a[4] + c],
-                                             r[a[5] + c])
+            R[a[6] + c, col] = vector_map_range_1(ins[1], ins[2], R[a[0] + c, col],
+                                                  R[a[1] + c, col], R[a[2] + c, col],
+                                                  R[a[3] + c, col], R[a[4] + c, col],
+                                                  R[a[5] + c, col])
     elif op == pg.OP_CLAMP:
-        lo, hi = r[a[1]], r[a[2]]
+        lo, hi = R[a[1], col], R[a[2], col]
         if ins[1] == 1 and lo > hi:
             lo, hi = hi, lo
-        r[a[3]] = clamp(r[a[0]], lo, hi)
+        R[a[3], col] = clamp(R[a[0], col], lo, hi)
     elif op == pg.OP_SEPARATE:
-        x, y, z = r[a[0]], r[a[0] + 1], r[a[0] + 2]
+        x, y, z = R[a[0], col], R[a[0] + 1, col], R[a[0] + 2, col]
         if ins[1] == 1:
             x, y, z = rgb_to_hsv(x, y, z)
         elif ins[1] == 2:
             x, y, z = rgb_to_hsl(x, y, z)
-        r[a[1]], r[a[2]], r[a[3]] = x, y, z
+        R[a[1], col], R[a[2], col], R[a[3], col] = x, y, z
     elif op == pg.OP_COMBINE:
-        x, y, z = r[a[0]], r[a[1]], r[a[2]]
+        x, y, z = R[a[0], col], R[a[1], col], R[a[2], col]
         if ins[1] == 1:
             x, y, z = hsv_to_rgb(x, y, z)
         elif ins[1] == 2:
             x, y, z = hsl_to_rgb(x, y, z)
-        r[a[3]], r[a[3] + 1], r[a[3] + 2] = x, y, z
+        R[a[3], col], R[a[3] + 1, col], R[a[3] + 2, col] = x, y, z
     elif op == pg.OP_RAMP:
-        f = r[a[0]]
+        f = R[a[0], col]
         for c in range(3):
-            r[a[1] + c] = ramp_lookup(tables, ins[1], ins[2], f, ins[3] != 0, c)
-        r[a[2]] = ramp_lookup(tables, ins[1], ins[2], f, ins[3] != 0, 3)
+            R[a[1] + c, col] = ramp_lookup(tables, ins[1], ins[2], f, ins[3] != 0, c)
+        R[a[2], col] = ramp_lookup(tables, ins[1], ins[2], f, ins[3] != 0, 3)
     elif op == pg.OP_MAPPING:
-        x, y, z = mapping(ins[1], r[a[0]], r[a[0] + 1], r[a[0] + 2], r[a[1]], r[a[1] + 1],
-                          r[a[1] + 2], r[a[2]], r[a[2] + 1], r[a[2] + 2], r[a[3]],
-                          r[a[3] + 1], r[a[3] + 2])
-        r[a[4]], r[a[4] + 1], r[a[4] + 2] = x, y, z
+        x, y, z = mapping(ins[1], R[a[0], col], R[a[0] + 1, col], R[a[0] + 2, col], R[a[1], col],
+                          R[a[1] + 1, col], R[a[1] + 2, col], R[a[2], col], R[a[2] + 1, col],
+                          R[a[2] + 2, col], R[a[3], col], R[a[3] + 1, col], R[a[3] + 2, col])
+        R[a[4], col], R[a[4] + 1, col], R[a[4] + 2, col] = x, y, z
     elif op == pg.OP_INVERT:
-        f = r[a[0]]
+        f = R[a[0], col]
         for c in range(3):
-            x = r[a[1] + c]
-            r[a[2] + c] = f * (1.0 - x) + (1.0 - f) * x
+            x = R[a[1] + c, col]
+            R[a[2] + c, col] = f * (1.0 - x) + (1.0 - f) * x
     elif op == pg.OP_GAMMA:
-        g = r[a[1]]
+        g = R[a[1], col]
         for c in range(3):
-            x = r[a[0] + c]
+            x = R[a[0] + c, col]
             if g == 0.0:
                 x = 1.0
             elif x > 0.0:
                 x = x ** g
-            r[a[2] + c] = x
+            R[a[2] + c, col] = x
     elif op == pg.OP_HSV:
-        fac = r[a[3]]
-        cr, cg, cb = r[a[4]], r[a[4] + 1], r[a[4] + 2]
+        fac = R[a[3], col]
+        cr, cg, cb = R[a[4], col], R[a[4] + 1, col], R[a[4] + 2, col]
         h, s, v = rgb_to_hsv(cr, cg, cb)
-        h = h + r[a[0]] + 0.5
+        h = h + R[a[0], col] + 0.5
         h = h - math.floor(h)
-        s = clamp(s * r[a[1]], 0.0, 1.0)
-        v *= r[a[2]]
+        s = clamp(s * R[a[1], col], 0.0, 1.0)
+        v *= R[a[2], col]
         x, y, z = hsv_to_rgb(h, s, v)
-        r[a[5]] = max(fac * x + (1.0 - fac) * cr, 0.0)
-        r[a[5] + 1] = max(fac * y + (1.0 - fac) * cg, 0.0)
-        r[a[5] + 2] = max(fac * z + (1.0 - fac) * cb, 0.0)
+        R[a[5], col] = max(fac * x + (1.0 - fac) * cr, 0.0)
+        R[a[5] + 1, col] = max(fac * y + (1.0 - fac) * cg, 0.0)
+        R[a[5] + 2, col] = max(fac * z + (1.0 - fac) * cb, 0.0)
     elif op == pg.OP_BRIGHT_CONTRAST:
-        ka = 1.0 + r[a[2]]
-        kb = r[a[1]] - r[a[2]] * 0.5
+        ka = 1.0 + R[a[2], col]
+        kb = R[a[1], col] - R[a[2], col] * 0.5
         for c in range(3):
-            r[a[3] + c] = max(ka * r[a[0] + c] + kb, 0.0)
+            R[a[3] + c, col] = max(ka * R[a[0] + c, col] + kb, 0.0)
     elif op == pg.OP_RGB_TO_BW:
-        r[a[2]] = (r[a[0]] * r[a[1]] + r[a[0] + 1] * r[a[1] + 1]
-                   + r[a[0] + 2] * r[a[1] + 2])
+        R[a[2], col] = (R[a[0], col] * R[a[1], col] + R[a[0] + 1, col] * R[a[1] + 1, col]
+                        + R[a[0] + 2, col] * R[a[1] + 2, col])
     elif op == pg.OP_CHECKER:
-        s = r[a[3]]
-        f = checker(r[a[0]] * s, r[a[0] + 1] * s, r[a[0] + 2] * s)
+        s = R[a[3], col]
+        f = checker(R[a[0], col] * s, R[a[0] + 1, col] * s, R[a[0] + 2, col] * s)
         src = a[1] if f == 1.0 else a[2]
-        r[a[4]], r[a[4] + 1], r[a[4] + 2] = r[src], r[src + 1], r[src + 2]
-        r[a[5]] = f
-    elif op == pg.OP_GRADIENT:
-        f = gradient(ins[1], r[a[0]], r[a[0] + 1], r[a[0] + 2])
-        r[a[1]] = r[a[1] + 1] = r[a[1] + 2] = f
-        r[a[2]] = f
-    elif op == pg.OP_WHITE_NOISE:
-        v, x, y, z = white_noise(ins[1], r[a[0]], r[a[0] + 1], r[a[0] + 2], r[a[1]])
-        r[a[2]] = v
-        r[a[3]], r[a[3] + 1], r[a[3] + 2] = x, y, z
-    elif op == pg.OP_NOISE:
-        v, x, y, z = noise_texture(r[a[0]], r[a[0] + 1], r[a[0] + 2], r[a[1]], ins[1],
-                                   r[a[2]], r[a[3]], r[a[4]], r[a[5]], r[a[6]], r[a[7]],
-                                   r[a[8]], ins[2], ins[3] != 0, ins[4] != 0)
-        r[a[9]] = v
-        r[a[10]], r[a[10] + 1], r[a[10] + 2] = x, y, z
-    elif op == pg.OP_VORONOI:
-        scale = r[a[2]]
-        d, cr, cg, cb, px, py, pz, pw = voronoi_texture(
-            r[a[0]], r[a[0] + 1], r[a[0] + 2], r[a[1]], ins[1], ins[2], ins[3],
-            (ins[4] & 1) != 0, scale, r[a[3]], r[a[4]], r[a[5]], r[a[6]], r[a[7]], r[a[8]],
-            (ins[4] & 2) != 0)
-        r[a[9]] = d
-        r[a[10]], r[a[10] + 1], r[a[10] + 2] = cr, cg, cb
-        r[a[11]], r[a[11] + 1], r[a[11] + 2] = px, py, pz
-        r[a[12]] = pw
-    elif op == pg.OP_WAVE:
-        s = r[a[1]]
-        f = wave(ins[1], ins[2], ins[3], ins[4], r[a[0]] * s, r[a[0] + 1] * s, r[a[0] + 2] * s,
-                 r[a[2]], r[a[3]], r[a[4]], r[a[5]], r[a[6]])
-        r[a[7]] = r[a[7] + 1] = r[a[7] + 2] = f
-        r[a[8]] = f
-    elif op == pg.OP_MAGIC:
-        x, y, z = magic(r[a[0]], r[a[0] + 1], r[a[0] + 2], r[a[1]], ins[1], r[a[2]])
-        r[a[3]], r[a[3] + 1], r[a[3] + 2] = x, y, z
-        r[a[4]] = (x + y + z) / 3.0
-    elif op == pg.OP_BRICK:
-        s = r[a[4]]
-        tint, f = brick(r[a[0]] * s, r[a[0] + 1] * s, r[a[5]], r[a[6]], r[a[7]], r[a[8]],
-                        r[a[9]], r[a[10]], ins[1], r[a[11]], ins[2])
         for c in range(3):
-            c1 = r[a[1] + c]
+            R[a[4] + c, col] = R[src + c, col]
+        R[a[5], col] = f
+    elif op == pg.OP_GRADIENT:
+        f = gradient(ins[1], R[a[0], col], R[a[0] + 1, col], R[a[0] + 2, col])
+        R[a[1], col] = R[a[1] + 1, col] = R[a[1] + 2, col] = f
+        R[a[2], col] = f
+    elif op == pg.OP_WHITE_NOISE:
+        v, x, y, z = white_noise(ins[1], R[a[0], col], R[a[0] + 1, col], R[a[0] + 2, col],
+                                 R[a[1], col])
+        R[a[2], col] = v
+        R[a[3], col], R[a[3] + 1, col], R[a[3] + 2, col] = x, y, z
+    elif op == pg.OP_NOISE:
+        v, x, y, z = noise_texture(R[a[0], col], R[a[0] + 1, col], R[a[0] + 2, col], R[a[1], col],
+                                   ins[1], R[a[2], col], R[a[3], col], R[a[4], col], R[a[5], col],
+                                   R[a[6], col], R[a[7], col], R[a[8], col], ins[2], ins[3] != 0,
+                                   ins[4] != 0)
+        R[a[9], col] = v
+        R[a[10], col], R[a[10] + 1, col], R[a[10] + 2, col] = x, y, z
+    elif op == pg.OP_VORONOI:
+        scale = R[a[2], col]
+        d, cr, cg, cb, px, py, pz, pw = voronoi_texture(R[a[0], col], R[a[0] + 1, col],
+                                                        R[a[0] + 2, col], R[a[1], col], ins[1],
+                                                        ins[2], ins[3], (ins[4] & 1) != 0, scale,
+                                                        R[a[3], col], R[a[4], col], R[a[5], col],
+                                                        R[a[6], col], R[a[7], col], R[a[8], col],
+                                                        (ins[4] & 2) != 0)
+        R[a[9], col] = d
+        R[a[10], col], R[a[10] + 1, col], R[a[10] + 2, col] = cr, cg, cb
+        R[a[11], col], R[a[11] + 1, col], R[a[11] + 2, col] = px, py, pz
+        R[a[12], col] = pw
+    elif op == pg.OP_WAVE:
+        s = R[a[1], col]
+        f = wave(ins[1], ins[2], ins[3], ins[4], R[a[0], col] * s, R[a[0] + 1, col] * s,
+                 R[a[0] + 2, col] * s, R[a[2], col], R[a[3], col], R[a[4], col], R[a[5], col],
+                 R[a[6], col])
+        R[a[7], col] = R[a[7] + 1, col] = R[a[7] + 2, col] = f
+        R[a[8], col] = f
+    elif op == pg.OP_MAGIC:
+        x, y, z = magic(R[a[0], col], R[a[0] + 1, col], R[a[0] + 2, col], R[a[1], col], ins[1],
+                        R[a[2], col])
+        R[a[3], col], R[a[3] + 1, col], R[a[3] + 2, col] = x, y, z
+        R[a[4], col] = (x + y + z) / 3.0
+    elif op == pg.OP_BRICK:
+        s = R[a[4], col]
+        tint, f = brick(R[a[0], col] * s, R[a[0] + 1, col] * s, R[a[5], col], R[a[6], col],
+                        R[a[7], col], R[a[8], col], R[a[9], col], R[a[10], col], ins[1],
+                        R[a[11], col], ins[2])
+        for c in range(3):
+            c1 = R[a[1] + c, col]
             if f != 1.0:
-                c1 = (1.0 - tint) * c1 + tint * r[a[2] + c]
-            r[a[12] + c] = c1 * (1.0 - f) + r[a[3] + c] * f
-        r[a[13]] = f
+                c1 = (1.0 - tint) * c1 + tint * R[a[2] + c, col]
+            R[a[12] + c, col] = c1 * (1.0 - f) + R[a[3] + c, col] * f
+        R[a[13], col] = f
     elif op == pg.OP_BLACKBODY:
-        x, y, z = blackbody_rec709(r[a[0]])
+        x, y, z = blackbody_rec709(R[a[0], col])
         for c in range(3):  # row c of the Rec.709 -> scene linear matrix is operand 1 + c
             m = a[1 + c]
-            r[a[4] + c] = max(r[m] * x + r[m + 1] * y + r[m + 2] * z, 0.0)
+            R[a[4] + c, col] = max(R[m, col] * x + R[m + 1, col] * y + R[m + 2, col] * z, 0.0)
     elif op == pg.OP_CURVES:
-        fac = r[a[0]]
-        lo, hi = r[a[2]], r[a[3]]
+        fac = R[a[0], col]
+        lo, hi = R[a[2], col], R[a[3], col]
         for c in range(3):
-            v = r[a[1] + c]
+            v = R[a[1] + c, col]
             t = (v - lo) / (hi - lo)
             mapped = curve_lookup(tables, ins[1], ins[2], t, c) if ins[3] else \
                 ramp_lookup(tables, ins[1], ins[2], t, True, c)
-            r[a[4] + c] = (1.0 - fac) * v + fac * mapped
+            R[a[4] + c, col] = (1.0 - fac) * v + fac * mapped
     elif op == pg.OP_FLOAT_CURVE:
-        fac = r[a[0]]
-        v = r[a[1]]
-        t = (v - r[a[2]]) / (r[a[3]] - r[a[2]])
+        fac = R[a[0], col]
+        v = R[a[1], col]
+        t = (v - R[a[2], col]) / (R[a[3], col] - R[a[2], col])
         mapped = curve_lookup(tables, ins[1], ins[2], t, 0) if ins[3] else \
             ramp_lookup(tables, ins[1], ins[2], t, True, 0)
-        r[a[4]] = (1.0 - fac) * v + fac * mapped
+        R[a[4], col] = (1.0 - fac) * v + fac * mapped
     elif op == pg.OP_IMAGE:
         image_sample(im_bytes, im_shorts, im_floats, im_tiles, im_first, im_count, ins[1],
-                     r[a[0]], r[a[0] + 1], ins[2], ins[3], ins[4] != 0, px)
-        r[a[1]], r[a[1] + 1], r[a[1] + 2], r[a[2]] = px[0], px[1], px[2], px[3]
+                     R[a[0], col], R[a[0] + 1, col], ins[2], ins[3], ins[4] != 0, px)
+        R[a[1], col], R[a[1] + 1, col], R[a[1] + 2, col], R[a[2], col] = px[0], px[1], px[2], px[3]
     elif op == pg.OP_IMAGE_PROJECTED:
         image_projected(im_bytes, im_shorts, im_floats, im_tiles, im_first, im_count, ins[1],
-                        r[a[0]], r[a[0] + 1], r[a[0] + 2], r[a[1]], r[a[1] + 1], r[a[1] + 2],
-                        r[a[2]], ins[2], ins[3], (ins[4] & 1) != 0, ins[4] >> 1, px[:4],
-                        px[4:])
-        r[a[3]], r[a[3] + 1], r[a[3] + 2], r[a[4]] = px[0], px[1], px[2], px[3]
+                        R[a[0], col], R[a[0] + 1, col], R[a[0] + 2, col], R[a[1], col],
+                        R[a[1] + 1, col], R[a[1] + 2, col], R[a[2], col], ins[2], ins[3],
+                        (ins[4] & 1) != 0, ins[4] >> 1, px[:4], px[4:])
+        R[a[3], col], R[a[3] + 1, col], R[a[3] + 2, col], R[a[4], col] = px[0], px[1], px[2], px[3]
     elif op == pg.OP_FRESNEL or op == pg.OP_LAYER_WEIGHT:
-        cosi = (r[a[1]] * r[a[2]] + r[a[1] + 1] * r[a[2] + 1]
-                + r[a[1] + 2] * r[a[2] + 2])
-        back = r[a[3]] != 0.0
+        cosi = (R[a[1], col] * R[a[2], col] + R[a[1] + 1, col] * R[a[2] + 1, col]
+                + R[a[1] + 2, col] * R[a[2] + 2, col])
+        back = R[a[3], col] != 0.0
         if op == pg.OP_FRESNEL:
-            r[a[4]] = fresnel_node(r[a[0]], cosi, back)
+            R[a[4], col] = fresnel_node(R[a[0], col], cosi, back)
         else:
-            r[a[4]], r[a[5]] = layer_weight(r[a[0]], cosi, back)
+            R[a[4], col], R[a[5], col] = layer_weight(R[a[0], col], cosi, back)
     elif op == pg.OP_TRANSFORM:
-        x, y, z = r[a[0]], r[a[0] + 1], r[a[0] + 2]
+        x, y, z = R[a[0], col], R[a[0] + 1, col], R[a[0] + 2, col]
         w = 1.0
         if ins[1] == 1:
             m = a[7]
-            w = r[m] * x + r[m + 1] * y + r[m + 2] * z + r[a[8]]
+            w = R[m, col] * x + R[m + 1, col] * y + R[m + 2, col] * z + R[a[8], col]
             w = 1.0 / w if w != 0.0 else 0.0
         for c in range(3):
             m = a[1 + 2 * c]
-            r[a[9] + c] = (r[m] * x + r[m + 1] * y + r[m + 2] * z + r[a[2 + 2 * c]]) * w
+            R[a[9] + c, col] = (R[m, col] * x + R[m + 1, col] * y + R[m + 2, col] * z
+                                + R[a[2 + 2 * c], col]) * w
     elif op == pg.OP_WAVELENGTH:
-        x, y, z = wavelength_xyz(r[a[0]])
+        x, y, z = wavelength_xyz(R[a[0], col])
         for c in range(3):  # row c of the XYZ -> scene linear matrix is operand 1 + c
             m = a[1 + c]
-            r[a[4] + c] = max((r[m] * x + r[m + 1] * y + r[m + 2] * z) * WAVELENGTH_SCALE,
-                              0.0)
+            R[a[4] + c, col] = max((R[m, col] * x + R[m + 1, col] * y + R[m + 2, col] * z)
+                                   * WAVELENGTH_SCALE, 0.0)
     elif op == pg.OP_NORMAL_MAP:
         c, t, n, m0, m1, m2 = a[0], a[2], a[4], a[6], a[7], a[8]
-        x, y, z = normal_map(ins[1], ins[2], r[c], r[c + 1], r[c + 2], r[a[1]], r[t], r[t + 1],
-                             r[t + 2], r[a[3]], r[n], r[n + 1], r[n + 2], r[a[5]], r[m0],
-                             r[m0 + 1], r[m0 + 2], r[m1], r[m1 + 1], r[m1 + 2], r[m2],
-                             r[m2 + 1], r[m2 + 2])
-        r[a[9]], r[a[9] + 1], r[a[9] + 2] = x, y, z
+        x, y, z = normal_map(ins[1], ins[2], R[c, col], R[c + 1, col], R[c + 2, col], R[a[1], col],
+                             R[t, col], R[t + 1, col], R[t + 2, col], R[a[3], col], R[n, col],
+                             R[n + 1, col], R[n + 2, col], R[a[5], col], R[m0, col],
+                             R[m0 + 1, col], R[m0 + 2, col], R[m1, col], R[m1 + 1, col],
+                             R[m1 + 2, col], R[m2, col], R[m2 + 1, col], R[m2 + 2, col])
+        R[a[9], col], R[a[9] + 1, col], R[a[9] + 2, col] = x, y, z
     elif op == pg.OP_BUMP:
         n, dx, dy = a[6], a[7], a[8]
-        x, y, z = bump(ins[1] != 0, r[a[0]], r[a[1]], r[a[2]], r[a[3]], r[a[4]], r[a[5]],
-                       r[n], r[n + 1], r[n + 2], r[dx], r[dx + 1], r[dx + 2], r[dy],
-                       r[dy + 1], r[dy + 2])
-        r[a[9]], r[a[9] + 1], r[a[9] + 2] = x, y, z
+        x, y, z = bump(ins[1] != 0, R[a[0], col], R[a[1], col], R[a[2], col], R[a[3], col],
+                       R[a[4], col], R[a[5], col], R[n, col], R[n + 1, col], R[n + 2, col],
+                       R[dx, col], R[dx + 1, col], R[dx + 2, col], R[dy, col], R[dy + 1, col],
+                       R[dy + 2, col])
+        R[a[9], col], R[a[9] + 1, col], R[a[9] + 2, col] = x, y, z
     elif op == pg.OP_TANGENT:
         v, m0, m1, m2, n = a[0], a[1], a[2], a[3], a[4]
-        x, y, z = tangent(ins[1], r[v], r[v + 1], r[v + 2], r[m0], r[m0 + 1], r[m0 + 2],
-                          r[m1], r[m1 + 1], r[m1 + 2], r[m2], r[m2 + 1], r[m2 + 2], r[n],
-                          r[n + 1], r[n + 2])
-        r[a[5]], r[a[5] + 1], r[a[5] + 2] = x, y, z
+        x, y, z = tangent(ins[1], R[v, col], R[v + 1, col], R[v + 2, col], R[m0, col],
+                          R[m0 + 1, col], R[m0 + 2, col], R[m1, col], R[m1 + 1, col],
+                          R[m1 + 2, col], R[m2, col], R[m2 + 1, col], R[m2 + 2, col], R[n, col],
+                          R[n + 1, col], R[n + 2, col])
+        R[a[5], col], R[a[5] + 1, col], R[a[5] + 2, col] = x, y, z
+
+
+@njit(**dict(cache=True, error_model="numpy"))
+def _noise_rows(ins, k):
+    """OP_NOISE ins runs over the batch (``noise_texture3_rows``): a 3-D fBm whose
+    scale, detail, roughness, lacunarity and distortion are constants (registers < k)."""
+    a = ins[_F:]
+    return (ins[1] == 3 and ins[2] == NOISE_FBM and a[2] < k and a[3] < k and a[4] < k
+            and a[5] < k and a[8] < k)
+
+
+@njit(**dict(cache=True, error_model="numpy"))
+def _voronoi_rows(ins, k):
+    """OP_VORONOI ins runs over the batch (``voronoi_f1_3d_rows``): a 3-D Euclidean F1
+    with PCG feature points whose scale, detail, roughness, lacunarity and randomness
+    are constants (registers < k)."""
+    a = ins[_F:]
+    return (ins[1] == 3 and ins[2] == F1 and ins[3] == EUCLIDEAN and (ins[4] & 2) == 0
+            and a[2] < k and a[3] < k and a[4] < k and a[5] < k and a[8] < k)
 
 
 @njit(parallel=True, **dict(cache=True, error_model="numpy"))
@@ -358,26 +396,55 @@ def evaluate_kernel(instructions, constants, tables, n_registers, outputs, P, N,
     """Run the program on every point: out[i, o] = register outputs[o, 0] of point i.
     (N, O) float32 ``out``; every other array as ``ShadingInputs`` / ``ShaderProgram`` /
     ``ProgramImages`` (im_*); stride ``ShadingInputs.bump_points``; lp
-    ``ShadingInputs.light_path``."""
+    ``ShadingInputs.light_path``.
+
+    Instruction-major over chunks of points: each instruction runs over the chunk's
+    points before the next (registers (n_registers, chunk), one column a point), so its
+    opcode's branch is taken alike at every point, and the Noise Texture's Perlin
+    evaluations and the Voronoi Texture's cells vectorise over the chunk
+    (``noise_texture3_rows``, ``voronoi_f1_3d_rows``). A point's values do
+    not depend on the others': bit for bit the point-by-point evaluation."""
     n = out.shape[0]
     k = constants.shape[0]
     n_chunks = (n + _CHUNK - 1) // _CHUNK
     for c in prange(n_chunks):
-        r = np.zeros(n_registers, np.float64)
+        lo = c * _CHUNK
+        m = min(n, lo + _CHUNK) - lo
+        R = np.zeros((n_registers, _CHUNK), np.float64)
+        S = np.empty((max(NOISE_SCRATCH_ROWS, VORONOI_SCRATCH_ROWS), _CHUNK), np.float64)
         px = np.zeros(8, np.float64)
-        for i in range(c * _CHUNK, min(n, (c + 1) * _CHUNK)):
-            for j in range(k):
-                r[j] = constants[j]
-            for s in range(instructions.shape[0]):
-                ins = instructions[s]
-                if ins[0] == pg.OP_INPUT:
-                    _load_input(r, ins, i, stride, P, N, Ng, I, back, gen, obj, objn, oloc,
-                                orand, ocol, oidx, uv, attr, tan, n2w, oalpha, midx, lp)
-                else:
-                    _run(r, ins, tables, im_bytes, im_shorts, im_floats, im_tiles,
+        for j in range(k):
+            for col in range(m):
+                R[j, col] = constants[j]
+        for s in range(instructions.shape[0]):
+            ins = instructions[s]
+            a = ins[_F:]
+            if ins[0] == pg.OP_INPUT:
+                for col in range(m):
+                    _load_input(R, col, ins, lo + col, stride, P, N, Ng, I, back, gen, obj,
+                                objn, oloc, orand, ocol, oidx, uv, attr, tan, n2w, oalpha,
+                                midx, lp)
+            elif ins[0] == pg.OP_NOISE and _noise_rows(ins, k):
+                noise_texture3_rows(R[a[0]], R[a[0] + 1], R[a[0] + 2], m, R[a[2], 0],
+                                    R[a[3], 0], R[a[4], 0], R[a[5], 0], R[a[8], 0],
+                                    ins[3] != 0, ins[4] != 0, R[a[9]], R[a[10] + 1],
+                                    R[a[10] + 2], S)
+                for col in range(m):
+                    R[a[10], col] = R[a[9], col]
+            elif ins[0] == pg.OP_VORONOI and _voronoi_rows(ins, k):
+                voronoi_f1_3d_rows(R[a[0]], R[a[0] + 1], R[a[0] + 2], m, R[a[2], 0],
+                                   R[a[3], 0], R[a[4], 0], R[a[5], 0], R[a[8], 0],
+                                   (ins[4] & 1) != 0, R[a[9]], R[a[10]], R[a[10] + 1],
+                                   R[a[10] + 2], R[a[11]], R[a[11] + 1], R[a[11] + 2],
+                                   R[a[12]], S)
+            else:
+                for col in range(m):
+                    _run(R, col, ins, tables, im_bytes, im_shorts, im_floats, im_tiles,
                          im_first, im_count, px)
-            for o in range(outputs.shape[0]):
-                out[i, o] = r[outputs[o, 0]]
+        for o in range(outputs.shape[0]):
+            reg = outputs[o, 0]
+            for col in range(m):
+                out[lo + col, o] = R[reg, col]
 
 
 _NO_IMAGES = ProgramImages.empty()

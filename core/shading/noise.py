@@ -105,7 +105,7 @@ def perlin_2d(x, y):
                    + _grad2(hash_uint2(X + 1, Y + 1), fx - 1.0, fy - 1.0) * u))
 
 
-@njit(**_JIT)
+@njit(inline="always", **_JIT)
 def _perlin_3d_w(X, Y, Z, fx, fy, fz, u, v, w):
     x1 = 1.0 - u
     y1 = 1.0 - v
@@ -122,7 +122,8 @@ def _perlin_3d_w(X, Y, Z, fx, fy, fz, u, v, w):
             + w * (y1 * (v4 * x1 + v5 * u) + v * (v6 * x1 + v7 * u)))
 
 
-@njit(**_JIT)
+# inlined, so that a loop of them over points vectorises (``_snoise3_rows``)
+@njit(inline="always", **_JIT)
 def perlin_3d(x, y, z):
     fx = x - math.floor(x)
     fy = y - math.floor(y)
@@ -318,3 +319,114 @@ def noise_texture(x, y, z, w, dims, scale, detail, roughness, lacunarity, offset
                     w + _offset(s2, 3), dims, detail, roughness, lacunarity, offset, gain,
                     kind, normalize)
     return value, value, g, b
+
+
+# --- the Noise Texture over a batch of points (the interpreter's instruction-major loop) ---
+#
+# The same arithmetic as ``noise_texture``, in the same order at each point (bit for bit),
+# but each Perlin evaluation is a loop over the batch: its body is all inlined integer and
+# float arithmetic, which LLVM vectorises (AVX: 3-D snoise 65 -> 25 ns a point).
+
+SCRATCH_ROWS = 10
+"""Rows of the (SCRATCH_ROWS, n) float64 scratch ``noise_texture3_rows`` needs."""
+
+
+@njit(**_JIT)
+def _snoise3_rows(X, Y, Z, fscale, m, t):
+    """t[i] = snoise(fscale X[i], fscale Y[i], fscale Z[i], 0, 3) for i < m. The loop
+    skips Cycles' precision guard (``_wrap``: p itself below 1e5) and runs again with it
+    when a coordinate of the batch is beyond."""
+    far = 0
+    for i in range(m):
+        x = fscale * X[i]
+        y = fscale * Y[i]
+        z = fscale * Z[i]
+        far |= (abs(x) >= 100000.0) | (abs(y) >= 100000.0) | (abs(z) >= 100000.0) \
+            | (x != x) | (y != y) | (z != z)
+        t[i] = 0.9820 * perlin_3d(x, y, z)
+    if far:
+        for i in range(m):
+            t[i] = snoise(fscale * X[i], fscale * Y[i], fscale * Z[i], 0.0, 3)
+
+
+@njit(**_JIT)
+def _fbm3_rows(X, Y, Z, m, detail, roughness, lacunarity, normalize, total, t):
+    """total[i] = fractal(X[i], Y[i], Z[i], 0, 3, detail, ..., NOISE_FBM, normalize)
+    for i < m (``fractal``'s fBm, octave by octave over the batch); t scratch."""
+    n_oct = int(detail)
+    rmd = detail - math.floor(detail)
+    fscale = 1.0
+    amp = 1.0
+    maxamp = 0.0
+    for i in range(m):
+        total[i] = 0.0
+    for _ in range(n_oct + 1):
+        _snoise3_rows(X, Y, Z, fscale, m, t)
+        for i in range(m):
+            total[i] += t[i] * amp
+        maxamp += amp
+        amp *= roughness
+        fscale *= lacunarity
+    if rmd != 0.0:
+        _snoise3_rows(X, Y, Z, fscale, m, t)
+        for i in range(m):
+            sum2 = total[i] + t[i] * amp
+            if normalize:
+                total[i] = _mix(0.5 * total[i] / maxamp + 0.5,
+                                0.5 * sum2 / (maxamp + amp) + 0.5, rmd)
+            else:
+                total[i] = _mix(total[i], sum2, rmd)
+    elif normalize:
+        for i in range(m):
+            total[i] = 0.5 * total[i] / maxamp + 0.5
+
+
+@njit(**_JIT)
+def noise_texture3_rows(x, y, z, m, scale, detail, roughness, lacunarity, distortion,
+                        normalize, color_needed, fac, g, b, s):
+    """``noise_texture`` of a 3-D fBm Noise Texture at the points (x[i], y[i], z[i]),
+    i < m, with the same scale, detail, roughness, lacunarity and distortion at every
+    point: fac[i], g[i], b[i] (its factor, the colour's green and blue; red is the
+    factor; g and b 0 unless ``color_needed``), bit for bit ``noise_texture``'s. x, y,
+    z, fac, g, b (>= m,) float64 (fac, g, b not x, y or z); s (SCRATCH_ROWS, >= m)
+    float64 scratch."""
+    detail = min(max(detail, 0.0), 15.0)
+    roughness = max(roughness, 0.0)
+    X, Y, Z, t = s[0], s[1], s[2], s[3]
+    for i in range(m):
+        X[i] = x[i] * scale
+        Y[i] = y[i] * scale
+        Z[i] = z[i] * scale
+    if distortion != 0.0:
+        OX, OY, OZ = s[4], s[5], s[6]
+        for k in range(3):  # the offset of x, y and z: snoise at seeds 0, 1, 2
+            o0, o1, o2 = _offset(float(k), 0), _offset(float(k), 1), _offset(float(k), 2)
+            for i in range(m):
+                OX[i] = X[i] + o0
+                OY[i] = Y[i] + o1
+                OZ[i] = Z[i] + o2
+            _snoise3_rows(OX, OY, OZ, 1.0, m, t)
+            d = s[7 + k]
+            for i in range(m):
+                d[i] = t[i] * distortion
+        DX, DY, DZ = s[7], s[8], s[9]
+        for i in range(m):
+            X[i] = X[i] + DX[i]
+            Y[i] = Y[i] + DY[i]
+            Z[i] = Z[i] + DZ[i]
+    _fbm3_rows(X, Y, Z, m, detail, roughness, lacunarity, normalize, fac, t)
+    if not color_needed:
+        for i in range(m):
+            g[i] = 0.0
+            b[i] = 0.0
+        return
+    OX, OY, OZ = s[4], s[5], s[6]
+    for c in range(2):  # noise_texture's seeds s1, s2 at 3 dimensions: 3 and 4
+        seed = 3.0 + c
+        out = g if c == 0 else b
+        o0, o1, o2 = _offset(seed, 0), _offset(seed, 1), _offset(seed, 2)
+        for i in range(m):
+            OX[i] = X[i] + o0
+            OY[i] = Y[i] + o1
+            OZ[i] = Z[i] + o2
+        _fbm3_rows(OX, OY, OZ, m, detail, roughness, lacunarity, normalize, out, t)

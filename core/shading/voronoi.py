@@ -634,3 +634,132 @@ def voronoi_texture(x, y, z, w, dims, feature, metric, normalize, scale, detail,
     else:
         opx = opy = opz = opw = 0.0
     return od, orr, og, ob, opx, opy, opz, opw
+
+
+# --- 3-D F1 over a batch of points (the interpreter's instruction-major loop) --------------
+#
+# ``voronoi_texture``'s arithmetic for a 3-D Euclidean F1 with PCG feature points, in the
+# same order at each point (bit for bit), cell by cell over the batch: each of the 27
+# cells' loop over the points is inlined integer hashing and float arithmetic, which LLVM
+# vectorises.
+
+SCRATCH_ROWS = 20
+"""Rows of the (SCRATCH_ROWS, n) float64 scratch ``voronoi_f1_3d_rows`` needs."""
+
+
+@njit(**_JIT)
+def _f1_3d_rows(X, Y, Z, sc, m, randomness, s):
+    """``octave(sc X[i], sc Y[i], sc Z[i], 3, F1, EUCLIDEAN, ..., legacy=False)`` for
+    i < m into scratch rows s[10:17]: distance, r, g, b, px, py, pz (rows 0-9 its own)."""
+    LX, LY, LZ, FX, FY, FZ, BD, OX, OY, OZ = s[0], s[1], s[2], s[3], s[4], s[5], s[6], \
+        s[7], s[8], s[9]
+    D, CR, CG, CB, QX, QY, QZ = s[10], s[11], s[12], s[13], s[14], s[15], s[16]
+    for i in range(m):
+        x = X[i] * sc
+        y = Y[i] * sc
+        z = Z[i] * sc
+        fx, fy, fz = math.floor(x), math.floor(y), math.floor(z)
+        FX[i], FY[i], FZ[i] = fx, fy, fz
+        LX[i], LY[i], LZ[i] = x - fx, y - fy, z - fz
+        BD[i] = 3.4028234663852886e38
+        OX[i] = OY[i] = OZ[i] = 0.0
+        QX[i] = QY[i] = QZ[i] = 0.0
+    for k in range(-1, 2):
+        for j in range(-1, 2):
+            for c in range(-1, 2):
+                for i in range(m):
+                    ox, oy, oz = hash_int3_to_float3(int(FX[i]) + c, int(FY[i]) + j,
+                                                     int(FZ[i]) + k)
+                    px = c + ox * randomness
+                    py = j + oy * randomness
+                    pz = k + oz * randomness
+                    d = _bound(px - LX[i], py - LY[i], pz - LZ[i], EUCLIDEAN, 1.0)
+                    if d < BD[i]:
+                        BD[i] = d
+                        OX[i], OY[i], OZ[i] = c, j, k
+                        QX[i], QY[i], QZ[i] = px, py, pz
+    for i in range(m):
+        D[i] = _distance(QX[i] - LX[i], QY[i] - LY[i], QZ[i] - LZ[i], EUCLIDEAN, 1.0)
+        CR[i], CG[i], CB[i] = hash_int3_to_float3(int(FX[i]) + int(OX[i]),
+                                                  int(FY[i]) + int(OY[i]),
+                                                  int(FZ[i]) + int(OZ[i]))
+        QX[i] = QX[i] + FX[i]
+        QY[i] = QY[i] + FY[i]
+        QZ[i] = QZ[i] + FZ[i]
+
+
+@njit(**_JIT)
+def voronoi_f1_3d_rows(x, y, z, m, scale, detail, roughness, lacunarity, randomness,
+                       normalize, od, orr, og, ob, opx, opy, opz, opw, s):
+    """``voronoi_texture`` of a 3-D F1 Euclidean Voronoi with PCG feature points (Blender
+    5.0+) at the points (x[i], y[i], z[i]), i < m, with the same scale, detail, roughness,
+    lacunarity and randomness at every point: od, orr, og, ob, opx, opy, opz, opw (>= m,)
+    its distance, colour, position and W, bit for bit ``voronoi_texture``'s. The outputs
+    may be x, y or z (read first); s (SCRATCH_ROWS, >= m) float64 scratch."""
+    detail = min(max(detail, 0.0), 15.0)
+    roughness = min(max(roughness, 0.0), 1.0)
+    randomness = min(max(randomness, 0.0), 1.0)
+    X, Y, Z = s[17], s[18], s[19]
+    D, CR, CG, CB, QX, QY, QZ = s[10], s[11], s[12], s[13], s[14], s[15], s[16]
+    for i in range(m):
+        X[i] = x[i] * scale
+        Y[i] = y[i] * scale
+        Z[i] = z[i] * scale
+    zero_input = detail == 0.0 or roughness == 0.0
+    half = 0.5 + 0.5 * randomness
+    max_distance = _distance(half, half, half, EUCLIDEAN, 1.0)
+    amp = 1.0
+    max_amp = 0.0
+    sc = 1.0
+    for i in range(m):
+        od[i] = orr[i] = og[i] = ob[i] = 0.0
+        opx[i] = opy[i] = opz[i] = opw[i] = 0.0
+    for it in range(int(math.ceil(detail)) + 1):
+        _f1_3d_rows(X, Y, Z, sc, m, randomness, s)
+        if zero_input:
+            max_amp = 1.0
+            for i in range(m):
+                od[i], orr[i], og[i], ob[i] = D[i], CR[i], CG[i], CB[i]
+                opx[i], opy[i], opz[i], opw[i] = QX[i], QY[i], QZ[i], 0.0
+            break
+        if it <= detail:
+            max_amp += amp
+            for i in range(m):
+                od[i] += D[i] * amp
+                orr[i] += CR[i] * amp
+                og[i] += CG[i] * amp
+                ob[i] += CB[i] * amp
+                opx[i] = (1.0 - amp) * opx[i] + amp * (QX[i] / sc)
+                opy[i] = (1.0 - amp) * opy[i] + amp * (QY[i] / sc)
+                opz[i] = (1.0 - amp) * opz[i] + amp * (QZ[i] / sc)
+                opw[i] = (1.0 - amp) * opw[i] + amp * (0.0 / sc)
+            sc *= lacunarity
+            amp *= roughness
+        else:
+            rem = detail - math.floor(detail)
+            if rem != 0.0:
+                max_amp = (1.0 - rem) * max_amp + rem * (max_amp + amp)
+                for i in range(m):
+                    od[i] = (1.0 - rem) * od[i] + rem * (od[i] + D[i] * amp)
+                    orr[i] = (1.0 - rem) * orr[i] + rem * (orr[i] + CR[i] * amp)
+                    og[i] = (1.0 - rem) * og[i] + rem * (og[i] + CG[i] * amp)
+                    ob[i] = (1.0 - rem) * ob[i] + rem * (ob[i] + CB[i] * amp)
+                    opx[i] = (1.0 - rem) * opx[i] + rem * ((1.0 - amp) * opx[i]
+                                                           + amp * (QX[i] / sc))
+                    opy[i] = (1.0 - rem) * opy[i] + rem * ((1.0 - amp) * opy[i]
+                                                           + amp * (QY[i] / sc))
+                    opz[i] = (1.0 - rem) * opz[i] + rem * ((1.0 - amp) * opz[i]
+                                                           + amp * (QZ[i] / sc))
+                    opw[i] = (1.0 - rem) * opw[i] + rem * ((1.0 - amp) * opw[i]
+                                                           + amp * (0.0 / sc))
+    for i in range(m):
+        if normalize:
+            od[i] /= max_amp * max_distance
+            orr[i] /= max_amp
+            og[i] /= max_amp
+            ob[i] /= max_amp
+        if scale != 0.0:
+            opx[i], opy[i], opz[i], opw[i] = opx[i] / scale, opy[i] / scale, opz[i] / scale, \
+                opw[i] / scale
+        else:
+            opx[i] = opy[i] = opz[i] = opw[i] = 0.0

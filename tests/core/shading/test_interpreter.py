@@ -10,6 +10,8 @@ from core.shading import program as pg
 from core.shading.inputs import ShadingInputs
 from core.shading.interpreter import evaluate, closure_params
 from core.shading.converters import MATH_OPS, VECTOR_MATH_OPS
+from core.shading.noise import noise_texture, NOISE_FBM
+from core.shading.voronoi import voronoi_texture, F1, EUCLIDEAN
 
 W = pg.INSTRUCTION_WIDTH
 
@@ -164,3 +166,55 @@ def test_empty_batch_and_bad_inputs():
         ShadingInputs.build(np.zeros((3, 3)), np.zeros((2, 3)))
     with pytest.raises(ValueError, match="non-finite"):
         ShadingInputs.build(np.full((1, 3), np.nan), np.zeros((1, 3)))
+
+
+def far_points(rng, n=300):
+    """Points in [-3, 3]^3, every 7th pushed beyond 1e5 (Cycles' precision guard)."""
+    p = rng.uniform(-3, 3, (n, 3))
+    p[::7] *= 4e4
+    return ShadingInputs.build(p, np.tile([0.0, 0.0, 1.0], (n, 1)))
+
+
+@pytest.mark.parametrize("scale, detail, roughness, lacunarity, distortion, normalize, colour", [
+    (5.0, 2.0, 0.5, 2.0, 0.5, 1, 1), (2.0, 1.5, 0.7, 1.9, 0.0, 1, 1),
+    (3.0, 0.0, 0.5, 2.0, 0.0, 0, 1), (1.5, 2.5, 0.4, -2.0, 1.2, 0, 0),
+    (4.0, 3.0, 0.6, 2.2, 0.3, 1, 0)])
+def test_noise_over_a_batch_is_noise_texture_at_each_point(rng, scale, detail, roughness,
+                                                           lacunarity, distortion, normalize,
+                                                           colour):
+    """The interpreter runs a 3-D fBm Noise with constant settings over a batch
+    (noise_texture3_rows, vectorised): bit for bit noise_texture at each point."""
+    inputs = far_points(rng)
+    consts = [0.3, scale, detail, roughness, lacunarity, 0.0, 1.0, distortion]
+    code = [ins(pg.OP_INPUT, [pg.SOURCE_POSITION, 0], [8]),
+            ins(pg.OP_NOISE, [3, NOISE_FBM, normalize, colour], [8, 0, 1, 2, 3, 4, 5, 6, 7,
+                                                                 11, 12])]
+    outs = [[11, pg.TARGET_ALPHA, 0, 0]] + [[12 + c, pg.TARGET_EMISSION, 0, c] for c in range(3)]
+    got = evaluate(pg.ShaderProgram.build(code, consts, outs, 15, name="noise"), inputs)
+    c = np.float32(consts).astype(np.float64)
+    want = np.array([noise_texture(*p, 0.3, 3, c[1], c[2], c[3], c[4], 0.0, 1.0, c[7],
+                                   NOISE_FBM, normalize != 0, colour != 0)
+                     for p in inputs.position.astype(np.float64)], np.float32)
+    assert np.array_equal(got, want)
+
+
+@pytest.mark.parametrize("scale, detail, roughness, lacunarity, randomness, normalize", [
+    (8.0, 0.0, 0.5, 2.0, 1.0, 1), (3.0, 1.5, 0.6, 2.0, 0.4, 1), (2.5, 2.0, 0.5, 1.7, 0.8, 0),
+    (-4.0, 1.0, 0.0, 2.0, 1.0, 1)])
+def test_voronoi_over_a_batch_is_voronoi_texture_at_each_point(rng, scale, detail, roughness,
+                                                               lacunarity, randomness,
+                                                               normalize):
+    """The interpreter runs a 3-D Euclidean F1 Voronoi with constant settings over a batch
+    (voronoi_f1_3d_rows, cell by cell): bit for bit voronoi_texture at each point."""
+    inputs = far_points(rng)
+    consts = [0.3, scale, detail, roughness, lacunarity, 1.0, 1.0, randomness]
+    code = [ins(pg.OP_INPUT, [pg.SOURCE_POSITION, 0], [8]),
+            ins(pg.OP_VORONOI, [3, F1, EUCLIDEAN, normalize],
+                [8, 0, 1, 2, 3, 4, 5, 6, 7, 11, 12, 15, 18])]
+    outs = [[r, pg.TARGET_CLOSURE, 0, r - 11] for r in range(11, 19)]
+    got = evaluate(pg.ShaderProgram.build(code, consts, outs, 19, name="voronoi"), inputs)
+    c = np.float32(consts).astype(np.float64)
+    want = np.array([voronoi_texture(*p, 0.3, 3, F1, EUCLIDEAN, normalize != 0, c[1], c[2],
+                                     c[3], c[4], 1.0, 1.0, c[7], False)
+                     for p in inputs.position.astype(np.float64)], np.float32)
+    assert np.array_equal(got, want)
