@@ -597,7 +597,12 @@ class HitShader:
                     ins.true_normal[sel], ins.incoming[sel],
                     _unit_or(out["normal"], bent[hit[sel]]))
             h = sel.size
-            coat_normals(out["params"], ins.true_normal[sel], ins.incoming[sel])
+            # Where the program bends the shading normal, an unlinked Coat Normal is the
+            # un-bent one (Cycles links it to the geometry's normal, sd->N, which a Bump
+            # or Normal Map into the Normal input does not change)
+            coat_normals(out["params"], ins.true_normal[sel], ins.incoming[sel],
+                         None if out["normal"] is None else
+                         (tab.kind[f:f + k], ins.normal[sel]))
             kinds.append(np.tile(tab.kind[f:f + k], h))
             w = np.tile(tab.weight[f:f + k], (h, 1))
             if out["weight"] is not None:  # the linked Mix factors of each closure here
@@ -674,26 +679,44 @@ class HitShader:
                                    albedo)
 
 
-def coat_normals(params, true_normal, incoming) -> None:
-    """Make the linked Coat Normals of programmed closure rows what the coat shades with,
-    in place: params (N, C, PARAM_COUNT) float32 (``interpreter.closure_values``), the
+def coat_normals(params, true_normal, incoming, unbent=None) -> None:
+    """Make the Coat Normals of programmed closure rows what the coat shades with, in
+    place: params (N, C, PARAM_COUNT) float32 (``interpreter.closure_values``), the
     ``COAT_NORMAL`` slots of each (point, closure) that has one (non-zero) made unit
     length and tilted as Cycles' maybe_ensure_valid_specular_reflection(sd, coat_normal)
     (``normals.valid_specular_reflection``; true_normal, incoming (N, 3) as
-    ``ShadingInputs``). A zero or non-finite one becomes 0: the shading normal (Cycles'
-    safe_normalize_fallback to sd->N). Rows without one are untouched, so a material
-    without a Coat Normal link renders bit for bit as before."""
+    ``ShadingInputs``). A zero or non-finite one falls back to sd->N (Cycles'
+    safe_normalize_fallback): 0, the shading normal, when ``unbent`` is None.
+
+    unbent: None, or (kinds (C,) int32 the closures' kinds, normal (N, 3) the points'
+    un-bent shading normals, Cycles' sd->N) when the program bends the shading normal (a
+    Bump or Normal Map into a Normal input). Then every Principled closure with Coat
+    Weight > 0 shades its coat (and its sheen's mix) about sd->N where its Coat Normal is
+    unlinked (0) or degenerate, as Cycles, which links an unlinked Coat Normal to the
+    geometry's normal, not to the Principled's Normal input. Rows without a Coat Normal
+    and without a bent normal are untouched, so such a material renders bit for bit as
+    before."""
     cn = params[:, :, cl.COAT_NORMAL:cl.COAT_NORMAL + 3]
     has = np.any(cn != 0.0, axis=2)
+    if unbent is not None:
+        kinds, normal = unbent
+        has |= ((np.asarray(kinds) == cl.CLOSURE_PRINCIPLED)[None, :]
+                & (params[:, :, cl.COAT_WEIGHT] > 0.0))
     if not has.any():
         return
     p, c = np.nonzero(has)
     v = cn[p, c].astype(np.float64)
     length = np.linalg.norm(v, axis=1)
     ok = np.isfinite(length) & (length > 0)
-    unit = np.where(ok[:, None], v / np.where(ok, length, 1.0)[:, None], 0.0)
+    unit = v / np.where(ok, length, 1.0)[:, None]
+    if unbent is None:
+        keep = ok
+        unit = np.where(ok[:, None], unit, 0.0)
+    else:
+        keep = np.ones_like(ok)
+        unit = np.where(ok[:, None], unit, _unit_or(normal[p], true_normal[p]))
     valid = normals.valid_specular_reflection(true_normal[p], incoming[p], unit)
-    params[p, c, cl.COAT_NORMAL:cl.COAT_NORMAL + 3] = np.where(ok[:, None], valid, 0.0)
+    params[p, c, cl.COAT_NORMAL:cl.COAT_NORMAL + 3] = np.where(keep[:, None], valid, 0.0)
 
 
 def _unit_or(normal, fallback) -> np.ndarray:

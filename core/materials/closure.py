@@ -363,20 +363,21 @@ def _principled(tab, L, n, W0, W1, W2, p, b0, b1, b2, wox, woy, woz, entering, a
         s2 = sheen_w * max(p[cl.SHEEN_TINT + 2], 0.0) * W2
         t = min(coat_w, 1.0)
         k = n
-        if own and t > 0.0:
+        tilted = own and t > 0.0
+        # wo in the sheen's frame: the shading normal's, or the mix's
+        mu_s, sox, soy = mu, wox, woy
+        snx, sny, snz = 0.0, 0.0, 1.0
+        if tilted:
             snx, sny, snz = t * cnx, t * cny, 1.0 - t + t * cnz
             ln = np.sqrt(snx * snx + sny * sny + snz * snz)
             snx, sny, snz = snx / ln, sny / ln, snz / ln
             sox, soy, soz = _into_frame(snx, sny, snz, wox, woy, woz)
-            n, alb = _sheen_lobe(tab, L, n, s0, s1, s2,
-                                 min(max(p[cl.SHEEN_ROUGHNESS], 0.0), 1.0),
-                                 min(soz, 1.0), sox, soy)
-            if n > k:
-                L[k, OWN] = 1.0
-                L[k, CN], L[k, CN + 1], L[k, CN + 2] = snx, sny, snz
-        else:
-            n, alb = _sheen_lobe(tab, L, n, s0, s1, s2,
-                                 min(max(p[cl.SHEEN_ROUGHNESS], 0.0), 1.0), mu, wox, woy)
+            mu_s = min(soz, 1.0)
+        n, alb = _sheen_lobe(tab, L, n, s0, s1, s2, min(max(p[cl.SHEEN_ROUGHNESS], 0.0), 1.0),
+                             mu_s, sox, soy)
+        if tilted and n > k:
+            L[k, OWN] = 1.0
+            L[k, CN], L[k, CN + 1], L[k, CN + 2] = snx, sny, snz
         if alb > 0.0:
             W0, W1, W2 = _layer(s0 * alb, s1 * alb, s2 * alb, W0, W1, W2)
     # Coat

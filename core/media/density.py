@@ -17,8 +17,8 @@ times SAFETY. A segment is tracked with the largest value of the cells it crosse
 make no null collisions. Between lattice points a smooth texture can exceed the sampled
 maximum, which SAFETY and the dilation cover for features larger than a cell; where a
 tracked point still exceeds its cell's value, the density is clipped to it (a bias, bounded
-by what was clipped) and counted in ``clipped`` / ``clipped_max``, which the render reports
-as a warning naming the medium (in the log and in Blender's report). A negative program value is taken as 0 (Cycles clamps the
+by what was clipped) and counted per medium (``take_clipping``, ``warnings``), which the
+render reports as a warning naming the medium (in the log and in Blender's report). A negative program value is taken as 0 (Cycles clamps the
 density at 0 too: ``fmaxf(density, 0.0f)`` in svm_node_principled_volume).
 
 **A varying colour** (issue 16): a medium whose program also gives Color and Absorption
@@ -63,11 +63,10 @@ class DensityFields:
         self.colour = frozenset(int(m) for m in colour)
         self.boxes = {m: (np.asarray(boxes[m][0], np.float64), np.asarray(boxes[m][1], np.float64))
                       for m in self.evaluators}
-        self.clipped = {m: 0 for m in self.evaluators}
-        self.clipped_max = {m: 0.0 for m in self.evaluators}
-        # The same since the last ``take_clipping``
-        self._since = {m: 0 for m in self.evaluators}
-        self._since_max = {m: 0.0 for m in self.evaluators}
+        # The clipping since the last ``take_clipping`` (its block), and the blocks taken
+        # before it: together every tracked point's since the fields were made
+        self._clipping = {}
+        self._taken = {}
         self.grids = {m: MajorantGrid.measure(self._largest(m), *boxes[m])
                       for m in self.evaluators}
         # The medium's bound over its whole box (the decisions' figure)
@@ -136,11 +135,8 @@ class DensityFields:
         over = v > b
         if over.any():
             hit = over if v.ndim == 1 else over.any(axis=1)
-            count, peak = int(hit.sum()), float(v[over].max())
-            self.clipped[m] += count
-            self.clipped_max[m] = max(self.clipped_max[m], peak)
-            self._since[m] += count
-            self._since_max[m] = max(self._since_max[m], peak)
+            merge_clipping(self._clipping, {m: (self.names[m], self.majorant[m],
+                                                int(hit.sum()), float(v[over].max()))})
             v = np.minimum(v, b)
         return v
 
@@ -207,17 +203,16 @@ class DensityFields:
         """The clipping since the last call (or since the fields were made), then restarted:
         {medium row: (name, majorant, tracked points clipped, largest density clipped)} of
         the media that clipped (``merge_clipping``'s block; ``warnings`` keeps the totals)."""
-        out = {m: (self.names[m], self.majorant[m], n, self._since_max[m])
-               for m, n in self._since.items() if n}
-        self._since = {m: 0 for m in self._since}
-        self._since_max = {m: 0.0 for m in self._since_max}
-        return out
+        block, self._clipping = self._clipping, {}
+        merge_clipping(self._taken, block)
+        return block
 
     def warnings(self) -> list[str]:
         """One message per medium whose majorant a tracked point exceeded (every tracked
-        point since the fields were made)."""
-        return clipping_warnings({m: (self.names[m], self.majorant[m], n, self.clipped_max[m])
-                                  for m, n in self.clipped.items() if n})
+        point since the fields were made: the blocks taken and the one since)."""
+        total = dict(self._taken)
+        merge_clipping(total, self._clipping)
+        return clipping_warnings(total)
 
 
 def merge_clipping(total: dict, block: dict) -> None:

@@ -80,7 +80,8 @@ TANGENT = 35               # 3 slots: a linked Tangent input (world space, any l
                            # object's Z axis (core.prepared.HitShader.tangents)
 COAT_NORMAL = 38           # 3 slots: a linked Coat Normal (Principled; world space, made
                            # unit and valid by core.prepared.HitShader.shade); 0 = unlinked:
-                           # the coat shades with the shading normal
+                           # the coat shades with the shading normal (where a Bump / Normal
+                           # Map bends it, shade fills in the un-bent one, as Cycles' sd->N)
 PARAM_COUNT = 41
 
 
