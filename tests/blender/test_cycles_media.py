@@ -66,23 +66,39 @@ def test_an_index_matched_glass_sphere_changes_nothing_in_fog(fog_spot):
     assert f["worst_block"] < 0.12, f["blocks"]
 
 
-@pytest.mark.xfail(reason="Cycles is no reference here (measured with the 32 x 2048 spp "
-                          "reference: channel means +7.5 %): its shadow rays stop at glass, so "
-                          "it finds light -> glass -> fog only by phase-sampled rays through "
-                          "the sphere that hit the light, and an index-matched sphere (IOR 1), "
-                          "which must change nothing, darkens its image by 13 % (0.1 m light, "
-                          "8 x 2048 spp), 9 % (0.4 m, 4 x 1024 spp), 1.2 % (1 m, 2 x 512 spp). "
-                          "So the test renders fog_caustic_1m (1 m light, where Cycles converges; "
-                          "8 x 1024 spp reference): with the photons kept where their line "
-                          "crosses the disk facing their first event, channel means +4.75 % "
-                          "(+32.5 % before; fog_spot at 1 m +0.20 %, +28 % before), worst "
-                          "block 18.8 % in the rows of the sphere, where the Specular pass "
-                          "(the view through the glass) adds 3.5 % of the image over an IOR-1 "
-                          "sphere (docs/volumes.md, 'The volumetric caustic against Cycles')",
-                   strict=False)
-def test_volumetric_caustic_matches_cycles():
-    passes = _render("fog_caustic_1m")
-    f = _figures("fog_caustic_1m", passes)
-    assert passes["Volume Indirect"].mean() > 0
+CAUSTIC_1M_SETTINGS = dict(samples=64, caustic_photons=1_000_000)
+"""fog_caustic_1m's overrides of PHOTON_MAP_SETTINGS. At 16 samples the few pixels that see
+the 1 m light through the glass's rim (a bright, small target) decide the image mean: seed
+1 read +4.75 % against Cycles, +2.6 % of it in the sphere's 16 pixels (seeds 1-4 summed
+there 2.24, 1.04, 0.73, 0.71 against Cycles' 0.58; Photon Map at 1024 samples 0.56). At
+100k caustic photons only ~130 are stored (gather radius 2.8 m) and the floor's caustic
+reads +0.65 % of the image high; 1M (1,358 stored, radius 0.87 m) and 4M agree to 0.02 %.
+docs/volumes.md, 'Where the +4.75 % was'."""
+
+
+@pytest.fixture(scope="module")
+def fog_caustic_1m():
+    """Cycles is no reference at the tests' 0.1 m light (its shadow rays stop at glass, so it
+    finds light -> glass -> fog only by phase-sampled rays through the sphere that hit the
+    light; an index-matched sphere, which must change nothing, darkens its image by 13 % at
+    0.1 m, 9 % at 0.4 m, 1.26 % at 1 m, 8 x 1024 spp), so these tests render fog_caustic_1m
+    (1 m light; 8 x 1024 spp reference)."""
+    return media.render_photon_map(media.SCENES["fog_caustic_1m"](), **CAUSTIC_1M_SETTINGS)
+
+
+def test_volumetric_caustic_channel_means_match_cycles(fog_caustic_1m):
+    f = _figures("fog_caustic_1m", fog_caustic_1m)
+    assert fog_caustic_1m["Volume Indirect"].mean() > 0
+    # measured +1.15 % (seed 2: +2.31 %); of it ~1 % is Cycles' own loss with a sphere
+    # (an IOR-1 sphere: -1.26 %, -0.80 % of it on the floor; Photon Map +0.16 %)
     assert np.all(np.abs(f["channel"]) < 0.03), f["channel"]
+
+
+@pytest.mark.xfail(reason="measured: worst 8 x 8 block 15.1 % (seed 2: 11.7 %), median "
+                          "|block| 2.25 %; the worst are the left column's (+11.8, +15.1, "
+                          "+7.8 % top down), whose mirrors read -7.1, +2.1, -1.3 %: the volume "
+                          "photons' noise at 100k global photons, as in fog_spot (1M global "
+                          "photons: worst block 6.6 %, docs/volumes.md)", strict=False)
+def test_volumetric_caustic_block_means_match_cycles(fog_caustic_1m):
+    f = _figures("fog_caustic_1m", fog_caustic_1m)
     assert f["worst_block"] < 0.10, f["blocks"]
