@@ -4,6 +4,7 @@ Volume Direct against the single-scattering integral, the passes' sum, and the r
 
 import numpy as np
 import pytest
+from scipy.integrate import trapezoid
 
 from core import sampling
 from core.integrators import photon_mapping
@@ -204,9 +205,9 @@ def test_soft_falloff_photons_collide_as_the_facing_disk_lights_the_fog():
         got.append(f[(d >= a) & (d < b)].sum())
         x = np.linspace(a, b, 801)
         t = theta[None, :] * np.arctan(r / x)[:, None]
-        phi = 2 * np.pi * radiance * np.trapezoid(
+        phi = 2 * np.pi * radiance * trapezoid(
             np.exp(-(sa + ss) * x[:, None] / np.cos(t)) * np.sin(t), t, axis=1)
-        expected.append(ss * np.trapezoid(phi * 4 * np.pi * x * x, x))
+        expected.append(ss * trapezoid(phi * 4 * np.pi * x * x, x))
     got, expected = np.array(got), np.array(expected)
     print(f"\nfirst collisions / facing disk: {np.round(got / expected, 4)}")
     np.testing.assert_allclose(got, expected, rtol=0.03)

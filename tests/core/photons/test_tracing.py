@@ -4,6 +4,7 @@ projection map, skipped maps, determinism, and leaks through a thin wall."""
 
 import numpy as np
 import pytest
+from scipy.integrate import trapezoid
 
 from tests.core.maps import trace
 from core.photons import store
@@ -221,7 +222,7 @@ def test_soft_falloff_photons_light_a_plane_as_the_facing_disk(height, soft):
         x = np.linspace(a, b, 4001)
         d = np.hypot(height, x)
         e = power * height / (4 * np.pi * d * ((r * r + d * d) if soft else d * d))
-        expected.append(np.trapezoid(e * x, x) * 2 / (b * b - a * a))
+        expected.append(trapezoid(e * x, x) * 2 / (b * b - a * a))
         assert np.arctan(r / d[-1]) + np.arccos(height / d[-1]) <= np.pi / 2
     print(f"\nsoft {soft}, D = {height} m: photons / disk {np.round(got / expected, 4)}")
     # ~10k photons per annulus (1 % noise); measured within 1.5 %.
