@@ -6,15 +6,9 @@ import math
 import numpy as np
 import pytest
 from scipy import stats
+from scipy.integrate import trapezoid
 
 from core.media import phase
-
-
-def trapezoid(y, x, axis=0):
-    """The trapezoid rule (np.trapezoid is numpy >= 2 only; CI also runs numpy 1.26)."""
-    y = np.moveaxis(np.asarray(y, float), axis, 0)
-    dx = np.diff(np.asarray(x, float)).reshape((-1,) + (1,) * (y.ndim - 1))
-    return np.sum(0.5 * (y[1:] + y[:-1]) * dx, axis=0)
 
 
 @pytest.mark.parametrize("g", [-0.9, -0.3, 0.0, 0.5, 0.95, 0.999])

@@ -5,15 +5,9 @@ import math
 
 import numpy as np
 import pytest
+from scipy.integrate import trapezoid
 
 from core.media import single_scatter
-
-
-def trapezoid(y, x, axis=0):
-    """The trapezoid rule (np.trapezoid is numpy >= 2 only; CI also runs numpy 1.26)."""
-    y = np.moveaxis(np.asarray(y, float), axis, 0)
-    dx = np.diff(np.asarray(x, float)).reshape((-1,) + (1,) * (y.ndim - 1))
-    return np.sum(0.5 * (y[1:] + y[:-1]) * dx, axis=0)
 
 
 SIGMA_A = np.array([0.05, 0.2, 0.4])

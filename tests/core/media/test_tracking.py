@@ -4,15 +4,9 @@ against the analytic optical depth of rho(x) = (1 + sin(k x)) / 2."""
 import numpy as np
 import pytest
 from numba import njit
+from scipy.integrate import trapezoid
 
 from core.media import tracking
-
-
-def trapezoid(y, x, axis=0):
-    """The trapezoid rule (np.trapezoid is numpy >= 2 only; CI also runs numpy 1.26)."""
-    y = np.moveaxis(np.asarray(y, float), axis, 0)
-    dx = np.diff(np.asarray(x, float)).reshape((-1,) + (1,) * (y.ndim - 1))
-    return np.sum(0.5 * (y[1:] + y[:-1]) * dx, axis=0)
 
 
 K = 3.0
