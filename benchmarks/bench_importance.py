@@ -37,6 +37,7 @@ from core.integrators.photon_terms import trace_maps  # noqa: E402
 from core.prepared import prepare  # noqa: E402
 from core.scene.contract import LIGHT_POINT, Lights, Scene  # noqa: E402
 from core.settings import RenderSettings  # noqa: E402
+from tests.metrics import rel_mse  # noqa: E402
 
 
 def _with(scene: Scene, extra_parts=(), extra_lights=(), width=96, height=72) -> Scene:
@@ -65,11 +66,6 @@ def scenes(width=64, height=48):
                      extra_lights=[{"kind": LIGHT_POINT, "position": [3.5, 0, 1.5], "power": 500.0,
                                     "name": "Lamp next room"}])
     return {"demo + lamp behind the camera": behind, "demo + lamp in the next room": nextdoor}
-
-
-def rel_mse(a, b):
-    a, b = a.astype(np.float64), b.astype(np.float64)
-    return float(np.mean((a - b) ** 2 / (b * b + 0.01)))
 
 
 def trace(scene, settings):

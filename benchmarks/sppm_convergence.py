@@ -27,15 +27,11 @@ sys.path.insert(0, str(ROOT))
 from core.integrators import sppm  # noqa: E402
 from core.settings import RenderSettings  # noqa: E402
 from tests.core.scenes import caustic_scene  # noqa: E402
+from tests.metrics import rel_mse  # noqa: E402
 
 REFERENCE = ROOT / "tests" / "data" / "sppm_caustic_ref.npz"
 REF_PASSES, REF_PHOTONS, REF_SEED = 1024, 32_000, 99
 PHOTONS_PER_PASS = 25_000
-
-
-def rel_mse(a: np.ndarray, b: np.ndarray) -> float:
-    a, b = np.asarray(a, np.float64), np.asarray(b, np.float64)
-    return float(np.mean((a - b) ** 2 / (b * b + 0.01)))
 
 
 def make_reference() -> None:
@@ -51,30 +47,31 @@ def make_reference() -> None:
     print(f"wrote {REFERENCE} in {time.perf_counter() - t0:.1f} s")
 
 
-def table(max_passes: int, seed: int) -> None:
-    """Both forms of SPPM, side by side: direct light by shadow rays (the default) and
-    standard SPPM (direct light by photons)."""
-    ref = np.load(REFERENCE)["image"]
-    settings = RenderSettings().with_values(seed=seed, threads=1)
+def convergence_table(build, reference: np.ndarray, settings: RenderSettings,
+                      photons_per_pass: int, max_passes: int) -> None:
+    """Print SPPM's convergence on the scene ``build()`` in both forms
+    (``sppm.DIRECT_MODES``: direct light by shadow rays, the default, and by photons,
+    standard SPPM), ``photons_per_pass`` photons a pass: at 1, 4, 16, ... passes up to
+    ``max_passes``, wall time (from the first pass, numba compiled before), relMSE and mean
+    ratio against ``reference`` (H, W, 3), a markdown row per pass count."""
     marks = {1, 4, 16, 64, 256, 1024}
-    rows = {}
+    rows: dict[int, list[str]] = {}
     for direct in sppm.DIRECT_MODES:
-        # Load the numba kernels once so the first row does not include compilation.
-        sppm.render(caustic_scene(8, 8), settings.with_values(
+        sppm.render(build(8, 8), settings.with_values(  # compile outside the timing
             progressive_passes=1, photons_per_pass=100, progressive_direct=direct))
         t0 = time.perf_counter()
-        for state in sppm.progressive_passes(caustic_scene(), settings.with_values(
-                photons_per_pass=PHOTONS_PER_PASS, progressive_direct=direct), max_passes):
+        for state in sppm.progressive_passes(build(), settings.with_values(
+                photons_per_pass=photons_per_pass, progressive_direct=direct), max_passes):
             if state.passes in marks:
                 img = state.radiance()
                 rows.setdefault(state.passes, []).append(
-                    f"{time.perf_counter() - t0:.2f} | {rel_mse(img, ref):.4f} | "
-                    f"{img.mean() / ref.mean():.3f}")
+                    f"{time.perf_counter() - t0:.2f} | {rel_mse(img, reference):.4f} | "
+                    f"{img.mean() / reference.mean():.3f}")
     print("| passes | photons | shadow-ray direct: wall s | relMSE | mean ratio "
           "| photon direct: wall s | relMSE | mean ratio |")
     print("|---:|---:|---:|---:|---:|---:|---:|---:|")
     for k, cells in rows.items():
-        print(f"| {k} | {k * PHOTONS_PER_PASS:,} | " + " | ".join(cells) + " |")
+        print(f"| {k} | {k * photons_per_pass:,} | " + " | ".join(cells) + " |")
 
 
 def main() -> None:
@@ -86,7 +83,9 @@ def main() -> None:
     if args.make_reference:
         make_reference()
     else:
-        table(args.passes, args.seed)
+        convergence_table(caustic_scene, np.load(REFERENCE)["image"],
+                          RenderSettings().with_values(seed=args.seed, threads=1),
+                          PHOTONS_PER_PASS, args.passes)
 
 
 if __name__ == "__main__":

@@ -70,13 +70,8 @@ def render(samples, seed, caustics) -> np.ndarray:
 
 
 def fingerprint() -> str:
-    import hashlib
-    import inspect
-
-    parts = [inspect.getsource(glass_sphere_scene), inspect.getsource(configure),
-             inspect.getsource(ref.configure_cycles), inspect.getsource(ref._aim),
-             repr((RESOLUTION, CYCLES_SAMPLES))]
-    return hashlib.sha256("\n".join(parts).encode()).hexdigest()[:16]
+    return ref.code_fingerprint([glass_sphere_scene, configure, ref.configure_cycles, ref._aim,
+                                 (RESOLUTION, CYCLES_SAMPLES)])
 
 
 def reference_path() -> pathlib.Path:

@@ -16,8 +16,6 @@ scene code. Re-render with:
 
 from __future__ import annotations
 
-import hashlib
-import inspect
 import pathlib
 import sys
 
@@ -60,25 +58,11 @@ def colour_fog_scene():
 SCENES = {"fog_colour": colour_fog_scene}
 
 
-def fingerprint() -> str:
-    parts = [inspect.getsource(colour_fog_scene), mesh_ref.fingerprint(),
-             repr((RESOLUTION, NOISE))]
-    return hashlib.sha256("\n".join(parts).encode()).hexdigest()[:16]
+def fingerprint(name=None) -> str:
+    return ref.code_fingerprint([colour_fog_scene, mesh_ref.fingerprint(), (RESOLUTION, NOISE)])
 
-
-def reference_path(name) -> pathlib.Path:
-    return ref.DATA / f"cycles_colour_media_{name}_{RESOLUTION[0]}x{RESOLUTION[1]}.npz"
-
-
-def load_reference(name) -> dict:
-    return ref.load_cached(reference_path(name), fingerprint(),
-                           f"cycles_colour_media_reference.py {name}")
-
-
-def main(names=None):
-    for name in names or list(SCENES):
-        media_ref.save_reference(reference_path(name), SCENES[name], CYCLES_SAMPLES, 2,
-                                 fingerprint())
+CACHE = media_ref.Cache("cycles_colour_media", SCENES, fingerprint, (CYCLES_SAMPLES, 2), RESOLUTION)
+reference_path, load_reference, main = CACHE.path, CACHE.load, CACHE.main
 
 
 if __name__ == "__main__":

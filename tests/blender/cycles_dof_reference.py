@@ -74,13 +74,8 @@ def ortho_scene(**kwargs):
 
 
 def fingerprint() -> str:
-    import hashlib
-    import inspect
-
-    parts = [inspect.getsource(dof_scene), inspect.getsource(ortho_scene),
-             inspect.getsource(ref.configure_cycles),
-             repr((SIZE, ORTHO_FSTOP, ORTHO_SCALE, CYCLES_SAMPLES))]
-    return hashlib.sha256("\n".join(parts).encode()).hexdigest()[:16]
+    return ref.code_fingerprint([dof_scene, ortho_scene, ref.configure_cycles,
+                                 (SIZE, ORTHO_FSTOP, ORTHO_SCALE, CYCLES_SAMPLES)])
 
 
 def reference_path() -> pathlib.Path:

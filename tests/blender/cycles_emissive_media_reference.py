@@ -16,8 +16,6 @@ scene code. Re-render with:
 
 from __future__ import annotations
 
-import hashlib
-import inspect
 import pathlib
 import sys
 
@@ -57,27 +55,13 @@ def glow_cube_scene(resolution=RESOLUTION):
 SCENES = {"glow_cube": glow_cube_scene}
 
 
-def fingerprint() -> str:
-    parts = [inspect.getsource(mesh_ref.volume_material), inspect.getsource(glow_cube_scene),
-             inspect.getsource(media_ref.configure_cycles_media),
-             repr((RESOLUTION, BOUNCES, GLOW))]
-    return hashlib.sha256("\n".join(parts).encode()).hexdigest()[:16]
+def fingerprint(name=None) -> str:
+    return ref.code_fingerprint([mesh_ref.volume_material, glow_cube_scene,
+                                 media_ref.configure_cycles_media, (RESOLUTION, BOUNCES, GLOW)])
 
-
-def reference_path(name) -> pathlib.Path:
-    return ref.DATA / f"cycles_emissive_media_{name}_{RESOLUTION[0]}x{RESOLUTION[1]}.npz"
-
-
-def load_reference(name) -> dict:
-    """The cached Cycles render of ``name``: image (H, W, 3), block_sigma, fingerprint."""
-    return ref.load_cached(reference_path(name), fingerprint(),
-                           f"cycles_emissive_media_reference.py {name}")
-
-
-def main(names=None):
-    for name in names or list(SCENES):
-        media_ref.save_reference(reference_path(name), SCENES[name], CYCLES_SAMPLES, 2,
-                                 fingerprint())
+CACHE = media_ref.Cache("cycles_emissive_media", SCENES, fingerprint, (CYCLES_SAMPLES, 2),
+                        RESOLUTION)
+reference_path, load_reference, main = CACHE.path, CACHE.load, CACHE.main
 
 
 if __name__ == "__main__":

@@ -59,12 +59,8 @@ def render_cycles_gi(scene, samples, seed=0) -> np.ndarray:
 
 def fingerprint() -> str:
     """Hash of the code behind the reference (scene, Cycles settings); stale when it changes."""
-    import hashlib
-    import inspect
-
-    parts = [ref.scene_fingerprint("demo"), inspect.getsource(cornell_without_spheres),
-             inspect.getsource(configure_cycles_gi), repr((RESOLUTION, BOUNCES))]
-    return hashlib.sha256("\n".join(parts).encode()).hexdigest()[:16]
+    return ref.code_fingerprint([ref.scene_fingerprint("demo"), cornell_without_spheres,
+                                 configure_cycles_gi, (RESOLUTION, BOUNCES)])
 
 
 def reference_path() -> pathlib.Path:

@@ -292,26 +292,20 @@ def render_cycles(scene, samples, seed=0) -> np.ndarray:
 
 def fingerprint(name) -> str:
     """Hash of the code behind scene ``name``'s reference; stale when it changes."""
-    import hashlib
-    import inspect
-
-    parts = [inspect.getsource(node_material), inspect.getsource(principled),
-             inspect.getsource(configure_cycles_full), inspect.getsource(ref.configure_cycles),
-             repr((CYCLES_SAMPLES, BOUNCES, WORLD, LIGHT_POWER, GOLD, RED))]
+    parts = [node_material, principled, configure_cycles_full, ref.configure_cycles,
+             (CYCLES_SAMPLES, BOUNCES, WORLD, LIGHT_POWER, GOLD, RED)]
     if name == "cornell_rough_metal":
-        parts += [ref.scene_fingerprint("demo"), inspect.getsource(cornell_rough_metal),
-                  repr(CORNELL_RESOLUTION)]
+        parts += [ref.scene_fingerprint("demo"), cornell_rough_metal, CORNELL_RESOLUTION]
     else:
         # The material's own lambda: its line(s) of the MATERIALS table.
-        parts += [name, inspect.getsource(sphere_scene), _material_source(name),
-                  repr(RESOLUTION)]
+        parts += [name, sphere_scene, _material_source(name), RESOLUTION]
         if name.startswith(("mix_", "add_")):
-            parts.append(inspect.getsource(combined))
+            parts.append(combined)
         if name in ("noise_roughness", "mapping_checker"):
-            parts.append(inspect.getsource(textured))
+            parts.append(textured)
         if name in ("mix_layer_weight", "bump_glossy"):
-            parts.append(inspect.getsource(per_hit))
-    return hashlib.sha256("\n".join(parts).encode()).hexdigest()[:16]
+            parts.append(per_hit)
+    return ref.code_fingerprint(parts)
 
 
 def _material_source(name) -> str:

@@ -22,7 +22,6 @@ Re-render (both scenes, or the ones named) with:
 
 from __future__ import annotations
 
-import hashlib
 import inspect
 import math
 import pathlib
@@ -123,22 +122,10 @@ def configure_cycles_media(scene, samples, seed=0):
 
 
 def fingerprint(name: str = "fog_spot") -> str:
-    parts = [inspect.getsource(fog_world), inspect.getsource(fog_spot_scene),
-             inspect.getsource(configure_cycles_media), repr((RESOLUTION, BOUNCES, FOG))]
+    parts = [fog_world, fog_spot_scene, configure_cycles_media, (RESOLUTION, BOUNCES, FOG)]
     if name.endswith("_1m"):
         parts.append(inspect.getsource(wide_light) + repr(WIDE_LIGHT))
-    return hashlib.sha256("\n".join(parts).encode()).hexdigest()[:16]
-
-
-def reference_path(name) -> pathlib.Path:
-    return ref.DATA / f"cycles_media_{name}_{RESOLUTION[0]}x{RESOLUTION[1]}.npz"
-
-
-def load_reference(name) -> dict:
-    """The cached Cycles render of ``name``: image (H, W, 3), its halves image_a and image_b
-    (the odd and the even seeds), block_sigma, samples, fingerprint."""
-    return ref.load_cached(reference_path(name), fingerprint(name),
-                           f"cycles_media_reference.py {name}")
+    return ref.code_fingerprint(parts)
 
 
 PHOTON_MAP_SETTINGS = dict(samples=16, seed=1, global_photons=100_000, caustic_photons=100_000,
@@ -167,35 +154,75 @@ def figures(name, passes, reference) -> dict:
     return f
 
 
-def save_reference(path, build, samples, seeds, stamp):
+def save_reference(path, build, samples, seeds, stamp, extra_passes=()):
     """Render ``build()`` with Cycles (configure_cycles_media) at seeds 1..``seeds`` of
     ``samples`` each and cache the mean in ``path`` with its odd- and even-seed halves
     (image_a, image_b: their difference gives the noise), block_sigma and fingerprint
-    ``stamp``."""
+    ``stamp``; each of ``extra_passes`` (Cycles pass names, e.g. "Emission") is stored too,
+    averaged over every seed, under its name in lower case."""
     import time
 
     started = time.perf_counter()
-    runs = []
+    runs, extras = [], {name: [] for name in extra_passes}
     for seed in range(1, seeds + 1):
         scene = configure_cycles_media(build(), samples, seed)
-        runs.append(scenes.render_passes(scene)["Combined"][..., :3].astype(np.float64))
+        passes = scenes.render_passes(scene)
+        runs.append(passes["Combined"][..., :3].astype(np.float64))
+        for name, stack in extras.items():
+            stack.append(passes[name][..., :3].astype(np.float64))
     a = np.mean(runs[0::2], axis=0)
     b = np.mean(runs[1::2], axis=0)
+    extra = {name.lower(): np.mean(stack, axis=0).astype(np.float32)
+             for name, stack in extras.items()}
     np.savez_compressed(
         path, image=((a + b) / 2).astype(np.float32),
         image_a=a.astype(np.float32), image_b=b.astype(np.float32),
         block_sigma=ref.block_sigma(a, b).astype(np.float32),
         samples=np.int64(seeds * samples), fingerprint=np.str_(stamp),
-        bounces=np.int64(BOUNCES), blender=np.str_(bpy.app.version_string))
+        bounces=np.int64(BOUNCES), blender=np.str_(bpy.app.version_string), **extra)
     print(f"{path.relative_to(ROOT)}: {seeds} x {samples} spp in "
           f"{time.perf_counter() - started:.1f} s, mean "
-          f"{((a + b) / 2).reshape(-1, 3).mean(axis=0)}", flush=True)
+          f"{((a + b) / 2).reshape(-1, 3).mean(axis=0)}"
+          + "".join(f", {k} {v.reshape(-1, 3).mean(axis=0)}" for k, v in extra.items()),
+          flush=True)
 
 
-def main(names=None):
-    for name in names or list(SCENES):
-        samples, seeds = WIDE_RUNS if name.endswith("_1m") else (CYCLES_SAMPLES, CYCLES_SEEDS)
-        save_reference(reference_path(name), SCENES[name], samples, seeds, fingerprint(name))
+class Cache:
+    """The cached Cycles renders of one reference module (issue 16's media references):
+    tests/data/<prefix>_<name>_<W>x<H>.npz for each of its ``scenes`` ({name: build}),
+    stamped with ``fingerprint(name)``, re-rendered by tests/blender/<prefix>_reference.py
+    with ``save_reference`` at ``runs`` (samples per seed, seeds), or ``runs(name)`` when
+    it is a function, storing ``extra_passes`` too."""
+
+    def __init__(self, prefix, scenes, fingerprint, runs, resolution=RESOLUTION,
+                 extra_passes=()):
+        self.prefix, self.scenes, self.fingerprint = prefix, scenes, fingerprint
+        self.runs = runs if callable(runs) else (lambda name: runs)
+        self.resolution, self.extra_passes = resolution, tuple(extra_passes)
+
+    def path(self, name) -> pathlib.Path:
+        width, height = self.resolution
+        return ref.DATA / f"{self.prefix}_{name}_{width}x{height}.npz"
+
+    def load(self, name) -> dict:
+        """The cached Cycles render of ``name``: image (H, W, 3), its halves image_a and
+        image_b (the odd and the even seeds), block_sigma, samples, fingerprint and the
+        extra passes; AssertionError with the command that re-renders it when missing or
+        stale."""
+        return ref.load_cached(self.path(name), self.fingerprint(name),
+                               f"{self.prefix}_reference.py {name}")
+
+    def main(self, names=None):
+        """Re-render the named scenes (default: all) and cache them."""
+        for name in names or list(self.scenes):
+            samples, seeds = self.runs(name)
+            save_reference(self.path(name), self.scenes[name], samples, seeds,
+                           self.fingerprint(name), self.extra_passes)
+
+
+CACHE = Cache("cycles_media", SCENES, fingerprint,
+              lambda name: WIDE_RUNS if name.endswith("_1m") else (CYCLES_SAMPLES, CYCLES_SEEDS))
+reference_path, load_reference, main = CACHE.path, CACHE.load, CACHE.main
 
 
 if __name__ == "__main__":

@@ -21,8 +21,6 @@ code. Re-render (both scenes, or the ones named) with:
 
 from __future__ import annotations
 
-import hashlib
-import inspect
 import math
 import pathlib
 import sys
@@ -97,27 +95,12 @@ SCENES = {"fog_cube": lambda: mesh_media_scene("fog_cube"),
           "smoke_glass": lambda: mesh_media_scene("smoke_glass")}
 
 
-def fingerprint() -> str:
-    parts = [inspect.getsource(_material), inspect.getsource(mesh_media_scene),
-             inspect.getsource(media_ref.configure_cycles_media),
-             repr((RESOLUTION, BOUNCES, FOG, SMOKE))]
-    return hashlib.sha256("\n".join(parts).encode()).hexdigest()[:16]
+def fingerprint(name=None) -> str:
+    return ref.code_fingerprint([_material, mesh_media_scene, media_ref.configure_cycles_media,
+                                 (RESOLUTION, BOUNCES, FOG, SMOKE)])
 
-
-def reference_path(name) -> pathlib.Path:
-    return ref.DATA / f"cycles_mesh_media_{name}_{RESOLUTION[0]}x{RESOLUTION[1]}.npz"
-
-
-def load_reference(name) -> dict:
-    """The cached Cycles render of ``name``: image (H, W, 3), block_sigma, fingerprint."""
-    return ref.load_cached(reference_path(name), fingerprint(),
-                           f"cycles_mesh_media_reference.py {name}")
-
-
-def main(names=None):
-    for name in names or list(SCENES):
-        media_ref.save_reference(reference_path(name), SCENES[name], CYCLES_SAMPLES, 2,
-                                 fingerprint())
+CACHE = media_ref.Cache("cycles_mesh_media", SCENES, fingerprint, (CYCLES_SAMPLES, 2), RESOLUTION)
+reference_path, load_reference, main = CACHE.path, CACHE.load, CACHE.main
 
 
 if __name__ == "__main__":

@@ -14,8 +14,6 @@ of this module's scene code. Re-render with:
 
 from __future__ import annotations
 
-import hashlib
-import inspect
 import pathlib
 import sys
 
@@ -59,25 +57,12 @@ def noise_fog_scene():
 SCENES = {"fog_noise": noise_fog_scene}
 
 
-def fingerprint() -> str:
-    parts = [inspect.getsource(noise_fog_scene), mesh_ref.fingerprint(),
-             repr((RESOLUTION, NOISE, NOISE_GAIN))]
-    return hashlib.sha256("\n".join(parts).encode()).hexdigest()[:16]
+def fingerprint(name=None) -> str:
+    return ref.code_fingerprint([noise_fog_scene, mesh_ref.fingerprint(),
+                                 (RESOLUTION, NOISE, NOISE_GAIN)])
 
-
-def reference_path(name) -> pathlib.Path:
-    return ref.DATA / f"cycles_noise_media_{name}_{RESOLUTION[0]}x{RESOLUTION[1]}.npz"
-
-
-def load_reference(name) -> dict:
-    return ref.load_cached(reference_path(name), fingerprint(),
-                           f"cycles_noise_media_reference.py {name}")
-
-
-def main(names=None):
-    for name in names or list(SCENES):
-        media_ref.save_reference(reference_path(name), SCENES[name], CYCLES_SAMPLES, 2,
-                                 fingerprint())
+CACHE = media_ref.Cache("cycles_noise_media", SCENES, fingerprint, (CYCLES_SAMPLES, 2), RESOLUTION)
+reference_path, load_reference, main = CACHE.path, CACHE.load, CACHE.main
 
 
 if __name__ == "__main__":

@@ -20,6 +20,8 @@ or the ones named; about two minutes on 2 cores):
 
 from __future__ import annotations
 
+import hashlib
+import inspect
 import math
 import pathlib
 import sys
@@ -237,11 +239,21 @@ def compare(image, reference, sigma=None, block=8, floor=0.02) -> dict:
             "noisy_blocks": float(np.nanmean(np.where(counted, 3.0 * sigma > 0.05 * safe, np.nan)))}
 
 
+def code_fingerprint(parts) -> str:
+    """The stamp of a cached reference: the first 16 hex digits of the sha256 of ``parts``
+    joined by newlines, where a function or class stands for its source, a str for itself
+    and anything else for its repr. The code that builds a scene is part of its stamp, so a
+    cache made from other code is found stale (``load_cached``)."""
+    text = "\n".join(
+        p if isinstance(p, str)
+        else inspect.getsource(p) if inspect.isroutine(p) or inspect.isclass(p) else repr(p)
+        for p in parts)
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
 def cornell_box_sources() -> list[str]:
     """The code and constants of examples/cornell_box.py that build the demo scene (not its
     command line or render settings): what a demo reference's fingerprint covers."""
-    import inspect
-
     from examples import cornell_box
 
     return [inspect.getsource(cornell_box.build_cornell_box),
@@ -254,17 +266,13 @@ def cornell_box_sources() -> list[str]:
 def scene_fingerprint(name) -> str:
     """Hash of the code that builds scene ``name`` and sets Cycles up: a cached reference
     made from other code is stale."""
-    import hashlib
-    import inspect
-
     if name == "demo":
         parts = cornell_box_sources()
     elif name == "visible_lights":
-        parts = [inspect.getsource(visible_lights_scene)]
+        parts = [visible_lights_scene]
     else:
-        parts = [name, inspect.getsource(four_lights_scene), inspect.getsource(_aim)]
-    parts += [inspect.getsource(configure_cycles), repr((RESOLUTION, MAX_SPECULAR_DEPTH))]
-    return hashlib.sha256("\n".join(parts).encode()).hexdigest()[:16]
+        parts = [name, four_lights_scene, _aim]
+    return code_fingerprint(parts + [configure_cycles, (RESOLUTION, MAX_SPECULAR_DEPTH)])
 
 
 def reference_path(name) -> pathlib.Path:

@@ -17,14 +17,10 @@ fingerprint of this module's scene code. Re-render with:
 
 from __future__ import annotations
 
-import hashlib
-import inspect
 import pathlib
 import sys
-import time
 
 import bpy
-import numpy as np
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 if str(ROOT) not in sys.path:
@@ -76,51 +72,13 @@ def glow_air_scene(resolution=RESOLUTION):
 SCENES = {"glow_air": glow_air_scene}
 
 
-def fingerprint() -> str:
-    parts = [inspect.getsource(glow_air_world), inspect.getsource(glow_air_scene),
-             inspect.getsource(media_ref.configure_cycles_media),
-             repr((RESOLUTION, BOUNCES, AIR))]
-    return hashlib.sha256("\n".join(parts).encode()).hexdigest()[:16]
+def fingerprint(name=None) -> str:
+    return ref.code_fingerprint([glow_air_world, glow_air_scene, media_ref.configure_cycles_media,
+                                 (RESOLUTION, BOUNCES, AIR)])
 
-
-def reference_path(name) -> pathlib.Path:
-    return ref.DATA / f"cycles_world_emission_{name}_{RESOLUTION[0]}x{RESOLUTION[1]}.npz"
-
-
-def load_reference(name) -> dict:
-    """The cached Cycles render of ``name``: image (H, W, 3), emission (H, W, 3) its
-    Emission pass, image_a / image_b (the two seeds), block_sigma, fingerprint."""
-    return ref.load_cached(reference_path(name), fingerprint(),
-                           f"cycles_world_emission_reference.py {name}")
-
-
-def save_reference(name, samples=CYCLES_SAMPLES, seeds=2):
-    """Render SCENES[name] with Cycles at seeds 1..seeds and cache the mean Combined and
-    Emission passes (media_ref.save_reference's layout plus ``emission``)."""
-    started = time.perf_counter()
-    runs, emits = [], []
-    for seed in range(1, seeds + 1):
-        scene = media_ref.configure_cycles_media(SCENES[name](), samples, seed)
-        passes = scenes.render_passes(scene)
-        runs.append(passes["Combined"][..., :3].astype(np.float64))
-        emits.append(passes["Emission"][..., :3].astype(np.float64))
-    a, b = np.mean(runs[0::2], axis=0), np.mean(runs[1::2], axis=0)
-    path = reference_path(name)
-    np.savez_compressed(
-        path, image=((a + b) / 2).astype(np.float32), image_a=a.astype(np.float32),
-        image_b=b.astype(np.float32), emission=np.mean(emits, axis=0).astype(np.float32),
-        block_sigma=ref.block_sigma(a, b).astype(np.float32),
-        samples=np.int64(seeds * samples), fingerprint=np.str_(fingerprint()),
-        bounces=np.int64(BOUNCES), blender=np.str_(bpy.app.version_string))
-    print(f"{path.relative_to(ROOT)}: {seeds} x {samples} spp in "
-          f"{time.perf_counter() - started:.1f} s, mean "
-          f"{((a + b) / 2).reshape(-1, 3).mean(axis=0)}, emission "
-          f"{np.mean(emits, axis=0).reshape(-1, 3).mean(axis=0)}", flush=True)
-
-
-def main(names=None):
-    for name in names or list(SCENES):
-        save_reference(name)
+CACHE = media_ref.Cache("cycles_world_emission", SCENES, fingerprint, (CYCLES_SAMPLES, 2),
+                        RESOLUTION, extra_passes=("Emission",))
+reference_path, load_reference, main = CACHE.path, CACHE.load, CACHE.main
 
 
 if __name__ == "__main__":

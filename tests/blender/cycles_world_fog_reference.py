@@ -29,8 +29,6 @@ code. Re-render with:
 
 from __future__ import annotations
 
-import hashlib
-import inspect
 import pathlib
 import sys
 
@@ -124,29 +122,14 @@ def fog_room_scene(resolution=RESOLUTION):
 SCENES = {"fog_room": fog_room_scene}
 
 
-def fingerprint() -> str:
-    parts = [inspect.getsource(room), inspect.getsource(varying_fog_world),
-             inspect.getsource(fog_room_scene),
-             inspect.getsource(media_ref.configure_cycles_media),
-             repr((RESOLUTION, BOUNCES, ROOM, WALL_ALBEDO, FOG, FOG_GAIN, NOISE))]
-    return hashlib.sha256("\n".join(parts).encode()).hexdigest()[:16]
+def fingerprint(name=None) -> str:
+    return ref.code_fingerprint([room, varying_fog_world, fog_room_scene,
+                                 media_ref.configure_cycles_media,
+                                 (RESOLUTION, BOUNCES, ROOM, WALL_ALBEDO, FOG, FOG_GAIN, NOISE)])
 
-
-def reference_path(name) -> pathlib.Path:
-    return ref.DATA / f"cycles_world_fog_{name}_{RESOLUTION[0]}x{RESOLUTION[1]}.npz"
-
-
-def load_reference(name) -> dict:
-    """The cached Cycles render of ``name``: image (H, W, 3), image_a, image_b (the odd and
-    even seeds), block_sigma, samples, fingerprint."""
-    return ref.load_cached(reference_path(name), fingerprint(),
-                           f"cycles_world_fog_reference.py {name}")
-
-
-def main(names=None):
-    for name in names or list(SCENES):
-        media_ref.save_reference(reference_path(name), SCENES[name], CYCLES_SAMPLES,
-                                 CYCLES_SEEDS, fingerprint())
+CACHE = media_ref.Cache("cycles_world_fog", SCENES, fingerprint, (CYCLES_SAMPLES, CYCLES_SEEDS),
+                        RESOLUTION)
+reference_path, load_reference, main = CACHE.path, CACHE.load, CACHE.main
 
 
 if __name__ == "__main__":

@@ -4,7 +4,6 @@ mirror), and the Denoise setting (the compositor's Denoise node, OpenImageDenois
 shipped with Blender) lowering a Preview render's error against a Converged one.
 """
 
-import math
 import pathlib
 
 import numpy as np
@@ -15,6 +14,7 @@ bpy = pytest.importorskip("bpy")
 from tests.blender import cycles_reference as ref  # noqa: E402
 from tests.blender import scenes  # noqa: E402
 from tests.blender.test_textures import block_image, textured_material  # noqa: E402
+from tests.metrics import rel_mse  # noqa: E402
 
 pytestmark = pytest.mark.blender
 
@@ -88,10 +88,6 @@ def composite(scene, path: pathlib.Path) -> np.ndarray:
         return np.stack([np.asarray(channels[c].pixels) for c in "RGB"], axis=-1).astype(np.float64)
 
 
-def relmse(a, b):
-    return float(np.mean((a - b) ** 2 / (b ** 2 + 0.01)))
-
-
 def test_denoise_lowers_the_error_of_a_preview_render(tmp_path):
     from tests.conftest import load_extension_package
 
@@ -110,7 +106,7 @@ def test_denoise_lowers_the_error_of_a_preview_render(tmp_path):
     scene.photon_map.denoise = True
     assert scene.photon_map.denoising_data
     denoised = composite(scene, tmp_path / "denoised.exr")
-    before, after = relmse(noisy, reference), relmse(denoised, reference)
+    before, after = rel_mse(noisy, reference), rel_mse(denoised, reference)
     print(f"\nPreview vs Converged relMSE: {before:.4f} noisy, {after:.4f} denoised")
     assert np.isfinite(denoised).all() and not np.array_equal(denoised, noisy)
     assert after < 0.8 * before

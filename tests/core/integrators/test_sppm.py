@@ -16,14 +16,10 @@ from core.prepared import prepare
 from core.scene.contract import CAMERA_ORTHOGRAPHIC, LIGHT_AREA, LIGHT_POINT, Camera, Lights, Materials, Scene
 from core.settings import RenderSettings, SettingsError
 from tests.core.scenes import caustic_scene
+from tests.metrics import rel_mse
 
 DATA = pathlib.Path(__file__).resolve().parents[2] / "data"
 SETTINGS = RenderSettings().with_values(threads=1)
-
-
-def rel_mse(a, b):
-    a, b = np.asarray(a, np.float64), np.asarray(b, np.float64)
-    return float(np.mean((a - b) ** 2 / (b * b + 0.01)))
 
 
 def floor_scene(width=16, height=16):

@@ -13,6 +13,7 @@ from core.scene import closures as cl
 from core.scene import shapes
 from core.scene.contract import LIGHT_POINT, Lights, Materials, Scene
 from core.settings import RenderSettings
+from tests.metrics import rel_mse
 
 pytestmark = pytest.mark.core
 
@@ -26,11 +27,6 @@ CLOSURES = {
     "principled": dict(kind=cl.CLOSURE_PRINCIPLED, params=dict(color=(0.2, 0.15, 0.1),
                                                                roughness=0.3)),
 }
-
-
-def rel_mse(a, b):
-    a, b = np.asarray(a, np.float64), np.asarray(b, np.float64)
-    return float(np.mean((a - b) ** 2 / (b * b + 0.01)))
 
 
 def plane_scene(name, behind):

@@ -13,13 +13,9 @@ from core.scene import closures as cl
 from core.scene import shapes
 from core.scene.contract import LIGHT_POINT, Lights, Materials, Scene
 from core.settings import RenderSettings
+from tests.metrics import rel_mse
 
 pytestmark = pytest.mark.core
-
-
-def rel_mse(a, b):
-    a, b = np.asarray(a, np.float64), np.asarray(b, np.float64)
-    return float(np.mean((a - b) ** 2 / (b * b + 0.01)))
 
 
 def glossy_floor_scene(roughness=0.1, size=16):

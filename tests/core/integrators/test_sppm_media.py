@@ -14,16 +14,12 @@ from core.integrators import sppm
 from core.prepared import prepare
 from core.settings import RenderSettings
 from tests.core.scenes import fog_scene
+from tests.metrics import rel_mse
 
 pytestmark = pytest.mark.core
 
 DATA = pathlib.Path(__file__).resolve().parents[2] / "data"
 SETTINGS = RenderSettings().with_values(threads=2, photons_per_pass=10_000)
-
-
-def rel_mse(a, b):
-    a, b = np.asarray(a, np.float64), np.asarray(b, np.float64)
-    return float(np.mean((a - b) ** 2 / (b * b + 0.01)))
 
 
 def test_fog_converges_to_the_photon_mapping_reference():

@@ -1,7 +1,6 @@
 """Equiangular sampling towards a point light (core/media/equiangular.py): the sampler
 against its pdf (chi-square), the pdf's normalisation."""
 
-import math
 
 import numpy as np
 import pytest
