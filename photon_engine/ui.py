@@ -12,6 +12,14 @@ import bpy
 ENGINE = 'PHOTON_MAP'
 
 
+def property_split(layout):
+    """``layout`` in Blender's property-split style (labels in a left column, no animation
+    decorators), as Cycles draws its settings panels; returned for chaining."""
+    layout.use_property_split = True
+    layout.use_property_decorate = False
+    return layout
+
+
 class PhotonMapPanel:
     bl_space_type = 'PROPERTIES'
     bl_region_type = 'WINDOW'
@@ -22,14 +30,18 @@ class PhotonMapPanel:
     def poll(cls, context):
         return context.engine in cls.COMPAT_ENGINES
 
+    def split_layout(self):
+        """The panel's layout in Blender's property-split style (labels in a left column,
+        no animation decorators), as Cycles' settings panels are drawn."""
+        layout = property_split(self.layout)
+        return layout
+
 
 class PHOTON_MAP_RENDER_PT_sampling(PhotonMapPanel, bpy.types.Panel):
     bl_label = "Sampling"
 
     def draw(self, context):
-        layout = self.layout
-        layout.use_property_split = True
-        layout.use_property_decorate = False
+        layout = property_split(self.layout)
         settings = context.scene.photon_map
         layout.prop(settings, "integrator")
         layout.prop(settings, "quality")
@@ -48,9 +60,7 @@ class PHOTON_MAP_RENDER_PT_progressive(PhotonMapPanel, bpy.types.Panel):
     bl_label = "Progressive"
 
     def draw(self, context):
-        layout = self.layout
-        layout.use_property_split = True
-        layout.use_property_decorate = False
+        layout = property_split(self.layout)
         settings = context.scene.photon_map
         col = layout.column(align=True)
         col.active = settings.integrator == 'progressive'
@@ -72,9 +82,7 @@ class PHOTON_MAP_VIEWLAYER_PT_passes(PhotonMapPanel, bpy.types.Panel):
     bl_context = "view_layer"
 
     def draw(self, context):
-        layout = self.layout
-        layout.use_property_split = True
-        layout.use_property_decorate = False
+        layout = property_split(self.layout)
         settings = context.scene.photon_map
         col = layout.column(heading="Light", align=True)
         col.active = settings.integrator == 'photon_map'  # progressive: Combined only
@@ -94,9 +102,7 @@ class PHOTON_MAP_RENDER_PT_light_paths(PhotonMapPanel, bpy.types.Panel):
     bl_label = "Light Paths"
 
     def draw(self, context):
-        layout = self.layout
-        layout.use_property_split = True
-        layout.use_property_decorate = False
+        layout = property_split(self.layout)
         layout.prop(context.scene.photon_map, "max_specular_depth")
 
 
@@ -106,9 +112,7 @@ class PHOTON_MAP_RENDER_PT_photons(PhotonMapPanel, bpy.types.Panel):
     bl_label = "Photons"
 
     def draw(self, context):
-        layout = self.layout
-        layout.use_property_split = True
-        layout.use_property_decorate = False
+        layout = property_split(self.layout)
         settings = context.scene.photon_map
         col = layout.column(align=True)
         col.prop(settings, "global_photons")
@@ -130,9 +134,7 @@ class PHOTON_MAP_RENDER_PT_indirect(PhotonMapPanel, bpy.types.Panel):
     bl_label = "Indirect"
 
     def draw(self, context):
-        layout = self.layout
-        layout.use_property_split = True
-        layout.use_property_decorate = False
+        layout = property_split(self.layout)
         settings = context.scene.photon_map
         layout.prop(settings, "indirect_mode")
         col = layout.column(align=True)
@@ -146,9 +148,7 @@ class PHOTON_MAP_RENDER_PT_performance(PhotonMapPanel, bpy.types.Panel):
     bl_options = {'DEFAULT_CLOSED'}
 
     def draw(self, context):
-        layout = self.layout
-        layout.use_property_split = True
-        layout.use_property_decorate = False
+        layout = property_split(self.layout)
         layout.prop(context.scene.photon_map, "threads")
         layout.prop(context.scene.photon_map, "dask_scheduler")
 
@@ -160,9 +160,7 @@ class PHOTON_MAP_RENDER_PT_debug(PhotonMapPanel, bpy.types.Panel):
     bl_options = {'DEFAULT_CLOSED'}
 
     def draw(self, context):
-        layout = self.layout
-        layout.use_property_split = True
-        layout.use_property_decorate = False
+        layout = property_split(self.layout)
         settings = context.scene.photon_map
         layout.prop(settings, "overlay_map")
         col = layout.column(heading="Render")
@@ -212,9 +210,7 @@ class PHOTON_MAP_MATERIAL_PT_settings(PhotonMapPanel, bpy.types.Panel):
         return context.material is not None and context.engine in cls.COMPAT_ENGINES
 
     def draw(self, context):
-        layout = self.layout
-        layout.use_property_split = True
-        layout.use_property_decorate = False
+        layout = property_split(self.layout)
         layout.prop(context.material.photon_map, "dispersion")
 
 
