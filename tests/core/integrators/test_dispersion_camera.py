@@ -24,21 +24,19 @@ def images():
             for abbe in (0.0, 20.0)}
 
 
-def test_emitter_through_the_prism_keeps_its_colour(images):
-    # Each camera path picks one wavelength at the prism and carries its RGB weight
-    # (mean (1, 1, 1)): summed over the image, the white emitter seen through a V_d 20
-    # prism is the clear prism's white within 1 % per channel (measured: 0.2-0.5 %). The
-    # camera looks near minimum deviation, where the image keeps its size at every
-    # wavelength, so the sum is the emitter's radiance times the same solid angle.
-    clear, disp = images[0.0], images[20.0]
+def check_keeps_colour(clear, disp):
+    """The V_d 20 image ``disp`` summed equals the clear prism's ``clear`` within 1 % per
+    channel, and the clear prism's channels are exactly equal (no wavelength picked);
+    (H, W, 3) float64 each. Shared with test_sppm_dispersion.py (the progressive mode)."""
     assert np.all(np.isfinite(disp)) and np.all(disp >= 0)
     total0, total = clear.sum(axis=(0, 1)), disp.sum(axis=(0, 1))
     assert total0[0] == total0[1] == total0[2] > 0  # no wavelength picked: RGB
     np.testing.assert_allclose(total, total0, rtol=0.01)
 
 
-def test_emitter_edges_split_into_colour_fringes(images):
-    clear, disp = images[0.0], images[20.0]
+def check_colour_fringes(clear, disp):
+    """The clear prism's image is grey; the dispersive one's lit pixels are far from grey
+    (colour fringes), and its blue image lies above its red one."""
     lit0 = clear.sum(axis=2) > 0.05 * clear.sum(axis=2).max()
     assert np.array_equal(clear[lit0, 0], clear[lit0, 2])  # the clear prism: grey
     lit = disp.sum(axis=2) > 0.05 * disp.sum(axis=2).max()
@@ -52,6 +50,18 @@ def test_emitter_edges_split_into_colour_fringes(images):
     row_red = (rows[main] * red).sum() / red.sum()
     row_blue = (rows[main] * blue).sum() / blue.sum()
     assert row_red - row_blue > 1.0
+
+
+def test_emitter_through_the_prism_keeps_its_colour(images):
+    # Each camera path picks one wavelength at the prism and carries its RGB weight
+    # (mean (1, 1, 1)): measured 0.2-0.5 % per channel. The camera looks near minimum
+    # deviation, where the image keeps its size at every wavelength, so the sum is the
+    # emitter's radiance times the same solid angle.
+    check_keeps_colour(images[0.0], images[20.0])
+
+
+def test_emitter_edges_split_into_colour_fringes(images):
+    check_colour_fringes(images[0.0], images[20.0])
 
 
 def test_dispersion_zero_renders_bit_identical_to_no_setting():
