@@ -524,9 +524,17 @@ def _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sa
                                  bsdf.front, bsdf.wavelengths(), pos, ngf, nsf,
                                  eps, back, g, u1, u2, o, d, weight, ok)
     radiance = np.zeros((m, 3))
-    rows = np.flatnonzero(ok)
-    o, d = o[rows], d[rows]
-    thr = np.ones((rows.shape[0], 3)) if bsdf is None else weight[rows]
+    # Where every ray is kept (no ray below its surface: the common case) the batch is
+    # used as it is, without index copies (~3 % of the camera pass).
+    all_kept = bool(ok.all())
+    rows = np.arange(m) if all_kept else np.flatnonzero(ok)
+    identity = all_kept  # rows is arange(m): radiance[rows] is radiance itself
+    if not all_kept:
+        o, d = o[rows], d[rows]
+    # unit: thr is still exactly 1 (no BSDF weight, medium or dispersion yet), so thr x est
+    # is est itself and the product is skipped.
+    unit = bsdf is None
+    thr = np.ones((rows.shape[0], 3)) if unit else (weight if all_kept else weight[rows])
     mats = prepared.materials
     # Each gather ray's wavelength (nm, 0 while RGB): its camera path's, else picked at its
     # first dispersive surface, as camera paths pick theirs (docs/dispersion.md).
@@ -542,9 +550,15 @@ def _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sa
         terms.stats["rays_gather"] += rows.shape[0]
         if terms.medium is not None:
             thr = _through_medium(terms, o, d, hits, thr, radiance, rows)
-        hit = np.flatnonzero(hits.prim >= 0)
+            unit = False
         # Escaping rays and light sources count nothing (direct light holds them).
-        rows, thr, d, lam = rows[hit], thr[hit], d[hit], lam[hit]
+        every = bool(np.all(hits.prim >= 0))  # a closed scene: no copies
+        hit = np.arange(rows.shape[0]) if every else np.flatnonzero(hits.prim >= 0)
+        if not every:
+            rows, thr, d, lam = rows[hit], thr[hit], d[hit], lam[hit]
+            identity = False
+        prim, hu, hv = ((hits.prim, hits.u, hits.v) if every else
+                        (hits.prim[hit], hits.u[hit], hits.v[hit]))
         path = None
         if prepared.hit_shader.reads_light_path:  # a diffuse reflection from the camera
             # path's vertex at depth, then the delta bounces of this loop (follow_delta)
@@ -553,19 +567,20 @@ def _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sa
                 light_path.BOUNCE_SINGULAR, False, depth + 1 + bounce, diffuse_depth=1,
                 glossy_depth=depth + bounce)
         p2, n2, s2, mat, e2, front = geometry.facing_surface_points(
-            prepared.tri_vertices, prepared.tri_normals, prepared.tri_material, hits.prim[hit],
-            hits.u[hit], hits.v[hit], d, prepared.extent)
+            prepared.tri_vertices, prepared.tri_normals, prepared.tri_material, prim,
+            hu, hv, d, prepared.extent)
         if dispersive:  # before the hit's estimate, as camera_paths.pick_wavelengths says
             u_lam = sampling.uniform(st.seed, ray_pixel[rows], index[rows], sampling.stream(
                 sampling.CAMERA_WAVELENGTH, depth, bounce, sampling.GATHER_LOBE))
             thr = np.array(thr)
             camera_paths.pick_wavelengths(prepared.closures, mat, u_lam, lam, thr)
+            unit = False
         diff = np.flatnonzero(prepared.has_diffuse[mat])
         rough = prepared.sampled_only[mat] | prepared.glossy_on_diffuse[mat]
         # One shading per hit (issue 14: a Principled wall's hit was shaded for its
         # albedo, then again for its glossy continuation), read by the BSDF estimate,
         # the diffuse albedo and the rough continuation below.
-        tab, crow, s2s = shade_hits(prepared, hits.prim[hit], hits.u[hit], hits.v[hit], d,
+        tab, crow, s2s = shade_hits(prepared, prim, hu, hv, d,
                                     mat, s2, path, prepared.has_diffuse[mat] | rough)
         if diff.size and terms.bsdf_materials is not None:
             b = terms.bsdf_materials[mat[diff]]
@@ -581,25 +596,33 @@ def _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sa
                 radiance[rows[bd]] += thr[bd] * est
                 terms.stats["gather_queries"] += bd.size
         if diff.size:
+            whole = diff.size == mat.shape[0]  # every hit diffuse: no copies
+            md = mat if whole else mat[diff]
             if prepared.surfaces.textured:
                 hd = hit[diff]
                 albedo = prepared.surfaces.albedo(hits.prim[hd], hits.u[hd], hits.v[hd],
                                                   mat[diff])
             else:
-                albedo = mats["diffuse"][mat[diff]]
+                albedo = mats["diffuse"][md]
             hd = hit[diff]
-            if crow is not mat or prepared.hit_shader.layered[mat[diff]].any():
+            if crow is not mat or prepared.hit_shader.layered[md].any():
                 albedo = prepared.hit_shader.diffuse_albedo(
                     tab, crow[diff], mat[diff],
                     prepared.texels.albedo(hits.prim[hd], hits.u[hd], hits.v[hd], mat[diff]),
                     d[diff], s2[diff], albedo)
+            p2d, n2d = (p2, n2) if whole else (p2[diff], n2[diff])
             if terms.cache is not None:
-                est = cached_radiance(terms, p2[diff], n2[diff], albedo)
+                est = cached_radiance(terms, p2d, n2d, albedo)
             else:
-                est = radiance_estimate(terms.global_map, p2[diff], n2[diff],
+                est = radiance_estimate(terms.global_map, p2d, n2d,
                                         albedo, terms.global_k,
                                         terms.global_radius, terms.filter)
-            radiance[rows[diff]] += thr[diff] * est
+            if not unit:
+                est = (thr if whole else thr[diff]) * est
+            if whole and identity:
+                radiance += est
+            else:
+                radiance[rows[diff]] += est
             terms.stats["gather_queries"] += diff.size
         if bounce == st.max_specular_depth:
             break
@@ -630,6 +653,7 @@ def _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sa
             go.append(_follow_rough(prepared, st.seed, depth, bounce, ray_pixel, index, rows[sr],
                                     hits, hit[sr], p2[sr], n2[sr], s2s[sr], d[sr], front[sr],
                                     mat[sr], e2[sr], thr[sr], lam[sr], tab, crow[sr]))
+        identity, unit = False, False  # the lobes' weights, some rays gone
         if len(go) == 1:
             rows, o, d, thr, lam = go[0]
         else:
