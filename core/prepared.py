@@ -578,16 +578,36 @@ class HitShader:
                              bump=bool(self.bumped[mat[hit]].any()),
                              path=_path_rows(path, hit), reads=self.sources(mat[hit]))
         rows = np.array(mat, np.int32, copy=True)
-        kinds, weights, params, textures, firsts, counts, abbes = [], [], [], [], [], [], []
+        hmat = mat[hit]
+        values = self._group_values(ins, hmat)
+        present = np.unique(hmat)
+        # the per-batch table built in place: the prepared closures, then each programmed
+        # hit's copies of its material's (materials in order, each one's hits in order),
+        # every row written once (no per-material float32 copy, float64 conversion and
+        # concatenation: three copies of every row)
+        order = np.argsort(hmat, kind="stable")
+        per = np.bincount(hmat, minlength=n_mat)[present]  # hits of each material
+        total = n_cl + int(np.dot(per, tab.count[present]))
+        n_rows = n_mat + hit.size
+
+        def grown(a, size, dtype=None):
+            out = np.empty((size,) + a.shape[1:], a.dtype if dtype is None else dtype)
+            out[:a.shape[0]] = a
+            return out
+        kind, weight = grown(tab.kind, total, np.int32), grown(tab.weight, total, np.float64)
+        params = grown(tab.params, total, np.float64)
+        texture, abbe = grown(tab.texture, total, np.int32), grown(tab.abbe, total)
+        first, count = grown(tab.first, n_rows, np.int32), grown(tab.count, n_rows, np.int32)
         done = 0
         next_closure = n_cl
         bent = ns
-        values = self._group_values(ins, mat[hit])
-        for m in np.unique(mat[hit]):
-            sel = np.flatnonzero(mat[hit] == m)
+        for m, h in zip(present.tolist(), per.tolist()):
+            sel = order[done:done + h]
             f, k = int(tab.first[m]), int(tab.count[m])
+            c = slice(next_closure, next_closure + h * k)
             out = interpreter.closure_values(self.programs[m], values[sel],
-                                             tab.params[f:f + k].astype(np.float32))
+                                             tab.params[f:f + k].astype(np.float32),
+                                             out=params[c].reshape(h, k, params.shape[1]))
             if out["normal"] is not None and ns is not None:
                 if bent is ns:
                     bent = np.array(ns, np.float64, copy=True)
@@ -596,35 +616,26 @@ class HitShader:
                 bent[hit[sel]] = normals.valid_specular_reflection(
                     ins.true_normal[sel], ins.incoming[sel],
                     _unit_or(out["normal"], bent[hit[sel]]))
-            h = sel.size
             # Where the program bends the shading normal, an unlinked Coat Normal is the
             # un-bent one (Cycles links it to the geometry's normal, sd->N, which a Bump
             # or Normal Map into the Normal input does not change)
             coat_normals(out["params"], ins.true_normal[sel], ins.incoming[sel],
                          None if out["normal"] is None else
                          (tab.kind[f:f + k], ins.normal[sel]))
-            kinds.append(np.tile(tab.kind[f:f + k], h))
-            w = np.tile(tab.weight[f:f + k], (h, 1))
+            kind[c].reshape(h, k)[...] = tab.kind[f:f + k]
+            weight[c].reshape(h, k, 3)[...] = tab.weight[f:f + k]
             if out["weight"] is not None:  # the linked Mix factors of each closure here
-                w = w * out["weight"].reshape(h * k, 1)
-            weights.append(w)
-            params.append(out["params"].reshape(h * k, -1).astype(np.float64))
-            textures.append(np.tile(tab.texture[f:f + k], h))
-            abbes.append(np.tile(tab.abbe[f:f + k], h))
-            firsts.append(next_closure + k * np.arange(h, dtype=np.int32))
-            counts.append(np.full(h, k, np.int32))
-            rows[hit[sel]] = n_mat + done + np.arange(h, dtype=np.int32)
+                weight[c] *= out["weight"].reshape(h * k, 1)
+            texture[c].reshape(h, k)[...] = tab.texture[f:f + k]
+            abbe[c].reshape(h, k)[...] = tab.abbe[f:f + k]
+            r = slice(n_mat + done, n_mat + done + h)
+            first[r] = next_closure + k * np.arange(h, dtype=np.int32)
+            count[r] = k
+            rows[hit[sel]] = np.arange(r.start, r.stop, dtype=np.int32)
             done += h
             next_closure += h * k
-        cat = np.concatenate
-        batch = tab._replace(
-            kind=cat([tab.kind, *kinds]).astype(np.int32),
-            weight=np.ascontiguousarray(cat([tab.weight, *weights])),
-            params=np.ascontiguousarray(cat([tab.params, *params])),
-            texture=cat([tab.texture, *textures]).astype(np.int32),
-            first=cat([tab.first, *firsts]).astype(np.int32),
-            count=cat([tab.count, *counts]).astype(np.int32),
-            abbe=np.ascontiguousarray(cat([tab.abbe, *abbes])))
+        batch = tab._replace(kind=kind, weight=weight, params=params, texture=texture,
+                             first=first, count=count, abbe=abbe)
         return batch, rows, bent
 
 
@@ -681,7 +692,8 @@ class HitShader:
 
 def coat_normals(params, true_normal, incoming, unbent=None) -> None:
     """Make the Coat Normals of programmed closure rows what the coat shades with, in
-    place: params (N, C, PARAM_COUNT) float32 (``interpreter.closure_values``), the
+    place: params (N, C, PARAM_COUNT) float32 or float64 holding float32 values
+    (``interpreter.closure_values``), the
     ``COAT_NORMAL`` slots of each (point, closure) that has one (non-zero) made unit
     length and tilted as Cycles' maybe_ensure_valid_specular_reflection(sd, coat_normal)
     (``normals.valid_specular_reflection``; true_normal, incoming (N, 3) as
@@ -716,7 +728,9 @@ def coat_normals(params, true_normal, incoming, unbent=None) -> None:
         keep = np.ones_like(ok)
         unit = np.where(ok[:, None], unit, _unit_or(normal[p], true_normal[p]))
     valid = normals.valid_specular_reflection(true_normal[p], incoming[p], unit)
-    params[p, c, cl.COAT_NORMAL:cl.COAT_NORMAL + 3] = np.where(keep[:, None], valid, 0.0)
+    # float32 values whatever params' dtype (``shade`` fills its float64 table in place)
+    params[p, c, cl.COAT_NORMAL:cl.COAT_NORMAL + 3] = np.where(keep[:, None], valid,
+                                                               0.0).astype(np.float32)
 
 
 def _unit_or(normal, fallback) -> np.ndarray:

@@ -488,13 +488,21 @@ def closure_params(program: pg.ShaderProgram, inputs: ShadingInputs,
     return closure_values(program, evaluate(program, inputs, images), params)
 
 
-def closure_values(program: pg.ShaderProgram, values: np.ndarray, params: np.ndarray
-                   ) -> dict[str, np.ndarray]:
+def closure_values(program: pg.ShaderProgram, values: np.ndarray, params: np.ndarray,
+                   out: np.ndarray | None = None) -> dict[str, np.ndarray]:
     """``closure_params`` from the program's outputs already evaluated, values (N, O)
     float32 (``evaluate``): one evaluation serves every material running the same
-    program (``HitShader.shade``)."""
+    program (``HitShader.shade``). out: None, or (N, C, PARAM_COUNT) float64 to write
+    the rows into (they are then "params", the same values as the float32 rows:
+    ``HitShader.shade`` writes them straight into its per-batch closure table instead of
+    converting and concatenating a float32 copy)."""
     n = values.shape[0]
-    rows = np.broadcast_to(np.asarray(params, np.float32), (n,) + np.shape(params)).copy()
+    rows = np.broadcast_to(np.asarray(params, np.float32), (n,) + np.shape(params))
+    if out is None:
+        rows = rows.copy()
+    else:
+        out[...] = rows
+        rows = out
     result = {"params": rows, "emission": None, "alpha": None, "normal": None,
               "weight": None}
     for o, (_, target, closure, slot) in enumerate(program.outputs.tolist()):

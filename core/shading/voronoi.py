@@ -602,28 +602,17 @@ def voronoi_texture(x, y, z, w, dims, feature, metric, normalize, scale, detail,
             break
         if i <= detail:
             max_amp += amp
-            od += d * amp
-            orr += r * amp
-            og += g * amp
-            ob += b * amp
-            opx = (1.0 - amp) * opx + amp * (px / sc)
-            opy = (1.0 - amp) * opy + amp * (py / sc)
-            opz = (1.0 - amp) * opz + amp * (pz / sc)
-            opw = (1.0 - amp) * opw + amp * (pw / sc)
+            od, orr, og, ob, opx, opy, opz, opw = _octave_step(
+                od, orr, og, ob, opx, opy, opz, opw, d, r, g, b, px, py, pz, pw, amp, sc, 1.0)
             sc *= lacunarity
             amp *= roughness
         else:
             rem = detail - math.floor(detail)
             if rem != 0.0:
                 max_amp = (1.0 - rem) * max_amp + rem * (max_amp + amp)
-                od = (1.0 - rem) * od + rem * (od + d * amp)
-                orr = (1.0 - rem) * orr + rem * (orr + r * amp)
-                og = (1.0 - rem) * og + rem * (og + g * amp)
-                ob = (1.0 - rem) * ob + rem * (ob + b * amp)
-                opx = (1.0 - rem) * opx + rem * ((1.0 - amp) * opx + amp * (px / sc))
-                opy = (1.0 - rem) * opy + rem * ((1.0 - amp) * opy + amp * (py / sc))
-                opz = (1.0 - rem) * opz + rem * ((1.0 - amp) * opz + amp * (pz / sc))
-                opw = (1.0 - rem) * opw + rem * ((1.0 - amp) * opw + amp * (pw / sc))
+                od, orr, og, ob, opx, opy, opz, opw = _octave_step(
+                    od, orr, og, ob, opx, opy, opz, opw, d, r, g, b, px, py, pz, pw, amp, sc,
+                    rem)
     if normalize:
         od /= max_amp * max_distance
         orr /= max_amp
@@ -688,6 +677,43 @@ def _f1_3d_rows(X, Y, Z, sc, m, randomness, s):
         QZ[i] = QZ[i] + FZ[i]
 
 
+@njit(inline="always", **_JIT)
+def _octave_step(od, orr, og, ob, opx, opy, opz, opw, d, r, g, b, px, py, pz, pw, amp, sc,
+                 rem):
+    """One octave of ``voronoi_texture``'s fBm: the sums (od, orr, og, ob: distance and
+    colour, opx..opw: position) with the octave's (d, r, g, b, px, py, pz, pw) at amplitude
+    amp and octave scale sc added; rem (float) 1.0 for a whole octave, else the fractional
+    detail's last octave, the sums moved that fraction of the way to the whole octave's
+    (Cycles' lerp). Returns the 8 new sums. A whole octave returns its sums as they are
+    (not lerped by 1.0, which would round differently)."""
+    nd = od + d * amp
+    nr = orr + r * amp
+    ng = og + g * amp
+    nb = ob + b * amp
+    nx = (1.0 - amp) * opx + amp * (px / sc)
+    ny = (1.0 - amp) * opy + amp * (py / sc)
+    nz = (1.0 - amp) * opz + amp * (pz / sc)
+    nw = (1.0 - amp) * opw + amp * (pw / sc)
+    if rem == 1.0:
+        return nd, nr, ng, nb, nx, ny, nz, nw
+    return ((1.0 - rem) * od + rem * nd, (1.0 - rem) * orr + rem * nr,
+            (1.0 - rem) * og + rem * ng, (1.0 - rem) * ob + rem * nb,
+            (1.0 - rem) * opx + rem * nx, (1.0 - rem) * opy + rem * ny,
+            (1.0 - rem) * opz + rem * nz, (1.0 - rem) * opw + rem * nw)
+
+
+@njit(inline="always", **_JIT)
+def _octave_rows(od, orr, og, ob, opx, opy, opz, opw, s, m, amp, sc, rem):
+    """``_octave_step`` at points i < m of ``voronoi_f1_3d_rows``: its sums (arrays, in
+    place) with the octave in its scratch rows (``_f1_3d_rows``: distance s[10], colour
+    s[11:14], position s[14:17]; W is 0)."""
+    D, CR, CG, CB, QX, QY, QZ = s[10], s[11], s[12], s[13], s[14], s[15], s[16]
+    for i in range(m):
+        od[i], orr[i], og[i], ob[i], opx[i], opy[i], opz[i], opw[i] = _octave_step(
+            od[i], orr[i], og[i], ob[i], opx[i], opy[i], opz[i], opw[i],
+            D[i], CR[i], CG[i], CB[i], QX[i], QY[i], QZ[i], 0.0, amp, sc, rem)
+
+
 @njit(**_JIT)
 def voronoi_f1_3d_rows(x, y, z, m, scale, detail, roughness, lacunarity, randomness,
                        normalize, od, orr, og, ob, opx, opy, opz, opw, s):
@@ -724,34 +750,14 @@ def voronoi_f1_3d_rows(x, y, z, m, scale, detail, roughness, lacunarity, randomn
             break
         if it <= detail:
             max_amp += amp
-            for i in range(m):
-                od[i] += D[i] * amp
-                orr[i] += CR[i] * amp
-                og[i] += CG[i] * amp
-                ob[i] += CB[i] * amp
-                opx[i] = (1.0 - amp) * opx[i] + amp * (QX[i] / sc)
-                opy[i] = (1.0 - amp) * opy[i] + amp * (QY[i] / sc)
-                opz[i] = (1.0 - amp) * opz[i] + amp * (QZ[i] / sc)
-                opw[i] = (1.0 - amp) * opw[i] + amp * (0.0 / sc)
+            _octave_rows(od, orr, og, ob, opx, opy, opz, opw, s, m, amp, sc, 1.0)
             sc *= lacunarity
             amp *= roughness
         else:
             rem = detail - math.floor(detail)
             if rem != 0.0:
                 max_amp = (1.0 - rem) * max_amp + rem * (max_amp + amp)
-                for i in range(m):
-                    od[i] = (1.0 - rem) * od[i] + rem * (od[i] + D[i] * amp)
-                    orr[i] = (1.0 - rem) * orr[i] + rem * (orr[i] + CR[i] * amp)
-                    og[i] = (1.0 - rem) * og[i] + rem * (og[i] + CG[i] * amp)
-                    ob[i] = (1.0 - rem) * ob[i] + rem * (ob[i] + CB[i] * amp)
-                    opx[i] = (1.0 - rem) * opx[i] + rem * ((1.0 - amp) * opx[i]
-                                                           + amp * (QX[i] / sc))
-                    opy[i] = (1.0 - rem) * opy[i] + rem * ((1.0 - amp) * opy[i]
-                                                           + amp * (QY[i] / sc))
-                    opz[i] = (1.0 - rem) * opz[i] + rem * ((1.0 - amp) * opz[i]
-                                                           + amp * (QZ[i] / sc))
-                    opw[i] = (1.0 - rem) * opw[i] + rem * ((1.0 - amp) * opw[i]
-                                                           + amp * (0.0 / sc))
+                _octave_rows(od, orr, og, ob, opx, opy, opz, opw, s, m, amp, sc, rem)
     for i in range(m):
         if normalize:
             od[i] /= max_amp * max_distance
