@@ -11,7 +11,7 @@ measured against converged references on four scenes built with bpy.
 scenes tradeoff_<scene>_images.png: each preset above Cycles at about its wall time), not
 docs/tradeoff.md (a run of some scenes must not drop the others' rows there):
 
-    .venv/bin/python benchmarks/tradeoff.py --scenes fog_spot,fog_caustic --pictures
+    .venv/bin/python benchmarks/tradeoff.py --scenes fog_spot_1m,fog_caustic_1m --quick --pictures
 
 Scenes (SCENES): ``demo`` (the Cornell box of examples/cornell_box.py: mirror and glass
 spheres, a small area light), ``caustic`` (a glass sphere on a floor under a small area
@@ -19,9 +19,11 @@ light, tests/blender/cycles_caustic_reference.py's scene), ``interior`` (a close
 only by an area light facing the ceiling: almost every visible pixel is indirect light),
 ``mirror`` (a room corner with a mirror wall, a diffuse sphere and box, a ceiling light),
 ``artist`` (a room of default Principled BSDF walls, a glossy floor, rough copper, gold and
-frosted-glass spheres: issue 13's scene), ``fog_spot`` (a floor in World fog lit by a spot
-light) and ``fog_caustic`` (the same with a glass sphere under the spot: the volumetric
-caustic), tests/blender/cycles_media_reference.py's scenes (issue 16).
+frosted-glass spheres: issue 13's scene), ``fog_spot_1m`` (a floor in World fog lit by a
+spot light of radius 1 m) and ``fog_caustic_1m`` (the same with a glass sphere under the
+spot: the volumetric caustic), tests/blender/cycles_media_reference.py's scenes (issue 16;
+the 1 m light because with its 0.1 m one Cycles converges 13 % dark on the caustic: its
+docstring).
 
 Resolutions: RESOLUTIONS (64 x 48, the caustic 96 x 72), or --resolution / --quick (48 x 36).
 References (cached in benchmarks/references/<scene>_<W>x<H>.npz with the command that
@@ -30,11 +32,8 @@ re-rendered, or refused with the command under ``--no-make``):
 - Cycles, full global illumination with BOUNCES bounces of every kind (Photon Map's
   ``photon_max_bounces`` and ``max_specular_depth``), caustics on, no clamping, no
   denoising, a 1-pixel box filter, 2 seeds x REF_SAMPLES samples averaged;
-- for ``fog_spot``: cycles_media_reference.py's cached Cycles render (CYCLES_SEEDS x
-  CYCLES_SAMPLES samples, BOUNCES bounces, volume bounces included); for ``fog_caustic``
-  Photon Map at FOG_CAUSTIC_REF, cross-checked against that Cycles render (why: its
-  docstring); both at that module's resolution only, and without SPPM rows (the progressive
-  mode refuses media);
+- for the fog scenes: cycles_media_reference.py's cached Cycles render (WIDE_RUNS: seeds x
+  samples, BOUNCES bounces, volume bounces included), at that module's resolution only;
 - for ``caustic``: SPPM with 2 seeds x CAUSTIC_REF_PASSES passes of CAUSTIC_REF_PHOTONS
   photons, cross-checked against a Cycles render of the same scene (the relMSE between
   the two is stored and printed).
@@ -83,8 +82,8 @@ from tests.blender import scenes  # noqa: E402
 REF_DIR = ROOT / "benchmarks" / "references"
 DOCS = ROOT / "docs"
 RESOLUTIONS = {"demo": (64, 48), "caustic": (96, 72), "interior": (64, 48), "mirror": (64, 48),
-               "artist": (64, 48), "fog_spot": media_ref.RESOLUTION,
-               "fog_caustic": media_ref.RESOLUTION}
+               "artist": (64, 48), "fog_spot_1m": media_ref.RESOLUTION,
+               "fog_caustic_1m": media_ref.RESOLUTION}
 """Pixels per scene: small, so a full run fits ~30 min on 2 shared cores (the caustic is
 larger: its reference is SPPM, whose cost does not grow with the pixel count)."""
 QUICK_RESOLUTION = (48, 36)
@@ -257,30 +256,23 @@ def artist_scene(resolution):
 
 
 def fog_spot_scene(resolution):
-    """A grey floor in World fog (albedo 0.7, sigma_t 0.25 / m) under a spot light."""
-    return media_ref.fog_spot_scene(resolution)
+    """A grey floor in World fog (albedo 0.7, sigma_t 0.25 / m) under a spot light of radius
+    1 m (cycles_media_reference's fog_spot_1m)."""
+    return media_ref.wide_light(lambda: media_ref.fog_spot_scene(resolution))()
 
 
 def fog_caustic_scene(resolution):
-    """fog_spot with a glass sphere under the spot: the volumetric caustic."""
-    return media_ref.fog_spot_scene(resolution, sphere=True)
+    """fog_spot_1m with a glass sphere under the spot: the volumetric caustic
+    (cycles_media_reference's fog_caustic_1m)."""
+    return media_ref.wide_light(lambda: media_ref.fog_spot_scene(resolution, sphere=True))()
 
 
 SCENES = {"demo": demo_scene, "caustic": caustic_scene, "interior": interior_scene,
-          "mirror": mirror_scene, "artist": artist_scene, "fog_spot": fog_spot_scene,
-          "fog_caustic": fog_caustic_scene}
-MEDIA_SCENES = ("fog_spot", "fog_caustic")
+          "mirror": mirror_scene, "artist": artist_scene, "fog_spot_1m": fog_spot_scene,
+          "fog_caustic_1m": fog_caustic_scene}
+MEDIA_SCENES = ("fog_spot_1m", "fog_caustic_1m")
 """Scenes whose Cycles renders use cycles_media_reference.configure_cycles_media (volume
-bounces too) and whose reference is that module's cached Cycles render, except
-``fog_caustic`` (FOG_CAUSTIC_REF)."""
-FOG_CAUSTIC_REF = dict(samples=64, global_photons=4_000_000, caustic_photons=4_000_000,
-                       indirect_mode="preview", light_samples=4, photon_max_bounces=BOUNCES,
-                       max_specular_depth=BOUNCES)
-"""The volumetric caustic's reference: Photon Map with these settings, two seeds, cross-checked
-against the cached Cycles render. Cycles is no reference there: it finds light -> glass -> fog
-paths only by phase-sampled rays through the sphere that hit the 0.1 m light, and even an
-index-matched sphere (IOR 1, which must change nothing) darkens its image by 13 % at 8 x 2048
-samples (docs/volumes.md), where Photon Map's changes by 0.9 %."""
+bounces too) and whose reference is that module's cached Cycles render of the same name."""
 
 
 # Renderers ----------------------------------------------------------------------------
@@ -334,14 +326,6 @@ class PhotonMap:
         wall = time.perf_counter() - t0
         return out.passes["combined"].astype(np.float64), wall, out.stats
 
-    def custom(self, values, seed=0):
-        """(image (H, W, 3) float64, wall s incl. export) with RenderSettings ``values``."""
-        t0 = time.perf_counter()
-        core_scene = self.export_scene()
-        settings = self.settings.RenderSettings().with_values(seed=seed, **values)
-        out = self.integrator.render(core_scene, settings)
-        return out.passes["combined"].astype(np.float64), time.perf_counter() - t0
-
     def progressive(self, marks, photons, seed=0):
         """{passes: (image, wall s incl. export)} at each mark."""
         t0 = time.perf_counter()
@@ -363,8 +347,9 @@ class PhotonMap:
         caustic_scene((8, 6))  # glass: the caustic map's kernels too
         self.preset("draft")
         self.progressive((1,), 1000)
-        fog_caustic_scene((8, 6))  # World fog: the media kernels (not progressive: refused)
+        fog_caustic_scene((8, 6))  # World fog: the media kernels, both integrators
         self.preset("draft")
+        self.progressive((1,), 1000)
 
 
 # References ---------------------------------------------------------------------------
@@ -381,8 +366,6 @@ def fingerprint(name, resolution) -> str:
                   repr((CAUSTIC_REF_PASSES, CAUSTIC_REF_PHOTONS))]
     if name in ("interior", "mirror"):
         parts += [inspect.getsource(_room), inspect.getsource(_glossy_mirror)]
-    if name in MEDIA_SCENES:
-        parts += [media_ref.fingerprint(), repr(FOG_CAUSTIC_REF)]
     return hashlib.sha256("\n".join(parts).encode()).hexdigest()[:16]
 
 
@@ -414,20 +397,7 @@ def make_reference(name, resolution, pm: PhotonMap) -> dict:
     stamp = fingerprint(name, resolution)  # before the long render (the source may change)
     scene = SCENES[name](resolution)
     extra = {}
-    if name == "fog_caustic":
-        a, b = (pm.custom(FOG_CAUSTIC_REF, seed)[0] for seed in (101, 102))
-        image = (a + b) / 2
-        cycles = media_ref.load_reference(name)
-        cycles_image = cycles["image"].astype(np.float64)
-        extra = dict(method=np.str_("Photon Map 2 x " + ", ".join(
-                         f"{k} {v:,}" if isinstance(v, int) else f"{k} {v}"
-                         for k, v in FOG_CAUSTIC_REF.items())),
-                     cycles=cycles_image.astype(np.float32),
-                     cycles_a=cycles["image_a"], cycles_b=cycles["image_b"],
-                     cycles_vs_sppm=np.float64(rel_mse(cycles_image, image)),
-                     cycles_noise=np.float64(noise_floor(cycles["image_a"], cycles["image_b"])),
-                     cycles_mean_ratio=np.float64(mean_ratio(cycles_image, image)))
-    elif name == "caustic":
+    if name == "caustic":
         halves = []
         for seed in (101, 102):
             found = pm.progressive((CAUSTIC_REF_PASSES,), CAUSTIC_REF_PHOTONS, seed=seed)
@@ -460,7 +430,7 @@ def make_reference(name, resolution, pm: PhotonMap) -> dict:
     data = load_reference(name, resolution)
     msg = f"reference {name} {resolution[0]}x{resolution[1]}: {data['method']}, " \
           f"{data['seconds']:.0f} s, noise {data['noise']:.2g}"
-    if name in ("caustic", "fog_caustic"):
+    if name == "caustic":
         msg += f", Cycles vs this reference relMSE {extra['cycles_vs_sppm']:.4f} " \
                f"(Cycles noise {extra['cycles_noise']:.4f}), mean ratio " \
                f"{extra['cycles_mean_ratio']:.3f}"
@@ -486,8 +456,9 @@ def media_reference(name, resolution, make=True, force=False) -> dict:
         raise SystemExit(f"{media_ref.reference_path(name)} has no halves; regenerate it with: "
                          f"{command}")
     data["noise"] = noise_floor(data["image_a"], data["image_b"])
-    data["method"] = np.str_(f"Cycles {int(data['samples']):,} samples "
-                             f"({media_ref.CYCLES_SEEDS} seeds), {media_ref.BOUNCES} bounces")
+    samples, seeds = media_ref.WIDE_RUNS
+    data["method"] = np.str_(f"Cycles {seeds} seeds x {samples:,} samples, "
+                             f"{media_ref.BOUNCES} bounces")
     data["command"] = np.str_(command)
     return data
 
@@ -496,7 +467,7 @@ def reference(name, resolution, pm, make=True, force=False) -> dict:
     if name in MEDIA_SCENES and tuple(resolution) != tuple(media_ref.RESOLUTION):
         raise SystemExit(f"{name} has a reference at {media_ref.RESOLUTION[0]}x"
                          f"{media_ref.RESOLUTION[1]} only, not {resolution[0]}x{resolution[1]}")
-    if name == "fog_spot":
+    if name in MEDIA_SCENES:
         return media_reference(name, resolution, make, force)
     data = None if force else load_reference(name, resolution)
     if data is None:
@@ -516,7 +487,6 @@ def measure_scene(name, resolution, pm, qualities, sppm_marks, cycles_samples, r
     rows = []
     configure = media_ref.configure_cycles_media if name in MEDIA_SCENES else configure_cycles_full
     if name in MEDIA_SCENES:
-        sppm_marks = ()  # the progressive mode refuses a scene with a medium
         cycles_samples = MEDIA_CYCLES_SAMPLES
 
     def add(method, label, img, wall, **extra):

@@ -7,8 +7,9 @@
   only to a light with a size); the camera sees the lit cone and the floor.
 - ``fog_caustic``: the same, with a glass sphere (IOR 1.5, radius 0.25 m) 1.2 m above the
   floor under the spot: the volumetric caustic (the focused cone in the fog below it).
-- ``fog_caustic_1m``: fog_caustic with the spot light's radius 1 m (WIDE_LIGHT), where
-  Cycles converges on the caustic (WIDE_RUNS: 8 seeds of 1024 samples).
+- ``fog_spot_1m``, ``fog_caustic_1m``: fog_spot and fog_caustic with the spot light's radius
+  1 m (WIDE_LIGHT), where Cycles converges on the caustic (WIDE_RUNS: 8 seeds of 1024
+  samples); benchmarks/tradeoff.py's fog scenes.
 
 Cycles renders full transport with BOUNCES bounces of every kind (volume bounces
 included, caustics on, no clamping, the 1-pixel box filter of
@@ -17,7 +18,7 @@ standard error of the 8 x 8 block means comes from the odd and even seeds' halve
 tests/data/cycles_media_<name>_48x36.npz with a fingerprint of this module's scene code.
 Re-render (both scenes, or the ones named) with:
 
-    .venv/bin/python tests/blender/cycles_media_reference.py [fog_spot fog_caustic]
+    .venv/bin/python tests/blender/cycles_media_reference.py [fog_spot fog_caustic ...]
 """
 
 from __future__ import annotations
@@ -109,6 +110,7 @@ def wide_light(build):
 
 SCENES = {"fog_spot": lambda: fog_spot_scene(),
           "fog_caustic": lambda: fog_spot_scene(sphere=True),
+          "fog_spot_1m": wide_light(lambda: fog_spot_scene()),
           "fog_caustic_1m": wide_light(lambda: fog_spot_scene(sphere=True))}
 
 
