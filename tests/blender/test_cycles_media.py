@@ -42,9 +42,11 @@ def test_spot_lit_fog_channel_means_match_cycles(fog_spot):
                           "its own mirror differs by 17 %: the volume photons' noise at 100k "
                           "global photons. At 1M global photons 13.0 / 6.0 %: seed 1's worst "
                           "block is two pixels beside the 0.1 m light (row 7, columns 23-24: "
-                          "the pair 17-22 % low and shifted right in both seeds), unchanged "
-                          "from 100k: 16-spp camera noise or a sub-pixel offset, not settled "
-                          "(docs/volumes.md, \"fog_spot's blocks over seeds\")",
+                          "the top of the lit cone; the pair 17-22 % low and shifted right "
+                          "in both seeds), unchanged from 100k: the shift is 16-spp noise, "
+                          "but at 256 spp the pair is still 23 % low, a candidate bias at the "
+                          "cone's apex, not settled (docs/volumes.md, \"fog_spot's blocks "
+                          "over seeds\")",
                    strict=False)
 def test_spot_lit_fog_block_means_match_cycles(fog_spot):
     f = _figures("fog_spot", fog_spot)
