@@ -22,7 +22,7 @@ ROOT = pathlib.Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
-from core.integrators import distributed, sppm  # noqa: E402
+from core.integrators import distributed  # noqa: E402
 from core.settings import RenderSettings  # noqa: E402
 from sppm_convergence import caustic_scene  # noqa: E402
 

@@ -17,7 +17,6 @@ the constructor a caller holding whole arrays uses (its inputs stay alive).
 
 import argparse
 import json
-import os
 import pathlib
 import subprocess
 import sys

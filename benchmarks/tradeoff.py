@@ -78,6 +78,7 @@ from tests.blender import cycles_caustic_reference as caustic_ref  # noqa: E402
 from tests.blender import cycles_media_reference as media_ref  # noqa: E402
 from tests.blender import cycles_reference as cref  # noqa: E402
 from tests.blender import scenes  # noqa: E402
+from tests.metrics import rel_mse  # noqa: E402
 
 REF_DIR = ROOT / "benchmarks" / "references"
 DOCS = ROOT / "docs"
@@ -105,12 +106,6 @@ MEDIA_CYCLES_SAMPLES = (16, 64, 256, 1024, 4096, 16384)
 2 ms a sample, so Photon Map's wall times are reached by measurement, not extrapolation."""
 REGENERATE = ".venv/bin/python benchmarks/tradeoff.py --make-references --scenes {scene} " \
              "--resolution {w}x{h}"
-
-
-def rel_mse(a, b) -> float:
-    """mean((a - b)^2 / (b^2 + 0.01)) over pixels and channels (b: the reference)."""
-    a, b = np.asarray(a, np.float64), np.asarray(b, np.float64)
-    return float(np.mean((a - b) ** 2 / (b * b + 0.01)))
 
 
 def mean_ratio(a, b) -> float:
