@@ -451,7 +451,7 @@ def media_reference(name, resolution, make=True, force=False) -> dict:
         raise SystemExit(f"{media_ref.reference_path(name)} has no halves; regenerate it with: "
                          f"{command}")
     data["noise"] = noise_floor(data["image_a"], data["image_b"])
-    samples, seeds = media_ref.WIDE_RUNS
+    samples, seeds = media_ref.CACHE.runs(name)
     data["method"] = np.str_(f"Cycles {seeds} seeds x {samples:,} samples, "
                              f"{media_ref.BOUNCES} bounces")
     data["command"] = np.str_(command)

@@ -215,6 +215,13 @@ def block_sigma(image_a, image_b, block=8) -> np.ndarray:
     return np.sqrt(block_means(var, block) / block**2)
 
 
+def relative_block_sigma(reference: dict, block=8) -> np.ndarray:
+    """A cached reference's noise: its block_sigma (h, w, 3) over its block means, inf or
+    NaN where a block is black (such blocks are not counted by ``compare``)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return reference["block_sigma"] / block_means(reference["image"], block)
+
+
 def compare(image, reference, sigma=None, block=8, floor=0.02) -> dict:
     """Figures of ``image`` against ``reference`` (both (H, W, 3) linear radiance).
 

@@ -72,8 +72,7 @@ def test_smoke_filled_glass_block_means_match_cycles(smoke_glass):
     counted = np.isfinite(f["blocks"])
     # Cycles' noise allows the 10 %: its 3 sigma is under 6 % of every counted block
     # (8 x 1024 spp; measured sigma at most 1.9 % of a block, median 0.46 %)
-    with np.errstate(divide="ignore", invalid="ignore"):  # black blocks are not counted
-        cycles_sigma = reference["block_sigma"] / ref.block_means(reference["image"])
+    cycles_sigma = ref.relative_block_sigma(reference)
     assert np.all(3.0 * cycles_sigma[counted] < 0.06), cycles_sigma
     assert f["worst_block"] < 0.10, f["blocks"]  # measured 4.6 / 3.2 / 4.3 % (seeds 1-3)
 
@@ -89,6 +88,5 @@ def test_smoke_filled_glass_under_the_small_light_matches_cycles():
     reference = mesh_media.load_reference("smoke_glass")
     f = _figures("smoke_glass", passes)
     assert np.all(np.abs(f["channel"]) < 0.03), f["channel"]
-    with np.errstate(divide="ignore", invalid="ignore"):  # black blocks are not counted
-        cycles_sigma = reference["block_sigma"] / ref.block_means(reference["image"])
+    cycles_sigma = ref.relative_block_sigma(reference)  # black blocks: not counted (NaN)
     assert np.all(np.nan_to_num(np.abs(f["blocks"]) - 3.0 * cycles_sigma) < 0.10), f["blocks"]

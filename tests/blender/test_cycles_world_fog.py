@@ -43,6 +43,6 @@ def test_varying_world_fog_block_means_match_cycles(fog_room):
     counted = np.isfinite(f["blocks"])
     # Cycles' noise allows the 10 %: its 3 sigma is under 5 % of every counted block
     # (measured: sigma at most 0.35 % of a block)
-    cycles_sigma = reference["block_sigma"] / ref.block_means(reference["image"])
+    cycles_sigma = ref.relative_block_sigma(reference)
     assert np.all(3.0 * cycles_sigma[counted] < 0.05), cycles_sigma
     assert f["worst_block"] < 0.10, f["blocks"]  # measured 3.4 to 3.9 %
