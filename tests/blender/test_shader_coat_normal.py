@@ -15,7 +15,7 @@ bpy = pytest.importorskip("bpy")
 from tests.blender import scenes  # noqa: E402
 from tests.blender.export_probe import export  # noqa: E402
 from tests.blender.test_shader_normals import (  # noqa: E402
-    A_B, A_T, render_cycles, render_photon_map, square_interiors, sun_plane, tilt_colour)
+    render_cycles, render_photon_map, square_interiors, sun_plane, tilted_checker_normal_map)
 
 pytestmark = [pytest.mark.blender, pytest.mark.api]
 
@@ -38,16 +38,7 @@ def coat_material(coat_normal="NORMAL_MAP"):
     bsdf.inputs["Coat Weight"].default_value = 1.0
     bsdf.inputs["Coat Roughness"].default_value = COAT_ROUGHNESS
     if coat_normal == "NORMAL_MAP":
-        nm = tree.nodes.new("ShaderNodeNormalMap")
-        nm.space = "TANGENT"
-        nm.uv_map = "UVMap"
-        checker = tree.nodes.new("ShaderNodeTexChecker")
-        checker.inputs["Scale"].default_value = 4.0
-        checker.inputs["Color1"].default_value = tilt_colour(A_T, 0)
-        checker.inputs["Color2"].default_value = tilt_colour(A_B, 1)
-        uv = tree.nodes.new("ShaderNodeTexCoord")
-        tree.links.new(uv.outputs["UV"], checker.inputs["Vector"])
-        tree.links.new(checker.outputs["Color"], nm.inputs["Color"])
+        nm = tilted_checker_normal_map(tree)
         tree.links.new(nm.outputs["Normal"], bsdf.inputs["Coat Normal"])
     elif coat_normal in ("BUMP", "BUMPED_BASE"):
         tc = tree.nodes.new("ShaderNodeTexCoord")

@@ -13,7 +13,6 @@ bpy = pytest.importorskip("bpy")
 
 from tests.blender import scenes  # noqa: E402
 from tests.blender.export_probe import export  # noqa: E402
-from tests.blender import shader_scenes as ss  # noqa: E402
 from tests.conftest import load_extension_package  # noqa: E402
 
 pytestmark = [pytest.mark.blender, pytest.mark.api]
@@ -34,6 +33,23 @@ def tilt_colour(a, axis):
     return c
 
 
+def tilted_checker_normal_map(tree):
+    """A tangent-space Normal Map node (UV map "UVMap") in ``tree`` fed by a 4 x 4 Checker
+    over UV whose squares tilt the normal by A_T towards the tangent and by A_B towards
+    the bitangent; returns the Normal Map node (its Normal output is for the caller)."""
+    nm = tree.nodes.new("ShaderNodeNormalMap")
+    nm.space = "TANGENT"
+    nm.uv_map = "UVMap"
+    checker = tree.nodes.new("ShaderNodeTexChecker")
+    checker.inputs["Scale"].default_value = 4.0
+    checker.inputs["Color1"].default_value = tilt_colour(A_T, 0)
+    checker.inputs["Color2"].default_value = tilt_colour(A_B, 1)
+    uv = tree.nodes.new("ShaderNodeTexCoord")
+    tree.links.new(uv.outputs["UV"], checker.inputs["Vector"])
+    tree.links.new(checker.outputs["Color"], nm.inputs["Color"])
+    return nm
+
+
 def normal_mapped_material(space="TANGENT", object_normal=None):
     mat = bpy.data.materials.new(f"Normal mapped {space}")
     tree = scenes.ensure_node_tree(mat)
@@ -42,18 +58,11 @@ def normal_mapped_material(space="TANGENT", object_normal=None):
     bsdf = tree.nodes.new("ShaderNodeBsdfDiffuse")
     bsdf.inputs["Color"].default_value = (ALBEDO, ALBEDO, ALBEDO, 1.0)
     bsdf.inputs["Roughness"].default_value = 0.0
-    nm = tree.nodes.new("ShaderNodeNormalMap")
-    nm.space = space
     if space == "TANGENT":
-        nm.uv_map = "UVMap"
-        checker = tree.nodes.new("ShaderNodeTexChecker")
-        checker.inputs["Scale"].default_value = 4.0
-        checker.inputs["Color1"].default_value = tilt_colour(A_T, 0)
-        checker.inputs["Color2"].default_value = tilt_colour(A_B, 1)
-        uv = tree.nodes.new("ShaderNodeTexCoord")
-        tree.links.new(uv.outputs["UV"], checker.inputs["Vector"])
-        tree.links.new(checker.outputs["Color"], nm.inputs["Color"])
+        nm = tilted_checker_normal_map(tree)
     else:
+        nm = tree.nodes.new("ShaderNodeNormalMap")
+        nm.space = space
         rgb = tree.nodes.new("ShaderNodeRGB")
         rgb.outputs[0].default_value = (*(0.5 + 0.5 * np.asarray(object_normal)), 1.0)
         tree.links.new(rgb.outputs[0], nm.inputs["Color"])
