@@ -12,8 +12,7 @@ search radius ("ajuster la distance maximale"). Results are ordered by (float32 
 distance ``dx*dx + dy*dy + dz*dz``, index), inclusive of the radius; pruning is exact in
 float32 arithmetic, so a brute-force oracle with the same rule gives identical results.
 ``nearest_compatible_kernel``: the first of the k nearest whose normal agrees with the
-query's (the radiance cache's lookup), without writing the k neighbours out; it searches
-the nearest alone first (``nearest_search``: the same walk with one best key, no heap).
+query's (the radiance cache's lookup), without writing the k neighbours out.
 
 Speed: the bottom levels are scanned like buckets; queries are visited in Morton order,
 each thread's previous query lending its k-th distance as a first search radius
@@ -478,85 +477,6 @@ def _compatible_side(site_normals, j, n0, n1, n2, inv, min_cos):
     return -1
 
 
-@njit(cache=True, nogil=True, inline="always")
-def nearest_search(tree, axis, depth, qx, qy, qz, bd, bj, stack_i, stack_f):
-    """The nearest point of one query: the smallest key (float32 squared distance, index),
-    as ``knn_search`` orders them with k = 1, below the key (bd, bj) -> (index, squared
-    distance), or (bj, bd) itself when no point's key is smaller.
-
-    (bd, bj): (r2, N) for a search within r2 (inclusive: index N is past every point), or
-    a known point's (squared distance, index), a tighter start. ``knn_search``'s walk with
-    one best key in registers instead of a one-slot heap: on the radiance cache's lookups
-    (issue 13) ~7 % less time, ~10 % with the previous query's pick as the start. Pruning
-    keeps every cell whose lower bound is <= bd, so a point tying bd with a smaller index
-    is still found."""
-    n = tree.shape[0]
-    sp = 0
-    node = 0
-    level = 1
-    ox = np.float32(0.0)
-    oy = np.float32(0.0)
-    oz = np.float32(0.0)
-    while True:
-        if depth - level < _BUCKET_LEVELS:
-            start = node
-            run = 1
-            while start < n:
-                for j in range(start, min(start + run, n)):
-                    dx = qx - tree[j, 0]
-                    dy = qy - tree[j, 1]
-                    dz = qz - tree[j, 2]
-                    d2 = dx * dx + dy * dy + dz * dz
-                    if d2 < bd or (d2 == bd and j < bj):
-                        bd = d2
-                        bj = j
-                start = 2 * start + 1
-                run *= 2
-        else:
-            dx = qx - tree[node, 0]
-            dy = qy - tree[node, 1]
-            dz = qz - tree[node, 2]
-            d2 = dx * dx + dy * dy + dz * dz
-            if d2 < bd or (d2 == bd and node < bj):
-                bd = d2
-                bj = node
-            a = axis[node]
-            delta = dx if a == 0 else (dy if a == 1 else dz)
-            if delta < 0:
-                near = 2 * node + 1
-                far = near + 1
-            else:
-                far = 2 * node + 1
-                near = far + 1
-            if far < n:
-                fx = delta if a == 0 else ox
-                fy = delta if a == 1 else oy
-                fz = delta if a == 2 else oz
-                rd = fx * fx + fy * fy + fz * fz
-                if rd <= bd:
-                    stack_i[sp, 0] = far
-                    stack_i[sp, 1] = level + 1
-                    stack_f[sp, 0] = fx
-                    stack_f[sp, 1] = fy
-                    stack_f[sp, 2] = fz
-                    stack_f[sp, 3] = rd
-                    sp += 1
-            if near < n:
-                node = near
-                level += 1
-                continue
-        while sp > 0 and stack_f[sp - 1, 3] > bd:
-            sp -= 1
-        if sp == 0:
-            return bj, bd
-        sp -= 1
-        node = stack_i[sp, 0]
-        level = stack_i[sp, 1]
-        ox = stack_f[sp, 0]
-        oy = stack_f[sp, 1]
-        oz = stack_f[sp, 2]
-
-
 @njit(parallel=True, cache=True, nogil=True)
 def nearest_compatible_kernel(tree, axis, depth, queries, normals, order, k, r2, growth,
                               site_normals, min_cos, out):
@@ -570,37 +490,37 @@ def nearest_compatible_kernel(tree, axis, depth, queries, normals, order, k, r2,
     tree's order; out (M,) int64. No (M, k) arrays: the radiance cache's lookup
     (core/integrators/gather.py), where each site holds both sides of a surface point.
 
-    The nearest point alone is searched first (``nearest_search``, started from the
-    previous query's nearest point when it lies within r2: an upper bound that holds a
-    point): it is the k-search's first in that order (the smallest (squared distance,
-    index) key within r2, ties included), so where one of its sides agrees it is the
-    answer, and only the other queries (a few per thousand at the cache's points) search
-    all k. On a render's lookups (issue 13) this took ~15 % less time than searching k
-    every time, and ~10 % less again than a k = 1 ``knn_search_coherent``.
+    The nearest point alone is searched first (k = 1), within the squared distance to the
+    previous query's nearest point where that is below r2 (a bound that holds a point, so
+    no search is repeated; inclusive, so a tie with a smaller index is still found): it is
+    the k-search's first in that order (the smallest (squared distance, index) key within
+    r2, ties included), so where one of its sides agrees it is the answer, and only the
+    other queries (a few per thousand at the cache's points) search all k. On a render's
+    lookups (issue 13) this took ~15 % less time than searching k every time, and ~9 %
+    less again than starting from ``knn_search_coherent``'s radius guess.
     """
     m = order.shape[0]
     sides = site_normals.shape[1]
-    past = np.int64(tree.shape[0])  # an index past every point: no point found yet
     for b in prange((m + QUERY_BLOCK - 1) // QUERY_BLOCK):
         heap, fbuf, ubuf, stack_i, stack_f, prev = knn_scratch(k)
-        last = past  # this block's previous nearest point
+        last = -1  # this block's previous nearest point, -1: none
         for t in range(b * QUERY_BLOCK, min(m, (b + 1) * QUERY_BLOCK)):
             q = order[t]
             qx, qy, qz = queries[q, 0], queries[q, 1], queries[q, 2]
             n0, n1, n2 = normals[q, 0], normals[q, 1], normals[q, 2]
             inv = 1.0 / math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
-            bd, bj = r2, past
-            if last < past:
+            bound = r2
+            if last >= 0:
                 dx = qx - tree[last, 0]
                 dy = qy - tree[last, 1]
                 dz = qz - tree[last, 2]
-                d2 = dx * dx + dy * dy + dz * dz
-                if d2 <= r2:
-                    bd, bj = d2, last
-            j, _ = nearest_search(tree, axis, depth, qx, qy, qz, bd, bj, stack_i, stack_f)
-            last = j
+                bound = min(r2, dx * dx + dy * dy + dz * dz)
             pick = -1
-            if j < past:
+            last = -1
+            if knn_search(tree, axis, depth, qx, qy, qz, 1, bound, heap, fbuf, ubuf, stack_i,
+                          stack_f) == 1:
+                j, _ = heap_entry(heap, 0, fbuf, ubuf)
+                last = j
                 s = _compatible_side(site_normals, j, n0, n1, n2, inv, min_cos)
                 if s >= 0:
                     pick = j * sides + s
