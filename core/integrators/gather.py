@@ -500,6 +500,17 @@ def shade_hits(prepared, prim, u, v, d, mat, ns, path, need):
     return tab, rows, ns
 
 
+def _take(a, idx):
+    """a[idx] for selections that may be None, meaning "every row, in order": a itself when
+    idx is None, idx when a is None (then the identity). Final gathering's batch is used
+    as it is when every gather ray is kept, hits and is diffuse (the common case: a closed
+    scene without specular surfaces), without index copies of the rays, hits and points
+    (~5 % of the camera pass)."""
+    if idx is None:
+        return a
+    return idx if a is None else a[idx]
+
+
 def _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sample,
                         depth, bsdf=None, lam=None) -> np.ndarray:
     t_start = time.perf_counter()
@@ -524,106 +535,98 @@ def _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sa
                                  bsdf.front, bsdf.wavelengths(), pos, ngf, nsf,
                                  eps, back, g, u1, u2, o, d, weight, ok)
     radiance = np.zeros((m, 3))
-    # Where every ray is kept (no ray below its surface: the common case) the batch is
-    # used as it is, without index copies (~3 % of the camera pass).
-    all_kept = bool(ok.all())
-    rows = np.arange(m) if all_kept else np.flatnonzero(ok)
-    identity = all_kept  # rows is arange(m): radiance[rows] is radiance itself
-    if not all_kept:
-        o, d = o[rows], d[rows]
-    # unit: thr is still exactly 1 (no BSDF weight, medium or dispersion yet), so thr x est
-    # is est itself and the product is skipped.
-    unit = bsdf is None
-    thr = np.ones((rows.shape[0], 3)) if unit else (weight if all_kept else weight[rows])
+    every_ray = np.arange(m)
+    # rows: the batch's rays still traced (None: all, in order), hit: the rays of this
+    # bounce that hit (None: all), diff: the hits with a diffuse lobe (None: all).
+    rows = None if ok.all() else np.flatnonzero(ok)
+    o, d = _take(o, rows), _take(d, rows)
+    live = o.shape[0]
+    thr = np.ones((live, 3)) if bsdf is None else _take(weight, rows)
     mats = prepared.materials
     # Each gather ray's wavelength (nm, 0 while RGB): its camera path's, else picked at its
     # first dispersive surface, as camera paths pick theirs (docs/dispersion.md).
-    lam = np.zeros(rows.shape[0]) if lam is None else np.asarray(lam, np.float64)[owner[rows]]
+    lam = np.zeros(live) if lam is None else np.asarray(lam, np.float64)[_take(owner, rows)]
     dispersive = bool(np.any(prepared.closures.abbe > 0))
     for bounce in range(st.max_specular_depth + 1):
-        if rows.shape[0] == 0:
+        if o.shape[0] == 0:
             break
         hits = camera_paths.intersect(
-            prepared, st.seed, o, d, None, rows, ray_pixel, index_of,
+            prepared, st.seed, o, d, None, _take(every_ray, rows), ray_pixel, index_of,
             lambda layer, bounce=bounce: sampling.stream(sampling.GATHER_CUTOUT, depth, bounce,
                                                          layer))
-        terms.stats["rays_gather"] += rows.shape[0]
+        terms.stats["rays_gather"] += o.shape[0]
         if terms.medium is not None:
-            thr = _through_medium(terms, o, d, hits, thr, radiance, rows)
-            unit = False
+            thr = _through_medium(terms, o, d, hits, thr, radiance, _take(every_ray, rows))
         # Escaping rays and light sources count nothing (direct light holds them).
-        every = bool(np.all(hits.prim >= 0))  # a closed scene: no copies
-        hit = np.arange(rows.shape[0]) if every else np.flatnonzero(hits.prim >= 0)
-        if not every:
-            rows, thr, d, lam = rows[hit], thr[hit], d[hit], lam[hit]
-            identity = False
-        prim, hu, hv = ((hits.prim, hits.u, hits.v) if every else
-                        (hits.prim[hit], hits.u[hit], hits.v[hit]))
+        hit = None if np.all(hits.prim >= 0) else np.flatnonzero(hits.prim >= 0)
+        rows, thr, d, lam = _take(rows, hit), _take(thr, hit), _take(d, hit), _take(lam, hit)
+        prim, hu, hv = _take(hits.prim, hit), _take(hits.u, hit), _take(hits.v, hit)
         path = None
         if prepared.hit_shader.reads_light_path:  # a diffuse reflection from the camera
             # path's vertex at depth, then the delta bounces of this loop (follow_delta)
             path = light_path.after_bounce(
-                hits.t[hit], light_path.BOUNCE_DIFFUSE if bounce == 0 else
+                _take(hits.t, hit), light_path.BOUNCE_DIFFUSE if bounce == 0 else
                 light_path.BOUNCE_SINGULAR, False, depth + 1 + bounce, diffuse_depth=1,
                 glossy_depth=depth + bounce)
         p2, n2, s2, mat, e2, front = geometry.facing_surface_points(
             prepared.tri_vertices, prepared.tri_normals, prepared.tri_material, prim,
             hu, hv, d, prepared.extent)
         if dispersive:  # before the hit's estimate, as camera_paths.pick_wavelengths says
-            u_lam = sampling.uniform(st.seed, ray_pixel[rows], index[rows], sampling.stream(
-                sampling.CAMERA_WAVELENGTH, depth, bounce, sampling.GATHER_LOBE))
+            u_lam = sampling.uniform(st.seed, _take(ray_pixel, rows), _take(index, rows),
+                                     sampling.stream(sampling.CAMERA_WAVELENGTH, depth, bounce,
+                                                     sampling.GATHER_LOBE))
             thr = np.array(thr)
             camera_paths.pick_wavelengths(prepared.closures, mat, u_lam, lam, thr)
-            unit = False
-        diff = np.flatnonzero(prepared.has_diffuse[mat])
+        diffuse = prepared.has_diffuse[mat]
+        diff = None if diffuse.all() else np.flatnonzero(diffuse)
         rough = prepared.sampled_only[mat] | prepared.glossy_on_diffuse[mat]
         # One shading per hit (issue 14: a Principled wall's hit was shaded for its
         # albedo, then again for its glossy continuation), read by the BSDF estimate,
         # the diffuse albedo and the rough continuation below.
         tab, crow, s2s = shade_hits(prepared, prim, hu, hv, d,
                                     mat, s2, path, prepared.has_diffuse[mat] | rough)
-        if diff.size and terms.bsdf_materials is not None:
-            b = terms.bsdf_materials[mat[diff]]
+        if terms.bsdf_materials is not None and _take(mat, diff).size:
+            b = terms.bsdf_materials[_take(mat, diff)]
             if b.any():  # L(y_j) toward x by the BSDF estimate (the cache holds Lambert's E / pi)
-                bd, diff = diff[b], diff[~b]
-                hd = hit[bd]
+                which = _take(np.arange(mat.shape[0]), diff)
+                bd, diff = which[b], which[~b]
+                hd = _take(hit, bd)
                 texel = prepared.texels.albedo(hits.prim[hd], hits.u[hd], hits.v[hd], mat[bd])
                 tan = prepared.hit_shader.tangents(hits.prim[hd], p2[bd], tab, crow[bd])
                 hb = BsdfHits(tab, crow[bd].astype(np.int32), texel, -d[bd], s2s[bd],
                               front[bd], tangent=tan, wavelength=lam[bd])
                 est = radiance_estimate(terms.global_map, p2[bd], n2[bd], None, terms.global_k,
                                         terms.global_radius, terms.filter, bsdf=hb)
-                radiance[rows[bd]] += thr[bd] * est
+                radiance[_take(rows, bd)] += thr[bd] * est
                 terms.stats["gather_queries"] += bd.size
-        if diff.size:
-            whole = diff.size == mat.shape[0]  # every hit diffuse: no copies
-            md = mat if whole else mat[diff]
+        md = _take(mat, diff)
+        if md.size:
+            hd = _take(hit, diff)
             if prepared.surfaces.textured:
-                hd = hit[diff]
-                albedo = prepared.surfaces.albedo(hits.prim[hd], hits.u[hd], hits.v[hd],
-                                                  mat[diff])
+                albedo = prepared.surfaces.albedo(_take(hits.prim, hd), _take(hits.u, hd),
+                                                  _take(hits.v, hd), md)
             else:
                 albedo = mats["diffuse"][md]
-            hd = hit[diff]
             if crow is not mat or prepared.hit_shader.layered[md].any():
                 albedo = prepared.hit_shader.diffuse_albedo(
-                    tab, crow[diff], mat[diff],
-                    prepared.texels.albedo(hits.prim[hd], hits.u[hd], hits.v[hd], mat[diff]),
-                    d[diff], s2[diff], albedo)
-            p2d, n2d = (p2, n2) if whole else (p2[diff], n2[diff])
+                    tab, _take(crow, diff), md,
+                    prepared.texels.albedo(_take(hits.prim, hd), _take(hits.u, hd),
+                                           _take(hits.v, hd), md),
+                    _take(d, diff), _take(s2, diff), albedo)
+            p2d, n2d = _take(p2, diff), _take(n2, diff)
             if terms.cache is not None:
                 est = cached_radiance(terms, p2d, n2d, albedo)
             else:
                 est = radiance_estimate(terms.global_map, p2d, n2d,
                                         albedo, terms.global_k,
                                         terms.global_radius, terms.filter)
-            if not unit:
-                est = (thr if whole else thr[diff]) * est
-            if whole and identity:
+            est = _take(thr, diff) * est  # exactly est where thr is still 1
+            target = _take(rows, diff)
+            if target is None:
                 radiance += est
             else:
-                radiance[rows[diff]] += est
-            terms.stats["gather_queries"] += diff.size
+                radiance[target] += est
+            terms.stats["gather_queries"] += md.size
         if bounce == st.max_specular_depth:
             break
         # Mirrors and glass: one delta lobe (follow_delta). Rough glossy lobes (a rough
@@ -638,10 +641,10 @@ def _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sa
         dim = sampling.stream(sampling.GATHER_LOBE, depth, bounce)
         go = []
         if sd.size:
-            rs = rows[sd]
+            rs = _take(rows, sd)
             u_lobe = sampling.uniform(st.seed, ray_pixel[rs], index[rs], 2 * dim)
             u_pick = sampling.uniform(st.seed, ray_pixel[rs], index[rs], 2 * dim + 1)
-            hs = hit[sd]
+            hs = _take(hit, sd)
             texel = prepared.texels.albedo(hits.prim[hs], hits.u[hs], hits.v[hs], mat[sd])
             tangent = prepared.hit_shader.tangents(hits.prim[hs], p2[sd], prepared.closures,
                                                    mat[sd])
@@ -650,10 +653,10 @@ def _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sa
                 u_lobe, u_pick, thr[sd], lam[sd], tangent=tangent)
             go.append((rs[keep], o_s, d_s, thr_s, lam_s))
         if sr.size:
-            go.append(_follow_rough(prepared, st.seed, depth, bounce, ray_pixel, index, rows[sr],
-                                    hits, hit[sr], p2[sr], n2[sr], s2s[sr], d[sr], front[sr],
-                                    mat[sr], e2[sr], thr[sr], lam[sr], tab, crow[sr]))
-        identity, unit = False, False  # the lobes' weights, some rays gone
+            go.append(_follow_rough(prepared, st.seed, depth, bounce, ray_pixel, index,
+                                    _take(rows, sr), hits, _take(hit, sr), p2[sr], n2[sr],
+                                    s2s[sr], d[sr], front[sr], mat[sr], e2[sr], thr[sr], lam[sr],
+                                    tab, crow[sr]))
         if len(go) == 1:
             rows, o, d, thr, lam = go[0]
         else:
