@@ -626,7 +626,8 @@ class HitShader:
         next_closure = n_cl
         bent = ns
         for m, h in zip(present.tolist(), per.tolist()):
-            sel = slice(None) if one else order[done:done + h]
+            # (the first h rows of ins: with bump offsets it holds 3 h)
+            sel = slice(0, h) if one else order[done:done + h]
             hs = hit if one else hit[sel]  # the material's hits, in order
             f, k = int(tab.first[m]), int(tab.count[m])
             c = slice(next_closure, next_closure + h * k)
