@@ -245,6 +245,10 @@ class HitShader:
         else:
             to_world = np.broadcast_to(np.eye(4), (n_obj, 4, 4))
         self.to_object = np.linalg.inv(to_world) if len(to_world) else to_world
+        # its linear part and shift apart, contiguous: ``object_point`` gathers 12 numbers
+        # a hit instead of the 16 of the 4 x 4 matrix
+        self.to_object_linear = np.ascontiguousarray(self.to_object[:, :3, :3])
+        self.to_object_shift = np.ascontiguousarray(self.to_object[:, :3, 3])
         self.location = to_world[:, :3, 3] if len(to_world) else np.zeros((0, 3))
         self.linear = to_world[:, :3, :3]
         if mesh.object_texspace is not None:
@@ -273,6 +277,17 @@ class HitShader:
         # materials running the same program (equal instructions, constants, tables and
         # outputs; -1: none) share one evaluation at a batch's hits (``shade``)
         self.program_group = _program_groups(progs)
+        # materials with a non-zero Coat Normal in their closure rows or whose program
+        # writes one: elsewhere ``coat_normals`` has nothing to do (unless the program
+        # bends the shading normal) and ``shade`` skips its scan of the rows
+        self.coat_normal = np.array(
+            [bool(np.any(closures.params[closures.first[m]:closures.first[m]
+                                         + closures.count[m],
+                                         cl.COAT_NORMAL:cl.COAT_NORMAL + 3] != 0.0))
+             or (p is not None and bool(np.any(
+                 (p.outputs[:, 1] == pg.TARGET_CLOSURE) & (p.outputs[:, 3] >= cl.COAT_NORMAL)
+                 & (p.outputs[:, 3] < cl.COAT_NORMAL + 3))))
+             for m, p in enumerate(progs)], bool).reshape(mats.count)
         # some used material's program reads the Light Path node: the callers then fill
         # the hits' context (core/shading/light_path.py; else they pass None, zeros)
         self.reads_light_path = bool(np.any(used & np.array(
@@ -296,7 +311,7 @@ class HitShader:
 
     def sources(self, mat) -> frozenset:
         """The input sources (SOURCE_*) the programs of materials mat (int array) read."""
-        return frozenset().union(*(self.program_sources[m] for m in np.unique(mat)))
+        return frozenset().union(*(self.program_sources[m] for m in np.unique(mat).tolist()))
 
     def inputs(self, prim, u, v, d, bump=False, path=None, reads=None
                ) -> tuple[ShadingInputs, np.ndarray]:
@@ -310,7 +325,8 @@ class HitShader:
         caller's context, core/shading/light_path.py; None: zeros). reads: the
         sources (SOURCE_*) the programs to run read (``sources``; None: every one): the
         others are left at ``ShadingInputs.build``'s defaults, which no such program
-        reads (position, both normals and incoming are always the hits')."""
+        reads (position, both normals and incoming are always the hits'; Object
+        coordinates without Generated skip Generated's arithmetic)."""
         pos, ngf, nsf, mat, _, front = geometry.facing_surface_points(
             self.tri_vertices, self.tri_normals, self.tri_material, prim, u, v,
             np.ascontiguousarray(d, np.float64), self.extent)
@@ -340,8 +356,10 @@ class HitShader:
         obj = self.tri_object[prim]
         given = {}
         if read(pg.SOURCE_GENERATED, pg.SOURCE_OBJECT):
-            local, generated = self.object_point(obj, world)
-            given.update(generated=generated, object_coords=local)
+            local, generated = self.object_point(obj, world, read(pg.SOURCE_GENERATED))
+            given.update(object_coords=local)
+            if generated is not None:
+                given.update(generated=generated)
         if read(pg.SOURCE_OBJECT_NORMAL):
             # Normals to object space: n_obj ~ A^T n_world for a world normal inv(A)^T n_obj.
             onrm = np.einsum("nji,nj->ni", self.linear[obj], nsf)
@@ -361,13 +379,15 @@ class HitShader:
             given.update(material_index=self.pass_index[mat])
         if read(pg.SOURCE_BACKFACING):
             given.update(backfacing=(~front).astype(np.float32))
-        w = (1.0 - u - v).astype(np.float64)
-        if read(pg.SOURCE_UV):
-            given.update(uv=self._uv_maps(prim, u, v, w))
-        if read(pg.SOURCE_ATTRIBUTE_COLOR, pg.SOURCE_ATTRIBUTE_ALPHA):
-            given.update(attributes=self._attributes(prim, u, v, w))
-        if read(pg.SOURCE_TANGENT, pg.SOURCE_TANGENT_SIGN):
-            given.update(tangents=self._tangents(prim, u, v, w))
+        if read(pg.SOURCE_UV, pg.SOURCE_ATTRIBUTE_COLOR, pg.SOURCE_ATTRIBUTE_ALPHA,
+                pg.SOURCE_TANGENT, pg.SOURCE_TANGENT_SIGN):
+            w = (1.0 - u - v).astype(np.float64)  # the first corner's barycentric
+            if read(pg.SOURCE_UV):
+                given.update(uv=self._uv_maps(prim, u, v, w))
+            if read(pg.SOURCE_ATTRIBUTE_COLOR, pg.SOURCE_ATTRIBUTE_ALPHA):
+                given.update(attributes=self._attributes(prim, u, v, w))
+            if read(pg.SOURCE_TANGENT, pg.SOURCE_TANGENT_SIGN):
+                given.update(tangents=self._tangents(prim, u, v, w))
         if read(pg.SOURCE_NORMAL_TO_WORLD):
             given.update(normal_to_world=np.transpose(self.to_object[obj][:, :3, :3],
                                                       (0, 2, 1)))
@@ -498,11 +518,13 @@ class HitShader:
         a = w[:, None, None] * c[:, 0] + u[:, None, None] * c[:, 1] + v[:, None, None] * c[:, 2]
         return np.ascontiguousarray(np.transpose(a, (1, 0, 2)), np.float32)
 
-    def object_point(self, obj, world):
+    def object_point(self, obj, world, generated=True):
         """Object-space positions (N, 3) and Generated coordinates (N, 3) float64 of world
-        points (N, 3) on objects obj (N,)."""
-        to_obj = self.to_object[obj]
-        local = np.einsum("nij,nj->ni", to_obj[:, :3, :3], world) + to_obj[:, :3, 3]
+        points (N, 3) on objects obj (N,); Generated None when not ``generated``."""
+        local = (np.einsum("nij,nj->ni", self.to_object_linear[obj], world)
+                 + self.to_object_shift[obj])
+        if not generated:
+            return local, None
         loc, size = self.texspace[obj, 0], self.texspace[obj, 1]
         safe = np.where(size != 0, 2.0 * size, 1.0)
         generated = np.where(size != 0, (local - loc) / safe + 0.5, 0.5)
@@ -531,8 +553,7 @@ class HitShader:
         out = closure.default_tangents(n)
         if n == 0:
             return out
-        aniso = closure.anisotropic_rows(tab)
-        sel = np.flatnonzero(aniso[rows])
+        sel = np.flatnonzero(closure.anisotropic_rows(tab, rows))
         if sel.size == 0:
             return out
         obj = self.tri_object[prim[sel]]
@@ -574,19 +595,22 @@ class HitShader:
             return self.table, mat, ns
         tab = self.table
         n_mat, n_cl = tab.first.shape[0], tab.kind.shape[0]
-        ins, _ = self.inputs(prim[hit], u[hit], v[hit], np.asarray(d)[hit],
-                             bump=bool(self.bumped[mat[hit]].any()),
-                             path=_path_rows(path, hit), reads=self.sources(mat[hit]))
-        rows = np.array(mat, np.int32, copy=True)
         hmat = mat[hit]
-        values = self._group_values(ins, hmat)
-        present = np.unique(hmat)
+        per_mat = np.bincount(hmat, minlength=n_mat)  # hits of each material
+        present = np.flatnonzero(per_mat)  # np.unique(hmat), without its sort
+        ins, _ = self.inputs(prim[hit], u[hit], v[hit], np.asarray(d)[hit],
+                             bump=bool(self.bumped[present].any()),
+                             path=_path_rows(path, hit), reads=self.sources(present))
+        rows = np.array(mat, np.int32, copy=True)
+        values = self._group_values(ins, hmat, present)
         # the per-batch table built in place: the prepared closures, then each programmed
         # hit's copies of its material's (materials in order, each one's hits in order),
         # every row written once (no per-material float32 copy, float64 conversion and
-        # concatenation: three copies of every row)
-        order = np.argsort(hmat, kind="stable")
-        per = np.bincount(hmat, minlength=n_mat)[present]  # hits of each material
+        # concatenation: three copies of every row). One material: its hits in order,
+        # without the sort and the index copies.
+        one = present.size == 1
+        order = None if one else np.argsort(hmat, kind="stable")
+        per = per_mat[present]
         total = n_cl + int(np.dot(per, tab.count[present]))
         n_rows = n_mat + hit.size
 
@@ -602,10 +626,12 @@ class HitShader:
         next_closure = n_cl
         bent = ns
         for m, h in zip(present.tolist(), per.tolist()):
-            sel = order[done:done + h]
+            # (the first h rows of ins: with bump offsets it holds 3 h)
+            sel = slice(0, h) if one else order[done:done + h]
+            hs = hit if one else hit[sel]  # the material's hits, in order
             f, k = int(tab.first[m]), int(tab.count[m])
             c = slice(next_closure, next_closure + h * k)
-            out = interpreter.closure_values(self.programs[m], values[sel],
+            out = interpreter.closure_values(self.programs[m], values if one else values[sel],
                                              tab.params[f:f + k].astype(np.float32),
                                              out=params[c].reshape(h, k, params.shape[1]))
             if out["normal"] is not None and ns is not None:
@@ -613,15 +639,16 @@ class HitShader:
                     bent = np.array(ns, np.float64, copy=True)
                 # Cycles' ensure_valid_specular_reflection: the programmed normal
                 # tilted until the mirror direction leaves above the true surface
-                bent[hit[sel]] = normals.valid_specular_reflection(
+                bent[hs] = normals.valid_specular_reflection(
                     ins.true_normal[sel], ins.incoming[sel],
-                    _unit_or(out["normal"], bent[hit[sel]]))
+                    _unit_or(out["normal"], bent[hs]))
             # Where the program bends the shading normal, an unlinked Coat Normal is the
             # un-bent one (Cycles links it to the geometry's normal, sd->N, which a Bump
             # or Normal Map into the Normal input does not change)
-            coat_normals(out["params"], ins.true_normal[sel], ins.incoming[sel],
-                         None if out["normal"] is None else
-                         (tab.kind[f:f + k], ins.normal[sel]))
+            if self.coat_normal[m] or out["normal"] is not None:
+                coat_normals(out["params"], ins.true_normal[sel], ins.incoming[sel],
+                             None if out["normal"] is None else
+                             (tab.kind[f:f + k], ins.normal[sel]))
             kind[c].reshape(h, k)[...] = tab.kind[f:f + k]
             weight[c].reshape(h, k, 3)[...] = tab.weight[f:f + k]
             if out["weight"] is not None:  # the linked Mix factors of each closure here
@@ -631,7 +658,7 @@ class HitShader:
             r = slice(n_mat + done, n_mat + done + h)
             first[r] = next_closure + k * np.arange(h, dtype=np.int32)
             count[r] = k
-            rows[hit[sel]] = np.arange(r.start, r.stop, dtype=np.int32)
+            rows[hs] = np.arange(r.start, r.stop, dtype=np.int32)
             done += h
             next_closure += h * k
         batch = tab._replace(kind=kind, weight=weight, params=params, texture=texture,
@@ -639,19 +666,21 @@ class HitShader:
         return batch, rows, bent
 
 
-    def _group_values(self, ins: ShadingInputs, mat) -> np.ndarray:
+    def _group_values(self, ins: ShadingInputs, mat, present) -> np.ndarray:
         """(N, O) float32: the programs' outputs at the N points of ``ins`` whose
-        materials mat (N,) all have a program with O outputs, each program evaluated
+        materials mat (N,) all have a program with O outputs (present: the distinct
+        materials of mat, sorted), each program evaluated
         once over the points of every material running it (``program_group``; the
         inputs copied only when the batch holds more than one program). A point's
         values do not depend on the others', so this is bit for bit what evaluating
         each material's points apart gives; it saves the per-material copies of the
         inputs and kernel launches (a scene often has one program on many materials)."""
+        groups = self.program_group[present]
+        if np.all(groups == groups[0]):
+            return interpreter.evaluate(self.programs[int(present[0])], ins, self.images)
         group = self.program_group[mat]
-        found = np.unique(group)
-        if found.size == 1:
-            return interpreter.evaluate(self.programs[int(mat[0])], ins, self.images)
-        width = max(self.programs[int(m)].outputs.shape[0] for m in np.unique(mat))
+        found = np.unique(groups)
+        width = max(self.programs[int(m)].outputs.shape[0] for m in present.tolist())
         out = np.zeros((mat.shape[0], width), np.float32)
         for g in found:
             sel = np.flatnonzero(group == g)

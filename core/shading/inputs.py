@@ -80,38 +80,45 @@ class ShadingInputs:
         if unknown:
             raise ValueError(f"ShadingInputs: unknown fields {sorted(unknown)}")
         get = optional.get
-        vec = {k: _vec(get(k, default), n, k) for k, default in (
-            ("true_normal", nrm), ("incoming", nrm), ("generated", p), ("object_coords", p),
-            ("object_normal", nrm), ("object_location", np.zeros((n, 3))),
-            ("object_color", np.zeros((n, 3))))}
+        # the defaults are made float32 (no float64 array to convert: a hit batch
+        # builds these for every source its programs do not read)
+        vec = {k: _vec(get(k) if k in optional else
+                       (np.zeros((n, 3), np.float32) if default is None else default), n, k)
+               for k, default in (
+                   ("true_normal", nrm), ("incoming", nrm), ("generated", p),
+                   ("object_coords", p), ("object_normal", nrm), ("object_location", None),
+                   ("object_color", None))}
         scal = {}
         for k in ("backfacing", "object_random", "object_index", "object_alpha",
                   "material_index"):
-            a = np.ascontiguousarray(get(k, np.ones(n) if k == "object_alpha" else
-                                         np.zeros(n)), np.float32).reshape(-1)
+            a = np.ascontiguousarray(get(k) if k in optional else (
+                np.ones(n, np.float32) if k == "object_alpha" else np.zeros(n, np.float32)),
+                np.float32).reshape(-1)
             if a.shape != (n,):
                 raise ValueError(f"ShadingInputs.{k} must be ({n},) float32, got {a.shape}")
             scal[k] = a
-        uv = np.ascontiguousarray(get("uv", np.zeros((0, n, 2))), np.float32)
+        uv = np.ascontiguousarray(get("uv", np.zeros((0, n, 2), np.float32)), np.float32)
         if uv.ndim != 3 or uv.shape[1:] != (n, 2):
             raise ValueError(f"ShadingInputs.uv must be (U, {n}, 2) float32, got {uv.shape}")
-        attr = np.ascontiguousarray(get("attributes", np.zeros((0, n, 4))), np.float32)
+        attr = np.ascontiguousarray(get("attributes", np.zeros((0, n, 4), np.float32)),
+                                    np.float32)
         if attr.ndim != 3 or attr.shape[1:] != (n, 4):
             raise ValueError(f"ShadingInputs.attributes must be (A, {n}, 4) float32, "
                              f"got {attr.shape}")
-        tan = np.ascontiguousarray(get("tangents", np.zeros((0, n, 4))), np.float32)
+        tan = np.ascontiguousarray(get("tangents", np.zeros((0, n, 4), np.float32)),
+                                   np.float32)
         if tan.ndim != 3 or tan.shape[1:] != (n, 4):
             raise ValueError(f"ShadingInputs.tangents must be (G, {n}, 4) float32, "
                              f"got {tan.shape}")
         n2w = get("normal_to_world")
-        n2w = np.ascontiguousarray(np.broadcast_to(np.eye(3), (n, 3, 3)) if n2w is None
-                                   else n2w, np.float32)
+        n2w = np.ascontiguousarray(np.broadcast_to(np.eye(3, dtype=np.float32), (n, 3, 3))
+                                   if n2w is None else n2w, np.float32)
         if n2w.shape != (n, 3, 3):
             raise ValueError(f"ShadingInputs.normal_to_world must be ({n}, 3, 3) float32, "
                              f"got {n2w.shape}")
         lp = get("light_path")
-        lp = np.ascontiguousarray(np.zeros((n, light_path.COUNT)) if lp is None else
-                                  np.broadcast_to(lp, (n, light_path.COUNT)), np.float32)
+        lp = np.ascontiguousarray(np.zeros((n, light_path.COUNT), np.float32) if lp is None
+                                  else np.broadcast_to(lp, (n, light_path.COUNT)), np.float32)
         for k, a in {**vec, **scal, "uv": uv, "attributes": attr, "position": p,
                      "normal": nrm, "tangents": tan, "normal_to_world": n2w,
                      "light_path": lp}.items():
