@@ -550,13 +550,14 @@ def _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sa
     for bounce in range(st.max_specular_depth + 1):
         if o.shape[0] == 0:
             break
+        ray_ids = _take(every_ray, rows)  # the traced rays' indices into the batch
         hits = camera_paths.intersect(
-            prepared, st.seed, o, d, None, _take(every_ray, rows), ray_pixel, index_of,
+            prepared, st.seed, o, d, None, ray_ids, ray_pixel, index_of,
             lambda layer, bounce=bounce: sampling.stream(sampling.GATHER_CUTOUT, depth, bounce,
                                                          layer))
         terms.stats["rays_gather"] += o.shape[0]
         if terms.medium is not None:
-            thr = _through_medium(terms, o, d, hits, thr, radiance, _take(every_ray, rows))
+            thr = _through_medium(terms, o, d, hits, thr, radiance, ray_ids)
         # Escaping rays and light sources count nothing (direct light holds them).
         hit = None if np.all(hits.prim >= 0) else np.flatnonzero(hits.prim >= 0)
         rows, thr, d, lam = _take(rows, hit), _take(thr, hit), _take(d, hit), _take(lam, hit)
@@ -585,8 +586,9 @@ def _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sa
         # the diffuse albedo and the rough continuation below.
         tab, crow, s2s = shade_hits(prepared, prim, hu, hv, d,
                                     mat, s2, path, prepared.has_diffuse[mat] | rough)
-        if terms.bsdf_materials is not None and _take(mat, diff).size:
-            b = terms.bsdf_materials[_take(mat, diff)]
+        md = _take(mat, diff)
+        if terms.bsdf_materials is not None and md.size:
+            b = terms.bsdf_materials[md]
             if b.any():  # L(y_j) toward x by the BSDF estimate (the cache holds Lambert's E / pi)
                 which = _take(np.arange(mat.shape[0]), diff)
                 bd, diff = which[b], which[~b]
@@ -599,7 +601,7 @@ def _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sa
                                         terms.global_radius, terms.filter, bsdf=hb)
                 radiance[_take(rows, bd)] += thr[bd] * est
                 terms.stats["gather_queries"] += bd.size
-        md = _take(mat, diff)
+                md = _take(mat, diff)
         if md.size:
             hd = _take(hit, diff)
             if prepared.surfaces.textured:
