@@ -244,11 +244,11 @@ class HitShader:
             to_world = np.asarray(mesh.object_to_world, np.float64)
         else:
             to_world = np.broadcast_to(np.eye(4), (n_obj, 4, 4))
-        self.to_object = np.linalg.inv(to_world) if len(to_world) else to_world
-        # its linear part and shift apart, contiguous: ``object_point`` gathers 12 numbers
-        # a hit instead of the 16 of the 4 x 4 matrix
-        self.to_object_linear = np.ascontiguousarray(self.to_object[:, :3, :3])
-        self.to_object_shift = np.ascontiguousarray(self.to_object[:, :3, 3])
+        to_object = np.linalg.inv(to_world) if len(to_world) else to_world
+        # world -> object: its linear part and shift apart, contiguous (``object_point``
+        # gathers 12 numbers a hit instead of the 16 of the 4 x 4 matrix)
+        self.to_object_linear = np.ascontiguousarray(to_object[:, :3, :3])
+        self.to_object_shift = np.ascontiguousarray(to_object[:, :3, 3])
         self.location = to_world[:, :3, 3] if len(to_world) else np.zeros((0, 3))
         self.linear = to_world[:, :3, :3]
         if mesh.object_texspace is not None:
@@ -389,8 +389,7 @@ class HitShader:
             if read(pg.SOURCE_TANGENT, pg.SOURCE_TANGENT_SIGN):
                 given.update(tangents=self._tangents(prim, u, v, w))
         if read(pg.SOURCE_NORMAL_TO_WORLD):
-            given.update(normal_to_world=np.transpose(self.to_object[obj][:, :3, :3],
-                                                      (0, 2, 1)))
+            given.update(normal_to_world=np.transpose(self.to_object_linear[obj], (0, 2, 1)))
         if read(pg.SOURCE_LIGHT_PATH):
             given.update(light_path=path)
         ins = ShadingInputs.build(world, nsf, true_normal=ngf, incoming=-np.asarray(d),
@@ -559,7 +558,7 @@ class HitShader:
         obj = self.tri_object[prim[sel]]
         _, g = self.object_point(obj, np.asarray(pos, np.float64)[sel] + self.origin)
         t_obj = np.stack([-(g[:, 1] - 0.5), g[:, 0] - 0.5, np.zeros(sel.size)], axis=1)
-        out[sel] = np.einsum("nji,nj->ni", self.to_object[obj][:, :3, :3], t_obj)
+        out[sel] = np.einsum("nji,nj->ni", self.to_object_linear[obj], t_obj)
         given = tab.params[:, cl.TANGENT:cl.TANGENT + 3]
         has = np.any(given != 0.0, axis=1) & np.all(np.isfinite(given), axis=1)
         if has.any():

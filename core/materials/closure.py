@@ -745,26 +745,23 @@ LOBE_MASKS = ("diffuse", "rough", "delta", "transmits", "non_lambert", "diffuse_
 
 
 def anisotropic_rows(tab: ClosureTable, rows=None) -> np.ndarray:
-    """(R,) bool per row of ``tab.first``: the row has a closure whose lobes depend on the
-    tangent, by the tests ``hit_lobes`` makes (Glossy with |ANISOTROPIC| > 1e-4, Metallic
-    or Principled with ANISOTROPIC > 0; every other lobe is isotropic about the shading
-    normal). rows: None, or (N,) int the rows to test (then (N,) bool, the same flags:
-    only their closures are read, not a whole per-batch table's at every call)."""
-    def flag(kind, an):  # two comparisons, not np.isin (its sort)
-        return (((kind == cl.CLOSURE_GLOSSY) & (np.abs(an) > 1e-4))
-                | (((kind == cl.CLOSURE_METALLIC) | (kind == cl.CLOSURE_PRINCIPLED))
-                   & (an > 0.0)))
+    """(N,) bool per row of ``rows``: the row of ``tab.first`` has a closure whose lobes
+    depend on the tangent, by the tests ``hit_lobes`` makes (Glossy with |ANISOTROPIC| >
+    1e-4, Metallic or Principled with ANISOTROPIC > 0; every other lobe is isotropic
+    about the shading normal). rows: (N,) int the rows to test (only their closures are
+    read, not a whole per-batch table's at every call), or None: every row (N = R)."""
     if rows is None:
-        flags = flag(tab.kind, tab.params[:, cl.ANISOTROPIC])
-        before = np.concatenate([[0], np.cumsum(flags)])
-        first = tab.first.astype(np.int64)
-        return before[first + tab.count] - before[first] > 0
+        rows = np.arange(tab.first.shape[0])
     first, count = tab.first[rows].astype(np.int64), tab.count[rows]
     out = np.zeros(first.shape[0], bool)
     for j in range(int(count.max()) if count.size else 0):  # closures per row
         has = np.flatnonzero(j < count)
         c = first[has] + j
-        out[has] |= flag(tab.kind[c], tab.params[c, cl.ANISOTROPIC])
+        kind, an = tab.kind[c], tab.params[c, cl.ANISOTROPIC]
+        # two comparisons, not np.isin (its sort)
+        out[has] |= (((kind == cl.CLOSURE_GLOSSY) & (np.abs(an) > 1e-4))
+                     | (((kind == cl.CLOSURE_METALLIC) | (kind == cl.CLOSURE_PRINCIPLED))
+                        & (an > 0.0)))
     return out
 
 

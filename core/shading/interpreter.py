@@ -128,245 +128,287 @@ def _load_input(R, col, ins, i, stride, P, N, Ng, I, back, gen, obj, objn, oloc,
         R[o + 2, col] = z + w * (R[o + 2, col] - z)
 
 
-@njit(inline="always", **dict(cache=True, error_model="numpy"))
-def _run(R, col, ins, tables, im_bytes, im_shorts, im_floats, im_tiles, im_first, im_count, px):
-    """Execute one instruction (not OP_INPUT) at one point: column col of the registers R
-    (n_registers, chunk) float64; the im_* arrays are ``ProgramImages``' fields, px a (8,)
-    float64 scratch."""
+@njit(**dict(cache=True, error_model="numpy"))
+def _run_rows(R, n_cols, ins, tables, im_bytes, im_shorts, im_floats, im_tiles, im_first,
+              im_count, px):
+    """Execute one instruction ins (not OP_INPUT) at the first n_cols points of a chunk:
+    columns [0, n_cols) of the registers R (n_registers, chunk) float64; the im_* arrays
+    are ``ProgramImages``' fields, px a (8,) float64 scratch. The opcode's branch is
+    taken once and loops over the points (a loop in each branch: the dispatch out of the
+    points' loop); every point's arithmetic is the one-point evaluation's."""
     op = ins[0]
     a = ins[_F:]
     if op == pg.OP_MATH:
-        v = math_op(ins[1], R[a[0], col], R[a[1], col], R[a[2], col])
-        R[a[3], col] = clamp(v, 0.0, 1.0) if ins[2] else v
+        for col in range(n_cols):
+            v = math_op(ins[1], R[a[0], col], R[a[1], col], R[a[2], col])
+            R[a[3], col] = clamp(v, 0.0, 1.0) if ins[2] else v
     elif op == pg.OP_VECTOR_MATH:
-        x, y, z, s = vector_math(ins[1], R[a[0], col], R[a[0] + 1, col], R[a[0] + 2, col],
-                                 R[a[1], col], R[a[1] + 1, col], R[a[1] + 2, col], R[a[2], col],
-                                 R[a[2] + 1, col], R[a[2] + 2, col], R[a[3], col])
-        R[a[4], col], R[a[4] + 1, col], R[a[4] + 2, col], R[a[5], col] = x, y, z, s
+        for col in range(n_cols):
+            x, y, z, s = vector_math(ins[1], R[a[0], col], R[a[0] + 1, col], R[a[0] + 2, col],
+                                     R[a[1], col], R[a[1] + 1, col], R[a[1] + 2, col],
+                                     R[a[2], col], R[a[2] + 1, col], R[a[2] + 2, col],
+                                     R[a[3], col])
+            R[a[4], col], R[a[4] + 1, col], R[a[4] + 2, col], R[a[5], col] = x, y, z, s
     elif op == pg.OP_MIX_FLOAT:
-        t = clamp(R[a[0], col], 0.0, 1.0) if ins[1] else R[a[0], col]
-        R[a[3], col] = R[a[1], col] * (1.0 - t) + R[a[2], col] * t
+        for col in range(n_cols):
+            t = clamp(R[a[0], col], 0.0, 1.0) if ins[1] else R[a[0], col]
+            R[a[3], col] = R[a[1], col] * (1.0 - t) + R[a[2], col] * t
     elif op == pg.OP_MIX_VECTOR or op == pg.OP_MIX_VECTOR_NONUNIFORM:
-        for c in range(3):
-            t = R[a[0] + c, col] if op == pg.OP_MIX_VECTOR_NONUNIFORM else R[a[0], col]
-            if ins[1]:
-                t = clamp(t, 0.0, 1.0)
-            R[a[3] + c, col] = R[a[1] + c, col] * (1.0 - t) + R[a[2] + c, col] * t
+        for col in range(n_cols):
+            for c in range(3):
+                t = R[a[0] + c, col] if op == pg.OP_MIX_VECTOR_NONUNIFORM else R[a[0], col]
+                if ins[1]:
+                    t = clamp(t, 0.0, 1.0)
+                R[a[3] + c, col] = R[a[1] + c, col] * (1.0 - t) + R[a[2] + c, col] * t
     elif op == pg.OP_MIX_COLOR:
-        t = clamp(R[a[0], col], 0.0, 1.0) if ins[2] else R[a[0], col]
-        x, y, z = blend(ins[1], t, R[a[1], col], R[a[1] + 1, col], R[a[1] + 2, col], R[a[2], col],
-                        R[a[2] + 1, col], R[a[2] + 2, col])
-        if ins[3]:
-            x, y, z = clamp(x, 0.0, 1.0), clamp(y, 0.0, 1.0), clamp(z, 0.0, 1.0)
-        R[a[3], col], R[a[3] + 1, col], R[a[3] + 2, col] = x, y, z
+        for col in range(n_cols):
+            t = clamp(R[a[0], col], 0.0, 1.0) if ins[2] else R[a[0], col]
+            x, y, z = blend(ins[1], t, R[a[1], col], R[a[1] + 1, col], R[a[1] + 2, col],
+                            R[a[2], col], R[a[2] + 1, col], R[a[2] + 2, col])
+            if ins[3]:
+                x, y, z = clamp(x, 0.0, 1.0), clamp(y, 0.0, 1.0), clamp(z, 0.0, 1.0)
+            R[a[3], col], R[a[3] + 1, col], R[a[3] + 2, col] = x, y, z
     elif op == pg.OP_MAP_RANGE:
-        R[a[6], col] = map_range(ins[1], ins[2], R[a[0], col], R[a[1], col], R[a[2], col],
-                                 R[a[3], col], R[a[4], col], R[a[5], col])
+        for col in range(n_cols):
+            R[a[6], col] = map_range(ins[1], ins[2], R[a[0], col], R[a[1], col], R[a[2], col],
+                                     R[a[3], col], R[a[4], col], R[a[5], col])
     elif op == pg.OP_VECTOR_MAP_RANGE:
-        for c in range(3):
-            R[a[6] + c, col] = vector_map_range_1(ins[1], ins[2], R[a[0] + c, col],
-                                                  R[a[1] + c, col], R[a[2] + c, col],
-                                                  R[a[3] + c, col], R[a[4] + c, col],
-                                                  R[a[5] + c, col])
+        for col in range(n_cols):
+            for c in range(3):
+                R[a[6] + c, col] = vector_map_range_1(ins[1], ins[2], R[a[0] + c, col],
+                                                      R[a[1] + c, col], R[a[2] + c, col],
+                                                      R[a[3] + c, col], R[a[4] + c, col],
+                                                      R[a[5] + c, col])
     elif op == pg.OP_CLAMP:
-        lo, hi = R[a[1], col], R[a[2], col]
-        if ins[1] == 1 and lo > hi:
-            lo, hi = hi, lo
-        R[a[3], col] = clamp(R[a[0], col], lo, hi)
+        for col in range(n_cols):
+            lo, hi = R[a[1], col], R[a[2], col]
+            if ins[1] == 1 and lo > hi:
+                lo, hi = hi, lo
+            R[a[3], col] = clamp(R[a[0], col], lo, hi)
     elif op == pg.OP_SEPARATE:
-        x, y, z = R[a[0], col], R[a[0] + 1, col], R[a[0] + 2, col]
-        if ins[1] == 1:
-            x, y, z = rgb_to_hsv(x, y, z)
-        elif ins[1] == 2:
-            x, y, z = rgb_to_hsl(x, y, z)
-        R[a[1], col], R[a[2], col], R[a[3], col] = x, y, z
+        for col in range(n_cols):
+            x, y, z = R[a[0], col], R[a[0] + 1, col], R[a[0] + 2, col]
+            if ins[1] == 1:
+                x, y, z = rgb_to_hsv(x, y, z)
+            elif ins[1] == 2:
+                x, y, z = rgb_to_hsl(x, y, z)
+            R[a[1], col], R[a[2], col], R[a[3], col] = x, y, z
     elif op == pg.OP_COMBINE:
-        x, y, z = R[a[0], col], R[a[1], col], R[a[2], col]
-        if ins[1] == 1:
-            x, y, z = hsv_to_rgb(x, y, z)
-        elif ins[1] == 2:
-            x, y, z = hsl_to_rgb(x, y, z)
-        R[a[3], col], R[a[3] + 1, col], R[a[3] + 2, col] = x, y, z
+        for col in range(n_cols):
+            x, y, z = R[a[0], col], R[a[1], col], R[a[2], col]
+            if ins[1] == 1:
+                x, y, z = hsv_to_rgb(x, y, z)
+            elif ins[1] == 2:
+                x, y, z = hsl_to_rgb(x, y, z)
+            R[a[3], col], R[a[3] + 1, col], R[a[3] + 2, col] = x, y, z
     elif op == pg.OP_RAMP:
-        f = R[a[0], col]
-        for c in range(3):
-            R[a[1] + c, col] = ramp_lookup(tables, ins[1], ins[2], f, ins[3] != 0, c)
-        R[a[2], col] = ramp_lookup(tables, ins[1], ins[2], f, ins[3] != 0, 3)
+        for col in range(n_cols):
+            f = R[a[0], col]
+            for c in range(3):
+                R[a[1] + c, col] = ramp_lookup(tables, ins[1], ins[2], f, ins[3] != 0, c)
+            R[a[2], col] = ramp_lookup(tables, ins[1], ins[2], f, ins[3] != 0, 3)
     elif op == pg.OP_MAPPING:
-        x, y, z = mapping(ins[1], R[a[0], col], R[a[0] + 1, col], R[a[0] + 2, col], R[a[1], col],
-                          R[a[1] + 1, col], R[a[1] + 2, col], R[a[2], col], R[a[2] + 1, col],
-                          R[a[2] + 2, col], R[a[3], col], R[a[3] + 1, col], R[a[3] + 2, col])
-        R[a[4], col], R[a[4] + 1, col], R[a[4] + 2, col] = x, y, z
+        for col in range(n_cols):
+            x, y, z = mapping(ins[1], R[a[0], col], R[a[0] + 1, col], R[a[0] + 2, col],
+                              R[a[1], col], R[a[1] + 1, col], R[a[1] + 2, col], R[a[2], col],
+                              R[a[2] + 1, col], R[a[2] + 2, col], R[a[3], col],
+                              R[a[3] + 1, col], R[a[3] + 2, col])
+            R[a[4], col], R[a[4] + 1, col], R[a[4] + 2, col] = x, y, z
     elif op == pg.OP_INVERT:
-        f = R[a[0], col]
-        for c in range(3):
-            x = R[a[1] + c, col]
-            R[a[2] + c, col] = f * (1.0 - x) + (1.0 - f) * x
+        for col in range(n_cols):
+            f = R[a[0], col]
+            for c in range(3):
+                x = R[a[1] + c, col]
+                R[a[2] + c, col] = f * (1.0 - x) + (1.0 - f) * x
     elif op == pg.OP_GAMMA:
-        g = R[a[1], col]
-        for c in range(3):
-            x = R[a[0] + c, col]
-            if g == 0.0:
-                x = 1.0
-            elif x > 0.0:
-                x = x ** g
-            R[a[2] + c, col] = x
+        for col in range(n_cols):
+            g = R[a[1], col]
+            for c in range(3):
+                x = R[a[0] + c, col]
+                if g == 0.0:
+                    x = 1.0
+                elif x > 0.0:
+                    x = x ** g
+                R[a[2] + c, col] = x
     elif op == pg.OP_HSV:
-        fac = R[a[3], col]
-        cr, cg, cb = R[a[4], col], R[a[4] + 1, col], R[a[4] + 2, col]
-        h, s, v = rgb_to_hsv(cr, cg, cb)
-        h = h + R[a[0], col] + 0.5
-        h = h - math.floor(h)
-        s = clamp(s * R[a[1], col], 0.0, 1.0)
-        v *= R[a[2], col]
-        x, y, z = hsv_to_rgb(h, s, v)
-        R[a[5], col] = max(fac * x + (1.0 - fac) * cr, 0.0)
-        R[a[5] + 1, col] = max(fac * y + (1.0 - fac) * cg, 0.0)
-        R[a[5] + 2, col] = max(fac * z + (1.0 - fac) * cb, 0.0)
+        for col in range(n_cols):
+            fac = R[a[3], col]
+            cr, cg, cb = R[a[4], col], R[a[4] + 1, col], R[a[4] + 2, col]
+            h, s, v = rgb_to_hsv(cr, cg, cb)
+            h = h + R[a[0], col] + 0.5
+            h = h - math.floor(h)
+            s = clamp(s * R[a[1], col], 0.0, 1.0)
+            v *= R[a[2], col]
+            x, y, z = hsv_to_rgb(h, s, v)
+            R[a[5], col] = max(fac * x + (1.0 - fac) * cr, 0.0)
+            R[a[5] + 1, col] = max(fac * y + (1.0 - fac) * cg, 0.0)
+            R[a[5] + 2, col] = max(fac * z + (1.0 - fac) * cb, 0.0)
     elif op == pg.OP_BRIGHT_CONTRAST:
-        ka = 1.0 + R[a[2], col]
-        kb = R[a[1], col] - R[a[2], col] * 0.5
-        for c in range(3):
-            R[a[3] + c, col] = max(ka * R[a[0] + c, col] + kb, 0.0)
+        for col in range(n_cols):
+            ka = 1.0 + R[a[2], col]
+            kb = R[a[1], col] - R[a[2], col] * 0.5
+            for c in range(3):
+                R[a[3] + c, col] = max(ka * R[a[0] + c, col] + kb, 0.0)
     elif op == pg.OP_RGB_TO_BW:
-        R[a[2], col] = (R[a[0], col] * R[a[1], col] + R[a[0] + 1, col] * R[a[1] + 1, col]
-                        + R[a[0] + 2, col] * R[a[1] + 2, col])
+        for col in range(n_cols):
+            R[a[2], col] = (R[a[0], col] * R[a[1], col] + R[a[0] + 1, col] * R[a[1] + 1, col]
+                            + R[a[0] + 2, col] * R[a[1] + 2, col])
     elif op == pg.OP_CHECKER:
-        s = R[a[3], col]
-        f = checker(R[a[0], col] * s, R[a[0] + 1, col] * s, R[a[0] + 2, col] * s)
-        src = a[1] if f == 1.0 else a[2]
-        for c in range(3):
-            R[a[4] + c, col] = R[src + c, col]
-        R[a[5], col] = f
+        for col in range(n_cols):
+            s = R[a[3], col]
+            f = checker(R[a[0], col] * s, R[a[0] + 1, col] * s, R[a[0] + 2, col] * s)
+            src = a[1] if f == 1.0 else a[2]
+            for c in range(3):
+                R[a[4] + c, col] = R[src + c, col]
+            R[a[5], col] = f
     elif op == pg.OP_GRADIENT:
-        f = gradient(ins[1], R[a[0], col], R[a[0] + 1, col], R[a[0] + 2, col])
-        R[a[1], col] = R[a[1] + 1, col] = R[a[1] + 2, col] = f
-        R[a[2], col] = f
+        for col in range(n_cols):
+            f = gradient(ins[1], R[a[0], col], R[a[0] + 1, col], R[a[0] + 2, col])
+            R[a[1], col] = R[a[1] + 1, col] = R[a[1] + 2, col] = f
+            R[a[2], col] = f
     elif op == pg.OP_WHITE_NOISE:
-        v, x, y, z = white_noise(ins[1], R[a[0], col], R[a[0] + 1, col], R[a[0] + 2, col],
-                                 R[a[1], col])
-        R[a[2], col] = v
-        R[a[3], col], R[a[3] + 1, col], R[a[3] + 2, col] = x, y, z
+        for col in range(n_cols):
+            v, x, y, z = white_noise(ins[1], R[a[0], col], R[a[0] + 1, col], R[a[0] + 2, col],
+                                     R[a[1], col])
+            R[a[2], col] = v
+            R[a[3], col], R[a[3] + 1, col], R[a[3] + 2, col] = x, y, z
     elif op == pg.OP_NOISE:
-        v, x, y, z = noise_texture(R[a[0], col], R[a[0] + 1, col], R[a[0] + 2, col], R[a[1], col],
-                                   ins[1], R[a[2], col], R[a[3], col], R[a[4], col], R[a[5], col],
-                                   R[a[6], col], R[a[7], col], R[a[8], col], ins[2], ins[3] != 0,
-                                   ins[4] != 0)
-        R[a[9], col] = v
-        R[a[10], col], R[a[10] + 1, col], R[a[10] + 2, col] = x, y, z
+        for col in range(n_cols):
+            v, x, y, z = noise_texture(R[a[0], col], R[a[0] + 1, col], R[a[0] + 2, col],
+                                       R[a[1], col], ins[1], R[a[2], col], R[a[3], col],
+                                       R[a[4], col], R[a[5], col], R[a[6], col], R[a[7], col],
+                                       R[a[8], col], ins[2], ins[3] != 0, ins[4] != 0)
+            R[a[9], col] = v
+            R[a[10], col], R[a[10] + 1, col], R[a[10] + 2, col] = x, y, z
     elif op == pg.OP_VORONOI:
-        scale = R[a[2], col]
-        d, cr, cg, cb, px, py, pz, pw = voronoi_texture(R[a[0], col], R[a[0] + 1, col],
-                                                        R[a[0] + 2, col], R[a[1], col], ins[1],
-                                                        ins[2], ins[3], (ins[4] & 1) != 0, scale,
-                                                        R[a[3], col], R[a[4], col], R[a[5], col],
-                                                        R[a[6], col], R[a[7], col], R[a[8], col],
-                                                        (ins[4] & 2) != 0)
-        R[a[9], col] = d
-        R[a[10], col], R[a[10] + 1, col], R[a[10] + 2, col] = cr, cg, cb
-        R[a[11], col], R[a[11] + 1, col], R[a[11] + 2, col] = px, py, pz
-        R[a[12], col] = pw
+        for col in range(n_cols):
+            scale = R[a[2], col]
+            d, cr, cg, cb, qx, qy, qz, qw = voronoi_texture(
+                R[a[0], col], R[a[0] + 1, col], R[a[0] + 2, col], R[a[1], col], ins[1], ins[2],
+                ins[3], (ins[4] & 1) != 0, scale, R[a[3], col], R[a[4], col], R[a[5], col],
+                R[a[6], col], R[a[7], col], R[a[8], col], (ins[4] & 2) != 0)
+            R[a[9], col] = d
+            R[a[10], col], R[a[10] + 1, col], R[a[10] + 2, col] = cr, cg, cb
+            R[a[11], col], R[a[11] + 1, col], R[a[11] + 2, col] = qx, qy, qz
+            R[a[12], col] = qw
     elif op == pg.OP_WAVE:
-        s = R[a[1], col]
-        f = wave(ins[1], ins[2], ins[3], ins[4], R[a[0], col] * s, R[a[0] + 1, col] * s,
-                 R[a[0] + 2, col] * s, R[a[2], col], R[a[3], col], R[a[4], col], R[a[5], col],
-                 R[a[6], col])
-        R[a[7], col] = R[a[7] + 1, col] = R[a[7] + 2, col] = f
-        R[a[8], col] = f
+        for col in range(n_cols):
+            s = R[a[1], col]
+            f = wave(ins[1], ins[2], ins[3], ins[4], R[a[0], col] * s, R[a[0] + 1, col] * s,
+                     R[a[0] + 2, col] * s, R[a[2], col], R[a[3], col], R[a[4], col], R[a[5], col],
+                     R[a[6], col])
+            R[a[7], col] = R[a[7] + 1, col] = R[a[7] + 2, col] = f
+            R[a[8], col] = f
     elif op == pg.OP_MAGIC:
-        x, y, z = magic(R[a[0], col], R[a[0] + 1, col], R[a[0] + 2, col], R[a[1], col], ins[1],
-                        R[a[2], col])
-        R[a[3], col], R[a[3] + 1, col], R[a[3] + 2, col] = x, y, z
-        R[a[4], col] = (x + y + z) / 3.0
+        for col in range(n_cols):
+            x, y, z = magic(R[a[0], col], R[a[0] + 1, col], R[a[0] + 2, col], R[a[1], col], ins[1],
+                            R[a[2], col])
+            R[a[3], col], R[a[3] + 1, col], R[a[3] + 2, col] = x, y, z
+            R[a[4], col] = (x + y + z) / 3.0
     elif op == pg.OP_BRICK:
-        s = R[a[4], col]
-        tint, f = brick(R[a[0], col] * s, R[a[0] + 1, col] * s, R[a[5], col], R[a[6], col],
-                        R[a[7], col], R[a[8], col], R[a[9], col], R[a[10], col], ins[1],
-                        R[a[11], col], ins[2])
-        for c in range(3):
-            c1 = R[a[1] + c, col]
-            if f != 1.0:
-                c1 = (1.0 - tint) * c1 + tint * R[a[2] + c, col]
-            R[a[12] + c, col] = c1 * (1.0 - f) + R[a[3] + c, col] * f
-        R[a[13], col] = f
+        for col in range(n_cols):
+            s = R[a[4], col]
+            tint, f = brick(R[a[0], col] * s, R[a[0] + 1, col] * s, R[a[5], col], R[a[6], col],
+                            R[a[7], col], R[a[8], col], R[a[9], col], R[a[10], col], ins[1],
+                            R[a[11], col], ins[2])
+            for c in range(3):
+                c1 = R[a[1] + c, col]
+                if f != 1.0:
+                    c1 = (1.0 - tint) * c1 + tint * R[a[2] + c, col]
+                R[a[12] + c, col] = c1 * (1.0 - f) + R[a[3] + c, col] * f
+            R[a[13], col] = f
     elif op == pg.OP_BLACKBODY:
-        x, y, z = blackbody_rec709(R[a[0], col])
-        for c in range(3):  # row c of the Rec.709 -> scene linear matrix is operand 1 + c
-            m = a[1 + c]
-            R[a[4] + c, col] = max(R[m, col] * x + R[m + 1, col] * y + R[m + 2, col] * z, 0.0)
+        for col in range(n_cols):
+            x, y, z = blackbody_rec709(R[a[0], col])
+            for c in range(3):  # row c of the Rec.709 -> scene linear matrix is operand 1 + c
+                m = a[1 + c]
+                R[a[4] + c, col] = max(R[m, col] * x + R[m + 1, col] * y + R[m + 2, col] * z, 0.0)
     elif op == pg.OP_CURVES:
-        fac = R[a[0], col]
-        lo, hi = R[a[2], col], R[a[3], col]
-        for c in range(3):
-            v = R[a[1] + c, col]
-            t = (v - lo) / (hi - lo)
-            mapped = curve_lookup(tables, ins[1], ins[2], t, c) if ins[3] else \
-                ramp_lookup(tables, ins[1], ins[2], t, True, c)
-            R[a[4] + c, col] = (1.0 - fac) * v + fac * mapped
+        for col in range(n_cols):
+            fac = R[a[0], col]
+            lo, hi = R[a[2], col], R[a[3], col]
+            for c in range(3):
+                v = R[a[1] + c, col]
+                t = (v - lo) / (hi - lo)
+                mapped = curve_lookup(tables, ins[1], ins[2], t, c) if ins[3] else \
+                    ramp_lookup(tables, ins[1], ins[2], t, True, c)
+                R[a[4] + c, col] = (1.0 - fac) * v + fac * mapped
     elif op == pg.OP_FLOAT_CURVE:
-        fac = R[a[0], col]
-        v = R[a[1], col]
-        t = (v - R[a[2], col]) / (R[a[3], col] - R[a[2], col])
-        mapped = curve_lookup(tables, ins[1], ins[2], t, 0) if ins[3] else \
-            ramp_lookup(tables, ins[1], ins[2], t, True, 0)
-        R[a[4], col] = (1.0 - fac) * v + fac * mapped
+        for col in range(n_cols):
+            fac = R[a[0], col]
+            v = R[a[1], col]
+            t = (v - R[a[2], col]) / (R[a[3], col] - R[a[2], col])
+            mapped = curve_lookup(tables, ins[1], ins[2], t, 0) if ins[3] else \
+                ramp_lookup(tables, ins[1], ins[2], t, True, 0)
+            R[a[4], col] = (1.0 - fac) * v + fac * mapped
     elif op == pg.OP_IMAGE:
-        image_sample(im_bytes, im_shorts, im_floats, im_tiles, im_first, im_count, ins[1],
-                     R[a[0], col], R[a[0] + 1, col], ins[2], ins[3], ins[4] != 0, px)
-        R[a[1], col], R[a[1] + 1, col], R[a[1] + 2, col], R[a[2], col] = px[0], px[1], px[2], px[3]
+        for col in range(n_cols):
+            image_sample(im_bytes, im_shorts, im_floats, im_tiles, im_first, im_count, ins[1],
+                         R[a[0], col], R[a[0] + 1, col], ins[2], ins[3], ins[4] != 0, px)
+            R[a[1], col], R[a[1] + 1, col], R[a[1] + 2, col] = px[0], px[1], px[2]
+            R[a[2], col] = px[3]
     elif op == pg.OP_IMAGE_PROJECTED:
-        image_projected(im_bytes, im_shorts, im_floats, im_tiles, im_first, im_count, ins[1],
-                        R[a[0], col], R[a[0] + 1, col], R[a[0] + 2, col], R[a[1], col],
-                        R[a[1] + 1, col], R[a[1] + 2, col], R[a[2], col], ins[2], ins[3],
-                        (ins[4] & 1) != 0, ins[4] >> 1, px[:4], px[4:])
-        R[a[3], col], R[a[3] + 1, col], R[a[3] + 2, col], R[a[4], col] = px[0], px[1], px[2], px[3]
+        for col in range(n_cols):
+            image_projected(im_bytes, im_shorts, im_floats, im_tiles, im_first, im_count, ins[1],
+                            R[a[0], col], R[a[0] + 1, col], R[a[0] + 2, col], R[a[1], col],
+                            R[a[1] + 1, col], R[a[1] + 2, col], R[a[2], col], ins[2], ins[3],
+                            (ins[4] & 1) != 0, ins[4] >> 1, px[:4], px[4:])
+            R[a[3], col], R[a[3] + 1, col], R[a[3] + 2, col] = px[0], px[1], px[2]
+            R[a[4], col] = px[3]
     elif op == pg.OP_FRESNEL or op == pg.OP_LAYER_WEIGHT:
-        cosi = (R[a[1], col] * R[a[2], col] + R[a[1] + 1, col] * R[a[2] + 1, col]
-                + R[a[1] + 2, col] * R[a[2] + 2, col])
-        back = R[a[3], col] != 0.0
-        if op == pg.OP_FRESNEL:
-            R[a[4], col] = fresnel_node(R[a[0], col], cosi, back)
-        else:
-            R[a[4], col], R[a[5], col] = layer_weight(R[a[0], col], cosi, back)
+        for col in range(n_cols):
+            cosi = (R[a[1], col] * R[a[2], col] + R[a[1] + 1, col] * R[a[2] + 1, col]
+                    + R[a[1] + 2, col] * R[a[2] + 2, col])
+            back = R[a[3], col] != 0.0
+            if op == pg.OP_FRESNEL:
+                R[a[4], col] = fresnel_node(R[a[0], col], cosi, back)
+            else:
+                R[a[4], col], R[a[5], col] = layer_weight(R[a[0], col], cosi, back)
     elif op == pg.OP_TRANSFORM:
-        x, y, z = R[a[0], col], R[a[0] + 1, col], R[a[0] + 2, col]
-        w = 1.0
-        if ins[1] == 1:
-            m = a[7]
-            w = R[m, col] * x + R[m + 1, col] * y + R[m + 2, col] * z + R[a[8], col]
-            w = 1.0 / w if w != 0.0 else 0.0
-        for c in range(3):
-            m = a[1 + 2 * c]
-            R[a[9] + c, col] = (R[m, col] * x + R[m + 1, col] * y + R[m + 2, col] * z
-                                + R[a[2 + 2 * c], col]) * w
+        for col in range(n_cols):
+            x, y, z = R[a[0], col], R[a[0] + 1, col], R[a[0] + 2, col]
+            w = 1.0
+            if ins[1] == 1:
+                m = a[7]
+                w = R[m, col] * x + R[m + 1, col] * y + R[m + 2, col] * z + R[a[8], col]
+                w = 1.0 / w if w != 0.0 else 0.0
+            for c in range(3):
+                m = a[1 + 2 * c]
+                R[a[9] + c, col] = (R[m, col] * x + R[m + 1, col] * y + R[m + 2, col] * z
+                                    + R[a[2 + 2 * c], col]) * w
     elif op == pg.OP_WAVELENGTH:
-        x, y, z = wavelength_xyz(R[a[0], col])
-        for c in range(3):  # row c of the XYZ -> scene linear matrix is operand 1 + c
-            m = a[1 + c]
-            R[a[4] + c, col] = max((R[m, col] * x + R[m + 1, col] * y + R[m + 2, col] * z)
-                                   * WAVELENGTH_SCALE, 0.0)
+        for col in range(n_cols):
+            x, y, z = wavelength_xyz(R[a[0], col])
+            for c in range(3):  # row c of the XYZ -> scene linear matrix is operand 1 + c
+                m = a[1 + c]
+                R[a[4] + c, col] = max((R[m, col] * x + R[m + 1, col] * y + R[m + 2, col] * z)
+                                       * WAVELENGTH_SCALE, 0.0)
     elif op == pg.OP_NORMAL_MAP:
-        c, t, n, m0, m1, m2 = a[0], a[2], a[4], a[6], a[7], a[8]
-        x, y, z = normal_map(ins[1], ins[2], R[c, col], R[c + 1, col], R[c + 2, col], R[a[1], col],
-                             R[t, col], R[t + 1, col], R[t + 2, col], R[a[3], col], R[n, col],
-                             R[n + 1, col], R[n + 2, col], R[a[5], col], R[m0, col],
-                             R[m0 + 1, col], R[m0 + 2, col], R[m1, col], R[m1 + 1, col],
-                             R[m1 + 2, col], R[m2, col], R[m2 + 1, col], R[m2 + 2, col])
-        R[a[9], col], R[a[9] + 1, col], R[a[9] + 2, col] = x, y, z
+        for col in range(n_cols):
+            c, t, n, m0, m1, m2 = a[0], a[2], a[4], a[6], a[7], a[8]
+            x, y, z = normal_map(ins[1], ins[2], R[c, col], R[c + 1, col], R[c + 2, col],
+                                 R[a[1], col], R[t, col], R[t + 1, col], R[t + 2, col],
+                                 R[a[3], col], R[n, col], R[n + 1, col], R[n + 2, col],
+                                 R[a[5], col], R[m0, col], R[m0 + 1, col], R[m0 + 2, col],
+                                 R[m1, col], R[m1 + 1, col], R[m1 + 2, col], R[m2, col],
+                                 R[m2 + 1, col], R[m2 + 2, col])
+            R[a[9], col], R[a[9] + 1, col], R[a[9] + 2, col] = x, y, z
     elif op == pg.OP_BUMP:
-        n, dx, dy = a[6], a[7], a[8]
-        x, y, z = bump(ins[1] != 0, R[a[0], col], R[a[1], col], R[a[2], col], R[a[3], col],
-                       R[a[4], col], R[a[5], col], R[n, col], R[n + 1, col], R[n + 2, col],
-                       R[dx, col], R[dx + 1, col], R[dx + 2, col], R[dy, col], R[dy + 1, col],
-                       R[dy + 2, col])
-        R[a[9], col], R[a[9] + 1, col], R[a[9] + 2, col] = x, y, z
+        for col in range(n_cols):
+            n, dx, dy = a[6], a[7], a[8]
+            x, y, z = bump(ins[1] != 0, R[a[0], col], R[a[1], col], R[a[2], col], R[a[3], col],
+                           R[a[4], col], R[a[5], col], R[n, col], R[n + 1, col], R[n + 2, col],
+                           R[dx, col], R[dx + 1, col], R[dx + 2, col], R[dy, col], R[dy + 1, col],
+                           R[dy + 2, col])
+            R[a[9], col], R[a[9] + 1, col], R[a[9] + 2, col] = x, y, z
     elif op == pg.OP_TANGENT:
-        v, m0, m1, m2, n = a[0], a[1], a[2], a[3], a[4]
-        x, y, z = tangent(ins[1], R[v, col], R[v + 1, col], R[v + 2, col], R[m0, col],
-                          R[m0 + 1, col], R[m0 + 2, col], R[m1, col], R[m1 + 1, col],
-                          R[m1 + 2, col], R[m2, col], R[m2 + 1, col], R[m2 + 2, col], R[n, col],
-                          R[n + 1, col], R[n + 2, col])
-        R[a[5], col], R[a[5] + 1, col], R[a[5] + 2, col] = x, y, z
+        for col in range(n_cols):
+            v, m0, m1, m2, n = a[0], a[1], a[2], a[3], a[4]
+            x, y, z = tangent(ins[1], R[v, col], R[v + 1, col], R[v + 2, col], R[m0, col],
+                              R[m0 + 1, col], R[m0 + 2, col], R[m1, col], R[m1 + 1, col],
+                              R[m1 + 2, col], R[m2, col], R[m2 + 1, col], R[m2 + 2, col],
+                              R[n, col], R[n + 1, col], R[n + 2, col])
+            R[a[5], col], R[a[5] + 1, col], R[a[5] + 2, col] = x, y, z
 
 
 @njit(**dict(cache=True, error_model="numpy"))
@@ -399,8 +441,8 @@ def evaluate_kernel(instructions, constants, tables, n_registers, outputs, P, N,
     ``ShadingInputs.light_path``.
 
     Instruction-major over chunks of points: each instruction runs over the chunk's
-    points before the next (registers (n_registers, chunk), one column a point), so its
-    opcode's branch is taken alike at every point, and the Noise Texture's Perlin
+    points before the next (registers (n_registers, chunk), one column a point), its
+    opcode's branch taken once for the chunk (``_run_rows``), and the Noise Texture's Perlin
     evaluations and the Voronoi Texture's cells vectorise over the chunk
     (``noise_texture3_rows``, ``voronoi_f1_3d_rows``). A point's values do
     not depend on the others': bit for bit the point-by-point evaluation."""
@@ -438,9 +480,8 @@ def evaluate_kernel(instructions, constants, tables, n_registers, outputs, P, N,
                                    R[a[10] + 2], R[a[11]], R[a[11] + 1], R[a[11] + 2],
                                    R[a[12]], S)
             else:
-                for col in range(m):
-                    _run(R, col, ins, tables, im_bytes, im_shorts, im_floats, im_tiles,
-                         im_first, im_count, px)
+                _run_rows(R, m, ins, tables, im_bytes, im_shorts, im_floats, im_tiles,
+                          im_first, im_count, px)
         for o in range(outputs.shape[0]):
             reg = outputs[o, 0]
             for col in range(m):
