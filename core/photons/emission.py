@@ -48,7 +48,7 @@ sum_k p_k pdf_k, so overlapping targets are not counted twice and the estimate s
 unbiased for every direction the cones cover.
 
 A point or spot light of radius r > 0 aims lines, not directions (its photons' origins
-spread over r, so a direction aimed from its centre mostly misses a small target: 0.3-4 %
+spread over r, so a direction aimed from its centre mostly misses a small target: 1-4 %
 hit a 0.25 m sphere under a 1 m light). A line c + h + t w (c the light's centre, h its
 offset, perpendicular to w) is sampled as: a target j (centre T_j, radius R_j) by its
 cdf; w uniform in the narrower of the cone subtending the target grown by r from c
