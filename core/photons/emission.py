@@ -47,6 +47,22 @@ uniform on its cross-section perpendicular to the sampled direction), and the fl
 sum_k p_k pdf_k, so overlapping targets are not counted twice and the estimate stays
 unbiased for every direction the cones cover.
 
+A point or spot light of radius r > 0 aims lines, not directions (its photons' origins
+spread over r, so a direction aimed from its centre mostly misses a small target: 1-4 %
+hit a 0.25 m sphere under a 1 m light). A line c + h + t w (c the light's centre, h its
+offset, perpendicular to w) is sampled as: a target j (centre T_j, radius R_j) by its
+cdf; w uniform in the narrower of the cone subtending the target grown by r from c
+(every direction when c lies inside it; every ray from the light's ball into the target
+lies in it) and the spot's cone; the line's point uniform on the target's cross-section
+perpendicular to w (the disk of radius R_j about T_j), or on the light's (radius r about
+c) when the target is larger. A line more than r from c carries nothing (no unaimed
+photon lies on it). The photon starts where the unaimed photon on the same line does
+(the sphere's front surface, or the soft-falloff foot c + h with near / lead of
+|h|^2), and carries L x att / (pdf x N) with L = S / (4 pi^2 r^2) the radiance per line
+of the unaimed emission (density pdf_dir / (pi r^2) in dA_perp dw) and pdf the mixture
+sum over the targets k whose cone holds w and whose disk holds the line of
+p_k / (2 pi (1 - cos) x pi min(R_k, r)^2) (``_line_pdf_mix``).
+
 Random numbers: scrambled Sobol pairs (``sampling.stratified2``) over each light's photons
 for the position and direction, and counter hashes for the discrete picks; a photon's
 numbers depend only on (seed, map, light, photon index).
@@ -282,27 +298,135 @@ def facing_disk_near(h2, r2):
     return h2 / np.sqrt(r2 - h2)
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
-def _emit_local(q, u0, u1, u2, u3, u4, inv_n, tc, tr, tp, tcdf, o, d, f, near, lead):
-    """Point and spot lights (see module doc); aimed when there are targets. near, lead
-    (N,): written for a soft-falloff light of radius > 0 (``Emitted``), else left."""
+@njit(cache=True, error_model="numpy")
+def _line_cone(cx, cy, cz, tx, ty, tz, grown, spot, omc_spot, azx, azy, azz):
+    """The cone a line aimed at one target takes its direction from (module doc, "Aimed
+    emission"): the cone subtending the target's sphere, centre t (metres), grown by the
+    light's radius (``grown`` metres), from the light's centre c (every direction when c
+    lies inside it), or the spot's cone about -Z (1 - cos = omc_spot) when that one is
+    narrower. Returns its unit axis and 1 - cos(half angle) (2: the whole sphere)."""
+    vx, vy, vz = tx - cx, ty - cy, tz - cz
+    d2 = vx * vx + vy * vy + vz * vz
+    ax, ay, az, omc = 0.0, 0.0, 1.0, 2.0
+    if d2 > grown * grown:
+        dn = np.sqrt(d2)
+        ax, ay, az = vx / dn, vy / dn, vz / dn
+        omc = lk.sin_sqr_to_one_minus_cos(grown * grown / d2)
+    if spot and omc_spot < omc:
+        return -azx, -azy, -azz, omc_spot
+    return ax, ay, az, omc
+
+
+@njit(cache=True, error_model="numpy")
+def _aim_line(q, tc, tr, tcdf, u0, u1, u2, u3, u4):
+    """One aimed line of a point or spot light of radius r > 0 (metres): a target j by
+    its cdf, a direction uniform in its ``_line_cone``, and the line's offset uniform on
+    the target's cross-section perpendicular to it (on the light's disk, radius r about
+    its centre c, when the target is larger). Returns j, the unit direction and the
+    line's offset h from c (metres, perpendicular to the direction: the line is
+    c + h + t w)."""
     cx, cy, cz = q[lk.P_POS], q[lk.P_POS + 1], q[lk.P_POS + 2]
-    azx, azy, azz = q[lk.P_AZ], q[lk.P_AZ + 1], q[lk.P_AZ + 2]
+    radius = q[lk.P_RADIUS]
+    j = np.searchsorted(tcdf, u0, side="right")
+    if j >= tcdf.shape[0]:
+        j = tcdf.shape[0] - 1
+    ax, ay, az, omc = _line_cone(cx, cy, cz, tc[j, 0], tc[j, 1], tc[j, 2], tr[j] + radius,
+                                 q[lk.P_SPOT] > 0.0, 1.0 - q[lk.P_COS_HALF],
+                                 q[lk.P_AZ], q[lk.P_AZ + 1], q[lk.P_AZ + 2])
+    x, y, z = sampling.uniform_cone(u1, u2, omc)
+    dx, dy, dz = sampling.to_world(x, y, z, ax, ay, az)
+    if tr[j] <= radius:
+        px, py, pz, rho = tc[j, 0] - cx, tc[j, 1] - cy, tc[j, 2] - cz, tr[j]
+    else:
+        px, py, pz, rho = 0.0, 0.0, 0.0, radius
+    x, y = sampling.concentric_disk(u3, u4)
+    tx, ty, tz, bx, by, bz = sampling.basis(dx, dy, dz)
+    px += rho * (x * tx + y * bx)
+    py += rho * (x * ty + y * by)
+    pz += rho * (x * tz + y * bz)
+    along = px * dx + py * dy + pz * dz
+    return j, dx, dy, dz, px - along * dx, py - along * dy, pz - along * dz
+
+
+@njit(cache=True, error_model="numpy")
+def _line_pdf_mix(q, j, dx, dy, dz, hx, hy, hz, tc, tr, tp):
+    """Mixture pdf, 1 / (m^2 sr) (line measure dA_perp dw), of the line c + h + t d
+    sampled by ``_aim_line`` for target j: the sum over the targets k whose cone and
+    disk hold it of p_k / (solid angle of the cone x area of the disk). Target j holds it
+    by construction (no rounding test)."""
+    cx, cy, cz = q[lk.P_POS], q[lk.P_POS + 1], q[lk.P_POS + 2]
     radius = q[lk.P_RADIUS]
     spot = q[lk.P_SPOT] > 0.0
     omc_spot = 1.0 - q[lk.P_COS_HALF]
+    pdf = 0.0
+    for k in range(tr.shape[0]):
+        if tp[k] <= 0.0:
+            continue
+        ax, ay, az, omc = _line_cone(cx, cy, cz, tc[k, 0], tc[k, 1], tc[k, 2], tr[k] + radius,
+                                     spot, omc_spot, q[lk.P_AZ], q[lk.P_AZ + 1], q[lk.P_AZ + 2])
+        rho = min(tr[k], radius)
+        if rho <= 0.0:
+            continue
+        if k != j:
+            if omc < 2.0 and 1.0 - (dx * ax + dy * ay + dz * az) > omc:
+                continue
+            if tr[k] <= radius:
+                # The line's squared distance from the target's centre.
+                ex, ey, ez = tc[k, 0] - cx - hx, tc[k, 1] - cy - hy, tc[k, 2] - cz - hz
+                along = ex * dx + ey * dy + ez * dz
+                if ex * ex + ey * ey + ez * ez - along * along > tr[k] * tr[k] * (1.0 + 1e-9):
+                    continue
+        pdf += tp[k] / (2.0 * np.pi * omc * np.pi * rho * rho)
+    return pdf
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def _emit_local(q, u0, u1, u2, u3, u4, inv_n, tc, tr, tp, tcdf, o, d, f, near, lead):
+    """Point and spot lights (see module doc); aimed when there are targets (a light of
+    radius > 0: ``_aim_line``). near, lead (N,): written for a soft-falloff light of
+    radius > 0 (``Emitted``), else left."""
+    cx, cy, cz = q[lk.P_POS], q[lk.P_POS + 1], q[lk.P_POS + 2]
+    azx, azy, azz = q[lk.P_AZ], q[lk.P_AZ + 1], q[lk.P_AZ + 2]
+    radius = q[lk.P_RADIUS]
+    r2 = radius * radius
+    spot = q[lk.P_SPOT] > 0.0
+    sphere = q[lk.P_SPHERE] > 0.0
+    omc_spot = 1.0 - q[lk.P_COS_HALF]
     aimed = tr.shape[0] > 0
     for i in prange(o.shape[0]):
-        if aimed:
-            dx, dy, dz = _aim(cx, cy, cz, tc, tr, tcdf, u0[i], u1[i], u2[i])
-            pdf = _cone_pdf_mix(cx, cy, cz, dx, dy, dz, tc, tr, tp)
-        elif spot:
-            x, y, z = sampling.uniform_cone(u1[i], u2[i], omc_spot)
-            dx, dy, dz = sampling.to_world(x, y, z, -azx, -azy, -azz)
-            pdf = 1.0 / (2.0 * np.pi * omc_spot)
+        # The line c + h + t d, and (sphere) how far along it the origin is lifted.
+        hx, hy, hz, h2, lift = 0.0, 0.0, 0.0, 0.0, 0.0
+        if aimed and radius > 0.0:
+            j, dx, dy, dz, hx, hy, hz = _aim_line(q, tc, tr, tcdf, u0[i], u1[i], u2[i],
+                                                  u3[i], u4[i])
+            h2 = hx * hx + hy * hy + hz * hz
+            # As a pdf of the direction times the light's disk area pi r^2 (that of
+            # unaimed emission): a line off the light's disk carries nothing.
+            pdf = 0.0
+            if h2 <= r2:
+                pdf = np.pi * r2 * _line_pdf_mix(q, j, dx, dy, dz, hx, hy, hz, tc, tr, tp)
+            if sphere:
+                lift = np.sqrt(max(0.0, r2 - h2))
         else:
-            dx, dy, dz = sampling.uniform_sphere(u1[i], u2[i])
-            pdf = 1.0 / (4.0 * np.pi)
+            if aimed:
+                dx, dy, dz = _aim(cx, cy, cz, tc, tr, tcdf, u0[i], u1[i], u2[i])
+                pdf = _cone_pdf_mix(cx, cy, cz, dx, dy, dz, tc, tr, tp)
+            elif spot:
+                x, y, z = sampling.uniform_cone(u1[i], u2[i], omc_spot)
+                dx, dy, dz = sampling.to_world(x, y, z, -azx, -azy, -azz)
+                pdf = 1.0 / (2.0 * np.pi * omc_spot)
+            else:
+                dx, dy, dz = sampling.uniform_sphere(u1[i], u2[i])
+                pdf = 1.0 / (4.0 * np.pi)
+            if radius > 0.0:
+                x, y = sampling.concentric_disk(u3[i], u4[i])
+                tx, ty, tz, bx, by, bz = sampling.basis(dx, dy, dz)
+                hx = radius * (x * tx + y * bx)
+                hy = radius * (x * ty + y * by)
+                hz = radius * (x * tz + y * bz)
+                h2 = r2 * (x * x + y * y)
+                if sphere:
+                    lift = radius * np.sqrt(max(0.0, 1.0 - x * x - y * y))
         att = 1.0
         if spot:
             att = lk.spot_attenuation(-(dx * azx + dy * azy + dz * azz), q[lk.P_COS_HALF],
@@ -314,16 +438,14 @@ def _emit_local(q, u0, u1, u2, u3, u4, inv_n, tc, tr, tp, tcdf, o, d, f, near, l
         d[i, 0], d[i, 1], d[i, 2] = dx, dy, dz
         ox, oy, oz = cx, cy, cz
         if radius > 0.0:
-            x, y = sampling.concentric_disk(u3[i], u4[i])
-            tx, ty, tz, bx, by, bz = sampling.basis(dx, dy, dz)
-            lift = radius * np.sqrt(max(0.0, 1.0 - x * x - y * y)) if q[lk.P_SPHERE] > 0.0 else 0.0
-            ox += radius * (x * tx + y * bx) + lift * dx
-            oy += radius * (x * ty + y * by) + lift * dy
-            oz += radius * (x * tz + y * bz) + lift * dz
-            if q[lk.P_SPHERE] <= 0.0:
-                h2 = radius * radius * (x * x + y * y)
+            # The origin of the unaimed photon on the same line: on the sphere's front
+            # surface, or (soft falloff) the foot of c.
+            ox += hx + lift * dx
+            oy += hy + lift * dy
+            oz += hz + lift * dz
+            if not sphere:
                 lead[i] = h2
-                near[i] = facing_disk_near(h2, radius * radius)
+                near[i] = facing_disk_near(h2, r2)
         o[i, 0], o[i, 1], o[i, 2] = ox, oy, oz
 
 
@@ -543,9 +665,6 @@ def emit(source: Source, light_set: LightSet, emissive: EmissiveTriangles, world
         elif k == LIGHT_AREA:
             _emit_area(q, u0, u1, u2, u3, u4, inv_n, tc, tr, tp, tcdf, o, d, f)
         else:
-            if tr.size:
-                # Origins spread over a disk of the light's radius: grow the targets by it.
-                tr = tr + light_set.radius[i]
             near, lead = np.zeros(count), np.zeros(count)
             _emit_local(q, u0, u1, u2, u3, u4, inv_n, tc, tr, tp, tcdf, o, d, f, near, lead)
             if light_set.radius[i] > 0 and not light_set.sphere[i]:
