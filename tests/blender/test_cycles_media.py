@@ -34,7 +34,7 @@ def test_spot_lit_fog_channel_means_match_cycles(fog_spot):
     combined = fog_spot["Combined"][..., :3].mean()
     assert fog_spot["Volume Direct"][..., :3].mean() > 0.1 * combined
     assert fog_spot["Volume Indirect"][..., :3].mean() > 0.1 * combined
-    assert np.all(np.abs(f["channel"]) < 0.03), f["channel"]  # measured -0.45 / -1.24 % (seeds 1 / 2)
+    assert np.all(np.abs(f["channel"]) < 0.03), f["channel"]  # measured -0.45 / -1.24 % (seeds 1/2)
 
 
 @pytest.mark.xfail(reason="measured: worst 8 x 8 block 12.5 / 8.4 % (seeds 1 / 2; Cycles "
