@@ -9,7 +9,8 @@ stretch adds the terms below, weighted by the transmittance from o to its start:
   world background: 0 through fog on an escaping ray, as in Cycles, whose homogeneous World
   volume extinguishes the background and the sun);
 - Volume Direct: single scattering of the lights, estimated per light and light sample by
-  one equiangular distance towards the light's position (Kulla & Fajardo 2012;
+  one equiangular distance towards the light's position, on the part of the stretch a
+  spot's cone can light (``lights.kernels.spot_lit_interval``) (Kulla & Fajardo 2012;
   core/media/equiangular.py; area lights too, the pdf covers the whole segment) and a
   light sample from the scattering point (``lights.kernels.sample_light``) with its shadow
   ray: sigma_s p(cos) exp(-sigma_t t) T_shadow L / (pdf_t pdf_light), T_shadow the
@@ -95,7 +96,13 @@ def _inscatter_kernel(q, origins, dirs, seg_t, thr, sigma_s, sigma_t, g, pixel, 
         t_end = min(seg_t[i], SEGMENT_FAR)
         # Stratified over the pixel's samples x light samples, like the light sample.
         u_t, _ = sampling.sobol2(sample[i] * k_count + k, bits, sampling.pattern(seed, pixel[i], dim_t))
-        delta, dist, ta, tb = equiangular.setup(ox, oy, oz, dx, dy, dz, px, py, pz, 0.0, t_end)
+        # A spot lights only the part of the segment inside its cone: the distances are
+        # drawn there (an integrand 0 elsewhere: unbiased, and beside a spot's apex most
+        # of the equiangular samples used to fall outside it)
+        lo, hi, lit = light_kernels.spot_lit_interval(q, ox, oy, oz, dx, dy, dz, 0.0, t_end)
+        if not lit:
+            continue
+        delta, dist, ta, tb = equiangular.setup(ox, oy, oz, dx, dy, dz, px, py, pz, lo, hi)
         t, pdf_t = equiangular.sample(delta, dist, ta, tb, u_t)
         if not (pdf_t > 0.0) or t <= 0.0 or t >= t_end:
             continue

@@ -127,6 +127,86 @@ def _sample_local(q, px, py, pz, u1, u2):
 
 
 @njit(cache=True, error_model="numpy")
+def _in_spot_cone(q, s, c2, vx, vy, vz, dx, dy, dz, t):
+    """Whether o + t d lies in the cone of ``spot_lit_interval`` (v = o - apex)."""
+    x, y, z = vx + t * dx, vy + t * dy, vz + t * dz
+    along = -(x * q[P_AZ] + y * q[P_AZ + 1] + z * q[P_AZ + 2])
+    return along >= 0.0 and along * along >= c2 * (x * x + y * y + z * z)
+
+
+@njit(cache=True, error_model="numpy")
+def spot_lit_interval(q, ox, oy, oz, dx, dy, dz, t0, t1):
+    """The part [a, b] of the segment o + t d (unit d), t in [t0, t1] metres, that spot
+    light q can light: inside the cone of the spot's half angle about its emission axis
+    -Z whose apex lies r / sin(half angle) behind the centre (r the radius), the smallest
+    such cone containing the light's sphere or facing disk, so every emitted direction
+    within the half angle (the only ones the spot attenuation lets through) stays in it
+    (a convex cone: a line meets it in one interval). Returns (a, b, ok); ok False where
+    the segment misses it. Lights that are not spots, and spots of half angle 90 degrees
+    or more, give (t0, t1, True). Volume Direct samples its distances in [a, b] only."""
+    c = q[P_COS_HALF]
+    if q[P_SPOT] <= 0.0 or c <= 0.0:
+        return t0, t1, True
+    c2 = c * c
+    s = q[P_RADIUS] / np.sqrt(max(1.0 - c2, 1e-30))
+    # v = o - apex, apex = centre + s Z (behind the light, against the emission -Z)
+    vx = ox - q[P_POS] - s * q[P_AZ]
+    vy = oy - q[P_POS + 1] - s * q[P_AZ + 1]
+    vz = oz - q[P_POS + 2] - s * q[P_AZ + 2]
+    ad = -(dx * q[P_AZ] + dy * q[P_AZ + 1] + dz * q[P_AZ + 2])
+    av = -(vx * q[P_AZ] + vy * q[P_AZ + 1] + vz * q[P_AZ + 2])
+    dv = dx * vx + dy * vy + dz * vz
+    vv = vx * vx + vy * vy + vz * vz
+    # (a . x)^2 - c^2 |x|^2 = qa t^2 + qb t + qc along the ray; the cone's nappe a . x >= 0
+    qa = ad * ad - c2
+    qb = 2.0 * (ad * av - c2 * dv)
+    qc = av * av - c2 * vv
+    # Breakpoints of membership: the quadratic's roots and the apex plane's crossing.
+    bp = np.empty(4)
+    n = 0
+    if abs(qa) > 1e-12:
+        disc = qb * qb - 4.0 * qa * qc
+        if disc >= 0.0:
+            sq = np.sqrt(disc)
+            h = -0.5 * (qb + (sq if qb >= 0.0 else -sq))
+            if h != 0.0:
+                bp[n] = h / qa
+                bp[n + 1] = qc / h
+                n += 2
+    elif qb != 0.0:
+        bp[n] = -qc / qb
+        n += 1
+    if ad != 0.0:
+        bp[n] = -av / ad
+        n += 1
+    # Clip the breakpoints to the segment, then test each piece's midpoint.
+    pts = np.empty(n + 2)
+    pts[0] = t0
+    m = 1
+    for k in range(n):
+        if t0 < bp[k] < t1:
+            pts[m] = bp[k]
+            m += 1
+    pts[m] = t1
+    m += 1
+    pts[:m].sort()
+    a = np.inf
+    b = -np.inf
+    for k in range(m - 1):
+        lo, hi = pts[k], pts[k + 1]
+        if np.isinf(hi):
+            mid = lo + max(1.0, abs(lo))
+        else:
+            mid = 0.5 * (lo + hi)
+        if _in_spot_cone(q, s, c2, vx, vy, vz, dx, dy, dz, mid):
+            a = min(a, lo)
+            b = max(b, hi)
+    if not a < b:
+        return t0, t1, False
+    return a, b, True
+
+
+@njit(cache=True, error_model="numpy")
 def _sample_sun(q, u1, u2):
     omc = q[P_SUN_OMC]
     ax, ay, az = q[P_AZ], q[P_AZ + 1], q[P_AZ + 2]

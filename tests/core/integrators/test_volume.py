@@ -16,8 +16,8 @@ from core.photons import tracing
 from core.prepared import prepare
 from core.scene import camera as camera_mod
 from core.scene import shapes
-from core.scene.contract import (CAMERA_ORTHOGRAPHIC, LIGHT_POINT, Camera, Lights, Materials,
-                                 Scene)
+from core.scene.contract import (CAMERA_ORTHOGRAPHIC, LIGHT_POINT, LIGHT_SPOT, Camera, Lights,
+                                 Materials, Scene)
 from core.scene.media import Media
 from core.settings import RenderSettings
 
@@ -211,3 +211,100 @@ def test_soft_falloff_photons_collide_as_the_facing_disk_lights_the_fog():
     got, expected = np.array(got), np.array(expected)
     print(f"\nfirst collisions / facing disk: {np.round(got / expected, 4)}")
     np.testing.assert_allclose(got, expected, rtol=0.03)
+
+
+def _facing_disk_inscatter(origin, d, centre, r, power, cos_half, blend, sigma_s, sigma_t, g,
+                           n_t=256, n_a=48, n_phi=64, far=60.0):
+    """Independent quadrature of the single scattering one ray gathers from a soft-falloff
+    spot light (a disk of radius r and radiance power / (4 pi^2 r^2) facing each point,
+    every direction through it weighed by the spot's smoothstep): along the ray in the
+    equiangular variable about the light's centre (split at the closest point), over the
+    disk in solid angle (polar angle alpha from the disk's axis, azimuth phi), each path's
+    fog exp(-sigma_t (t + distance to the disk point)). Escaping ray, no occlusion."""
+    radiance = power / (4 * np.pi ** 2 * r * r)
+    smooth = 1.0 / ((1.0 - cos_half) * blend)
+    v = centre - origin
+    delta = v @ d
+    dist = np.linalg.norm(v - delta * d)
+    xa, wa = np.polynomial.legendre.leggauss(n_a)
+    phi = (np.arange(n_phi) + 0.5) * 2 * np.pi / n_phi
+    total = 0.0
+    for a, b in ((np.arctan2(-delta, dist), 0.0), (0.0, np.arctan2(far - delta, dist))):
+        xt, wt = np.polynomial.legendre.leggauss(n_t)
+        th = 0.5 * (b - a) * xt + 0.5 * (b + a)
+        t = delta + dist * np.tan(th)
+        x = origin + t[:, None] * d
+        n = x - centre
+        dn = np.linalg.norm(n, axis=1)
+        n /= dn[:, None]
+        t1 = np.cross(n, [0.0, 1.0, 0.0])
+        t1 /= np.linalg.norm(t1, axis=1, keepdims=True)
+        t2 = np.cross(n, t1)
+        amax = np.arctan(r / dn)
+        al = 0.5 * amax[:, None] * (xa + 1.0)                         # (T, A)
+        ca, sa = np.cos(al), np.sin(al)
+        # the direction the light travels, from the disk point to x
+        prop = (ca[..., None, None] * n[:, None, None, :] - sa[..., None, None]
+                * (np.cos(phi)[None, None, :, None] * t1[:, None, None, :]
+                   + np.sin(phi)[None, None, :, None] * t2[:, None, None, :]))
+        s = np.clip((-prop[..., 2] - cos_half) * smooth, 0.0, 1.0)
+        cos = -(prop @ d)
+        den = 1 + g * g - 2 * g * cos
+        phase = (1 - g * g) / (4 * np.pi * den * np.sqrt(den))
+        point = radiance * np.sum(s * s * (3 - 2 * s) * phase
+                                  * (np.exp(-sigma_t * dn[:, None] / ca) * sa
+                                     * 0.5 * amax[:, None] * wa)[..., None], axis=(1, 2))
+        point *= 2 * np.pi / n_phi
+        jac = dist / np.cos(th) ** 2
+        total += np.sum(0.5 * (b - a) * wt * jac * sigma_s * np.exp(-sigma_t * t) * point)
+    return total
+
+
+@pytest.mark.parametrize("target", [(0.0, 0.0, 1.98), (0.03, 0.0, 1.98), (0.0, 0.0, 1.91)])
+def test_volume_direct_beside_a_spot_lights_apex_matches_the_facing_disk_integral(target):
+    """A camera ray passing a few centimetres under (or beside) a soft-falloff spot light of
+    radius 0.1 m, within its radius, where the lit cone starts (fog_spot's pixels beside
+    the light, issue 16): Volume Direct of one pixel of a 1e-6 rad camera (one ray) at
+    2^17 samples = the quadrature of the facing disk above, within 2 % (measured 0.02-0.7 %
+    at 2^18). The distances are drawn only inside the spot's cone
+    (lights.kernels.spot_lit_interval): a cone too narrow there would read low."""
+    centre, r, power, half, blend = np.array([0.0, 0.0, 2.0]), 0.1, 200.0, np.radians(25.0), 0.2
+    sa, ss, g = 0.075, 0.175, 0.3
+    lights = Lights.from_list([{"kind": LIGHT_SPOT, "position": centre, "power": power,
+                                "radius": r, "spot_size": 2 * half, "spot_blend": blend}])
+    mesh = shapes.assemble([(shapes.quad([0, 0, -1e3], [0.01, 0, 0], [0, 0.01, 0]), 0)],
+                           names=("Far",))
+    eye, target = np.array([0.0, -4.5, 1.2]), np.array(target)
+    scene = Scene(mesh, Materials.from_list([{"diffuse": [0, 0, 0]}]), lights,
+                  shapes.pinhole(eye, target, 1, 1, 1e-6),
+                  media=_fog([sa] * 3, [ss] * 3, g)).validate()
+    st = RenderSettings(samples=1 << 17, light_samples=2, caustics=False, indirect_mode="off",
+                        threads=2)
+    got = photon_mapping.render(scene, st).passes["volume_direct"][0, 0].astype(np.float64)
+    d = (target - eye) / np.linalg.norm(target - eye)
+    want = _facing_disk_inscatter(eye, d, centre, r, power, np.cos(half), blend, ss, sa + ss, g)
+    print(f"\nVolume Direct / facing-disk quadrature: {got[0] / want:.4f}")
+    np.testing.assert_allclose(got, want, rtol=0.02)
+
+
+def test_spot_lit_interval_holds_every_point_the_spot_lights():
+    """Random segments around a spot light of radius 0.3 m (a sphere and a facing disk): every
+    point where a light sample carries light lies inside spot_lit_interval's [a, b], and a
+    segment it reports unlit has no such point (brute force, 400 points a segment)."""
+    rng = np.random.default_rng(5)
+    for soft in (True, False):
+        lights = Lights.from_list([{"kind": LIGHT_SPOT, "position": [0.2, -0.1, 1.0],
+                                    "power": 10.0, "radius": 0.3, "spot_size": np.radians(40.0),
+                                    "spot_blend": 0.1, "soft_falloff": soft}])
+        q = LightSet.from_lights(lights).params[0]
+        for _ in range(200):
+            o = rng.uniform(-2, 2, 3) + [0.2, -0.1, 1.0]
+            d = rng.normal(size=3)
+            d /= np.linalg.norm(d)
+            a, b, ok = light_kernels.spot_lit_interval(q, *o, *d, 0.0, 4.0)
+            for t in np.linspace(0.0, 4.0, 400):
+                p = o + t * d
+                lit = any(light_kernels.sample_light(q, *p, u1, u2)[8]
+                          for u1 in (0.05, 0.5, 0.95) for u2 in (0.05, 0.3, 0.55, 0.8))
+                if lit:
+                    assert ok and a - 1e-9 <= t <= b + 1e-9, (soft, o, d, t, a, b)
