@@ -46,10 +46,31 @@ def write_png(path, texels):
     return path
 
 
+def write_grey_png(path, texels):
+    """(H, W) uint8 grey, row 0 at the TOP, as a one-channel PNG file (colour type 0)."""
+    a = np.ascontiguousarray(texels, np.uint8)
+    h, w = a.shape
+    rows = b"".join(b"\0" + a[y].tobytes() for y in range(h))
+
+    def chunk(tag, data):
+        return struct.pack(">I", len(data)) + tag + data + \
+            struct.pack(">I", zlib.crc32(tag + data) & 0xFFFFFFFF)
+    png = b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 0, 0, 0, 0))
+    png += chunk(b"IDAT", zlib.compress(rows)) + chunk(b"IEND", b"")
+    with open(path, "wb") as f:
+        f.write(png)
+    return path
+
+
 def write_exr(path, texels):
-    """(H, W, 4) float32 RGBA, row 0 at the top, as a single-part float EXR."""
+    """(H, W, 4) float32 RGBA, or (H, W) float32 luminance (one channel, "Y"), row 0 at the
+    top, as a single-part float EXR."""
     import OpenEXR
-    channels = {c: np.ascontiguousarray(texels[..., i], np.float32) for i, c in enumerate("RGBA")}
+    if texels.ndim == 2:
+        channels = {"Y": np.ascontiguousarray(texels, np.float32)}
+    else:
+        channels = {c: np.ascontiguousarray(texels[..., i], np.float32)
+                    for i, c in enumerate("RGBA")}
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
     with OpenEXR.File(header, channels) as f:
         f.write(path)
@@ -76,6 +97,8 @@ def image_files(tmp_path_factory):
             "png16": write_png(str(d / "short.png"), texels(np.uint16, 4)),
             "alpha": write_png(str(d / "alpha.png"), texels(np.uint8, 6, alpha=True)),
             "exr": write_exr(str(d / "float.exr"), texels(np.float32, 5)),
+            "grey_png": write_grey_png(str(d / "grey.png"), texels(np.uint8, 7)[..., 0]),
+            "grey_exr": write_exr(str(d / "grey.exr"), texels(np.float32, 8)[..., 0]),
             "udim": [write_png(str(d / f"tiles.{n}.png"), texels(np.uint8, n))
                      for n in (1001, 1002, 1011)],
             "dir": d}
@@ -140,6 +163,21 @@ def test_sixteen_bit_png_and_float_exr_match_cycles(image_files):
              ("EXR Linear", image_plane(image_files["exr"], colorspace=None)),
              ("EXR Closest Extend", image_plane(image_files["exr"], "Closest", "EXTEND",
                                                 colorspace=None))]
+    result = ss.compare(specs)
+    assert not result["warnings"]
+    figures = check(result, [n for n, _ in specs])
+    print({k: tuple(round(x, 6) for x in v) for k, v in figures.items()})
+
+
+def test_one_channel_png_and_exr_match_cycles(image_files):
+    """Images with one channel (a grey PNG, colour type 0; a float EXR with only "Y"):
+    Blender loads them as grey RGBA, and they render as Cycles renders them, without a
+    warning."""
+    specs = [("grey PNG Linear", image_plane(image_files["grey_png"])),
+             ("grey PNG Closest", image_plane(image_files["grey_png"], "Closest")),
+             ("grey PNG Non-Color", image_plane(image_files["grey_png"], colorspace="Non-Color")),
+             ("Y EXR Linear", image_plane(image_files["grey_exr"], colorspace=None)),
+             ("Y EXR Closest", image_plane(image_files["grey_exr"], "Closest", colorspace=None))]
     result = ss.compare(specs)
     assert not result["warnings"]
     figures = check(result, [n for n, _ in specs])
