@@ -199,14 +199,31 @@ def test_cancel_after_pass_k_returns_k_passes():
     np.testing.assert_array_equal(seen[-1][1], done.passes["combined"])
 
 
-def test_time_budget_stops_after_the_passes_that_fit():
+class StepClock:
+    """A stand-in for sppm's ``time`` module whose perf_counter advances ``step`` seconds
+    a call: the budget's arithmetic is then the same on an idle and a loaded machine."""
+
+    def __init__(self, step):
+        self.now, self.step = 0.0, step
+
+    def perf_counter(self):
+        self.now += self.step
+        return self.now
+
+
+def test_time_budget_stops_after_the_passes_that_fit(monkeypatch):
     scene = caustic_scene(1.0, 16, 16)
-    progressive(scene, SETTINGS, 2, 4_000)  # load the kernels (every path a full pass takes)
+    clock = StepClock(0.001)
+    monkeypatch.setattr(sppm, "time", clock)
+    one = progressive(scene, SETTINGS, 1, 4_000)
+    per_pass = one.stats["time_total"]  # the clock's seconds a pass (its calls x step)
     out = progressive(scene, SETTINGS, 100_000, 4_000, time_budget=0.3)
     assert not out.cancelled
     assert out.stats["stopped_by"] == "time_budget"
     assert 2 <= out.stats["passes"] < 100_000
-    assert out.stats["time_total"] < 0.3 + 0.5  # one pass takes ~5 ms; slack for a loaded machine
+    # it stops before the pass that would end past the budget, not earlier
+    assert out.stats["time_total"] <= 0.3 + clock.step
+    assert out.stats["time_total"] + 2 * per_pass > 0.3
     ample = progressive(scene, SETTINGS, 3, 4_000, time_budget=1e6)
     assert ample.stats["passes"] == 3 and ample.stats["stopped_by"] == "passes"
     with pytest.raises(SettingsError, match="time_budget"):
