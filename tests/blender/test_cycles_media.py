@@ -47,7 +47,9 @@ def test_spot_lit_fog_channel_means_match_cycles(fog_spot):
                           "its 16-spp noise is skewed (40 seeds: median 0.81 of the mean, std "
                           "0.50; 0.98 / 0.43 since spot cones clip the equiangular segment), "
                           "so a seed usually reads the pair ~20 % low (docs/volumes.md, "
-                          "\"fog_spot's cone apex: noise, not a bias\")",
+                          "\"fog_spot's cone apex: noise, not a bias\"). At 64 spp and 1M "
+                          "global photons (~210 s a render) still 10.0 / 8.7 % (seeds 1 / 2; "
+                          "blocks (0, 2) / (0, 3), that pair)",
                    strict=False)
 def test_spot_lit_fog_block_means_match_cycles(fog_spot):
     f = _figures("fog_spot", fog_spot)
@@ -109,7 +111,13 @@ def test_volumetric_caustic_channel_means_match_cycles(fog_caustic_1m):
                           "(Cycles' sigma there 2 %): noise on a ~+5 % excess in the dim fog "
                           "above the cone that 1M global photons do not reduce (seed 3: own "
                           "mirror 2.6 %, top row still +3 to +6 %, means +2.03 %; "
-                          "docs/volumes.md, 'The volumetric caustic's blocks over seeds')",
+                          "docs/volumes.md, 'The volumetric caustic's blocks over seeds'). "
+                          "The excess is Volume Indirect and is there without the sphere "
+                          "(fog_spot_1m, 1M global photons, 5 seeds: +1.9 % of the image, "
+                          "top row +3.8 / +2.5 / +3.9 %), building up past the second "
+                          "scattering; Volume Direct, the spot's falloff and the photons' "
+                          "first events agree with Cycles (docs/volumes.md, "
+                          "\"fog_caustic_1m's top row: which term\")",
                    strict=False)
 def test_volumetric_caustic_block_means_match_cycles(fog_caustic_1m):
     f = _figures("fog_caustic_1m", fog_caustic_1m)
