@@ -158,14 +158,15 @@ def program_means(program, points=100_000, seed=0) -> list[dict]:
     rng = np.random.default_rng(seed)
     means = []
     for wall, color in enumerate(WALL_COLORS):
-        tri = mesh.triangles[mesh.material_index == wall]
+        on_wall = mesh.material_index == wall
+        tri = mesh.triangles[on_wall]
         v = mesh.vertices[tri].astype(np.float64)  # (T, 3, 3)
         area = 0.5 * np.linalg.norm(np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]), axis=1)
         pick = rng.choice(len(tri), points, p=area / area.sum())
         b1, b2 = sampling.uniform_triangle(rng.random(points), rng.random(points))
         pos = v[pick, 0] + b1[:, None] * (v[pick, 1] - v[pick, 0]) \
             + b2[:, None] * (v[pick, 2] - v[pick, 0])
-        nrm = mesh.normals[mesh.material_index == wall][pick, 0]  # flat walls
+        nrm = mesh.normals[on_wall][pick, 0]  # flat walls
         inputs = ShadingInputs.build(pos, nrm)
         row = closures.params(color=color, roughness=0.5)[None]
         out = closure_params(program, inputs, row)["params"][:, 0].astype(np.float64)

@@ -665,6 +665,42 @@ class HitShader:
         return batch, rows, bent
 
 
+    def merge(self, pieces) -> tuple[closure.ClosureTable, np.ndarray]:
+        """One (tab, rows) for hits shaded in several batches: pieces [(tab, rows)], each a
+        ``shade`` batch's table and the rows (int32) of the hits kept from it; the rows
+        come back concatenated in that order. The prepared rows and closures stay first,
+        as in every batch; each kept hit's programmed row follows, with copies of its
+        closures (as ``shade`` writes them: int32 kinds, float64 weights and parameters),
+        so every hit reads the closures its own batch gave it."""
+        tab = self.table
+        n_mat, n_cl = tab.first.shape[0], tab.kind.shape[0]
+        cols = {"kind": np.int32, "weight": np.float64, "params": np.float64,
+                "texture": np.int32, "abbe": tab.abbe.dtype}
+        parts = {f: [getattr(tab, f)] for f in cols}
+        first, count, out = [tab.first], [tab.count], []
+        next_row, next_closure = n_mat, n_cl
+        for t, r in pieces:
+            r = np.asarray(r, np.int32)
+            own = np.flatnonzero(r >= n_mat)
+            src = r[own]
+            cnt = t.count[src].astype(np.int64)
+            start = np.cumsum(cnt) - cnt
+            idx = np.repeat(t.first[src].astype(np.int64) - start, cnt) + np.arange(int(cnt.sum()))
+            for f in cols:
+                parts[f].append(getattr(t, f)[idx])
+            first.append(next_closure + start)
+            count.append(cnt)
+            new = np.array(r, np.int32, copy=True)
+            new[own] = next_row + np.arange(own.size)
+            out.append(new)
+            next_row += own.size
+            next_closure += int(cnt.sum())
+        merged = tab._replace(**{f: np.concatenate(parts[f]).astype(dt, copy=False)
+                                 for f, dt in cols.items()},
+                              first=np.concatenate(first).astype(np.int32),
+                              count=np.concatenate(count).astype(np.int32))
+        return merged, (np.concatenate(out) if out else np.zeros(0, np.int32))
+
     def _group_values(self, ins: ShadingInputs, mat, present) -> np.ndarray:
         """(N, O) float32: the programs' outputs at the N points of ``ins`` whose
         materials mat (N,) all have a program with O outputs (present: the distinct

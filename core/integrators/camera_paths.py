@@ -375,7 +375,10 @@ class VisiblePoints:
     the paths' wavelengths in nm (0: RGB, docs/dispersion.md); front (V,) bool, the point
     was reached from the front of the mesh's geometric normal; path (V, K) float32 the
     Light Path context of the rays that reached them (core/shading/light_path.py), or
-    None when no program reads it."""
+    None when no program reads it; closures, rows: the points' closures as the walk
+    shaded them (``HitShader.merge`` of its ``shade`` batches; rows (V,) int32 into the
+    ClosureTable closures), or None when no point has a program (then the prepared
+    table and material are their closures)."""
 
     pixel: np.ndarray
     position: np.ndarray
@@ -393,6 +396,8 @@ class VisiblePoints:
     lam: np.ndarray
     front: np.ndarray
     path: np.ndarray | None = None
+    closures: closure.ClosureTable | None = None
+    rows: np.ndarray | None = None
 
 
 @dataclass
@@ -488,6 +493,7 @@ def _walk(prepared: PreparedScene, seed: int, k: int, max_depth: int, direct, fe
     dispersive = bool(np.any(prepared.closures.abbe > 0))
     world = prepared.world
     out = []
+    shaded = []  # (tab, rows) of the visible points of each depth, as shade gave them
     # The Light Path context, only when a program reads it: the bounces so far are
     # singular (a delta lobe) or glossy (a rough lobe followed by sampling), the
     # transmissions among them counted.
@@ -560,8 +566,8 @@ def _walk(prepared: PreparedScene, seed: int, k: int, max_depth: int, direct, fe
         entering = np.einsum("ij,ij->i", d, ng) < 0.0
         facing = np.where(entering[:, None], ns, -ns)
         # the per-hit closures (programmed parameters and Mix weights), shaded once: they
-        # choose the lobe and give the visible point's diffuse albedo (its direct light
-        # sppm's own closures_at)
+        # choose the lobe, give the visible point's diffuse albedo and (VisiblePoints'
+        # closures) its direct light and photon gathering in sppm
         tab, crow, bent = prepared.hit_shader.shade(hits.prim[h], hits.u[h], hits.v[h], d,
                                                     sp.material, facing, path)
         texel = prepared.texels.albedo(hits.prim[h], hits.u[h], hits.v[h], sp.material)
@@ -594,6 +600,7 @@ def _walk(prepared: PreparedScene, seed: int, k: int, max_depth: int, direct, fe
             out.append((pixel[rows[s]], sp.position[s], ng[s], ns[s], -d[s], sp.material[s], new_thr[s],
                         albedo[s], sp.eps[s], texel[s], hits.prim[h][s], hits.u[h][s],
                         hits.v[h][s], lam[s], front[s]) + ((path[s],) if lp_read else ()))
+            shaded.append((tab, crow[s]))
         if local == max_depth:
             break
         g = np.flatnonzero(go_on)
@@ -614,7 +621,10 @@ def _walk(prepared: PreparedScene, seed: int, k: int, max_depth: int, direct, fe
                              np.zeros(0), z3, np.zeros(0, np.int32), np.zeros(0, np.float32),
                              np.zeros(0, np.float32), np.zeros(0), np.zeros(0, bool))
     cols = [np.concatenate(c) for c in zip(*out)]
-    return VisiblePoints(*[np.ascontiguousarray(c) for c in cols])
+    vps = VisiblePoints(*[np.ascontiguousarray(c) for c in cols])
+    if any(tab is not prepared.hit_shader.table for tab, _ in shaded):
+        vps.closures, vps.rows = prepared.hit_shader.merge(shaded)
+    return vps
 
 
 

@@ -579,8 +579,11 @@ class PassRenderer:
         level) and their direct light by shadow rays (the glossy part weighed by MIS
         against the continuation where they split), added to image (P, 3)."""
         prepared = self.prepared
-        tab, rows = prepared.hit_shader.closures_at(vps.prim, vps.u, vps.v, -vps.wo,
-                                                    vps.material, vps.path)
+        if vps.closures is not None:  # as the walk shaded them (camera_paths)
+            tab, rows = vps.closures, vps.rows
+        else:
+            tab, rows = prepared.hit_shader.closures_at(vps.prim, vps.u, vps.v, -vps.wo,
+                                                        vps.material, vps.path)
         tangent = prepared.hit_shader.tangents(vps.prim, vps.position, tab, rows)
         hits = BsdfHits(tab, rows, vps.texel, vps.wo, vps.ns, vps.front, tangent=tangent)
         # Standard SPPM (photon direct light) does not split: a glossy path cannot reach a

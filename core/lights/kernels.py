@@ -127,11 +127,30 @@ def _sample_local(q, px, py, pz, u1, u2):
 
 
 @njit(cache=True, error_model="numpy")
-def _in_spot_cone(q, s, c2, vx, vy, vz, dx, dy, dz, t):
+def _in_spot_cone(q, c2, vx, vy, vz, dx, dy, dz, t):
     """Whether o + t d lies in the cone of ``spot_lit_interval`` (v = o - apex)."""
     x, y, z = vx + t * dx, vy + t * dy, vz + t * dz
     along = -(x * q[P_AZ] + y * q[P_AZ + 1] + z * q[P_AZ + 2])
     return along >= 0.0 and along * along >= c2 * (x * x + y * y + z * z)
+
+
+@njit(cache=True, error_model="numpy")
+def _insert_breakpoint(r, t0, t1, p1, p2, p3, m):
+    """(p1, p2, p3, m): the sorted breakpoints p1 <= .. (m <= 2 of them) with r inserted
+    after those not above it (a stable insertion sort), when t0 < r < t1."""
+    if not t0 < r < t1:
+        return p1, p2, p3, m
+    if m == 0:
+        return r, p2, p3, 1
+    if m == 1:
+        if r < p1:
+            return r, p1, p3, 2
+        return p1, r, p3, 2
+    if r < p1:
+        return r, p1, p2, 3
+    if r < p2:
+        return p1, r, p2, 3
+    return p1, p2, r, 3
 
 
 @njit(cache=True, error_model="numpy")
@@ -161,46 +180,42 @@ def spot_lit_interval(q, ox, oy, oz, dx, dy, dz, t0, t1):
     qa = ad * ad - c2
     qb = 2.0 * (ad * av - c2 * dv)
     qc = av * av - c2 * vv
-    # Breakpoints of membership: the quadratic's roots and the apex plane's crossing.
-    bp = np.empty(4)
-    n = 0
+    # Breakpoints of membership (the quadratic's roots, the apex plane's crossing) strictly
+    # inside (t0, t1), sorted: p1 <= p2 <= p3, m of them. Scalars, not an array: this runs
+    # per sample in Volume Direct's kernel.
+    p1, p2, p3, m = 0.0, 0.0, 0.0, 0
     if abs(qa) > 1e-12:
         disc = qb * qb - 4.0 * qa * qc
         if disc >= 0.0:
             sq = np.sqrt(disc)
             h = -0.5 * (qb + (sq if qb >= 0.0 else -sq))
             if h != 0.0:
-                bp[n] = h / qa
-                bp[n + 1] = qc / h
-                n += 2
+                p1, p2, p3, m = _insert_breakpoint(h / qa, t0, t1, p1, p2, p3, m)
+                p1, p2, p3, m = _insert_breakpoint(qc / h, t0, t1, p1, p2, p3, m)
     elif qb != 0.0:
-        bp[n] = -qc / qb
-        n += 1
+        p1, p2, p3, m = _insert_breakpoint(-qc / qb, t0, t1, p1, p2, p3, m)
     if ad != 0.0:
-        bp[n] = -av / ad
-        n += 1
-    # Clip the breakpoints to the segment, then test each piece's midpoint.
-    pts = np.empty(n + 2)
-    pts[0] = t0
-    m = 1
-    for k in range(n):
-        if t0 < bp[k] < t1:
-            pts[m] = bp[k]
-            m += 1
-    pts[m] = t1
-    m += 1
-    pts[:m].sort()
+        p1, p2, p3, m = _insert_breakpoint(-av / ad, t0, t1, p1, p2, p3, m)
+    # Test each piece between t0, p1..pm, t1 at its midpoint. With no breakpoint inside,
+    # the ends in ascending order, NaN last (as numpy's sort of the two).
+    lo, hi = t0, t1
+    if m == 0 and (hi < lo or (np.isnan(lo) and not np.isnan(hi))):
+        lo, hi = hi, lo
     a = np.inf
     b = -np.inf
-    for k in range(m - 1):
-        lo, hi = pts[k], pts[k + 1]
-        if np.isinf(hi):
+    for k in range(m + 1):
+        if k == m:
+            end = hi
+        else:
+            end = p1 if k == 0 else (p2 if k == 1 else p3)
+        if np.isinf(end):
             mid = lo + max(1.0, abs(lo))
         else:
-            mid = 0.5 * (lo + hi)
-        if _in_spot_cone(q, s, c2, vx, vy, vz, dx, dy, dz, mid):
+            mid = 0.5 * (lo + end)
+        if _in_spot_cone(q, c2, vx, vy, vz, dx, dy, dz, mid):
             a = min(a, lo)
-            b = max(b, hi)
+            b = max(b, end)
+        lo = end
     if not a < b:
         return t0, t1, False
     return a, b, True

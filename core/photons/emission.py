@@ -250,20 +250,48 @@ def allocate(weights: np.ndarray, total: int) -> np.ndarray:
 # --- kernels ------------------------------------------------------------------------------
 
 @njit(cache=True, error_model="numpy")
+def _pick(cdf, u):
+    """Index a uniform u in [0, 1) picks by the (K,) cdf (a target, a triangle): the last
+    one when rounding puts u beyond it."""
+    j = np.searchsorted(cdf, u, side="right")
+    if j >= cdf.shape[0]:
+        j = cdf.shape[0] - 1
+    return j
+
+
+@njit(cache=True, error_model="numpy")
+def _target_cone(px, py, pz, tx, ty, tz, r):
+    """The cone a sphere (centre t, radius r, metres) subtends from the point p: v = t - p
+    (metres, the cone's axis unnormalised), its length dn (metres) and 1 - cos(half
+    angle); (v, 0, 2) when p lies inside the sphere (every direction)."""
+    vx, vy, vz = tx - px, ty - py, tz - pz
+    d2 = vx * vx + vy * vy + vz * vz
+    r2 = r * r
+    if d2 <= r2:
+        return vx, vy, vz, 0.0, 2.0
+    return vx, vy, vz, np.sqrt(d2), lk.sin_sqr_to_one_minus_cos(r2 / d2)
+
+
+@njit(cache=True, error_model="numpy")
+def _disk_offset(u1, u2, dx, dy, dz, rho):
+    """A point uniform on the disk of radius rho (metres) about the origin perpendicular to
+    the unit d: its offset (metres) and the unit-disk point (x, y) it came from."""
+    x, y = sampling.concentric_disk(u1, u2)
+    tx, ty, tz, bx, by, bz = sampling.basis(dx, dy, dz)
+    return rho * (x * tx + y * bx), rho * (x * ty + y * by), rho * (x * tz + y * bz), x, y
+
+
+@njit(cache=True, error_model="numpy")
 def _cone_pdf_mix(px, py, pz, dx, dy, dz, tc, tr, tp):
     """Mixture pdf (1/sr) of direction d from point p over the target cones."""
     pdf = 0.0
     for k in range(tr.shape[0]):
         if tp[k] <= 0.0:
             continue
-        vx, vy, vz = tc[k, 0] - px, tc[k, 1] - py, tc[k, 2] - pz
-        d2 = vx * vx + vy * vy + vz * vz
-        r2 = tr[k] * tr[k]
-        if d2 <= r2:
+        vx, vy, vz, dn, omc = _target_cone(px, py, pz, tc[k, 0], tc[k, 1], tc[k, 2], tr[k])
+        if omc >= 2.0:
             pdf += tp[k] / (4.0 * np.pi)
             continue
-        omc = lk.sin_sqr_to_one_minus_cos(r2 / d2)
-        dn = np.sqrt(d2)
         c = (vx * dx + vy * dy + vz * dz) / dn
         if 1.0 - c <= omc:
             pdf += tp[k] / (2.0 * np.pi * omc)
@@ -273,16 +301,10 @@ def _cone_pdf_mix(px, py, pz, dx, dy, dz, tc, tr, tp):
 @njit(cache=True, error_model="numpy")
 def _aim(px, py, pz, tc, tr, tcdf, u0, u1, u2):
     """Pick a target by its cdf and a direction uniform in the cone it subtends from p."""
-    j = np.searchsorted(tcdf, u0, side="right")
-    if j >= tcdf.shape[0]:
-        j = tcdf.shape[0] - 1
-    vx, vy, vz = tc[j, 0] - px, tc[j, 1] - py, tc[j, 2] - pz
-    d2 = vx * vx + vy * vy + vz * vz
-    r2 = tr[j] * tr[j]
-    if d2 <= r2:
+    j = _pick(tcdf, u0)
+    vx, vy, vz, dn, omc = _target_cone(px, py, pz, tc[j, 0], tc[j, 1], tc[j, 2], tr[j])
+    if omc >= 2.0:
         return sampling.uniform_sphere(u1, u2)
-    dn = np.sqrt(d2)
-    omc = lk.sin_sqr_to_one_minus_cos(r2 / d2)
     x, y, z = sampling.uniform_cone(u1, u2, omc)
     return sampling.to_world(x, y, z, vx / dn, vy / dn, vz / dn)
 
@@ -305,13 +327,10 @@ def _line_cone(cx, cy, cz, tx, ty, tz, grown, spot, omc_spot, azx, azy, azz):
     light's radius (``grown`` metres), from the light's centre c (every direction when c
     lies inside it), or the spot's cone about -Z (1 - cos = omc_spot) when that one is
     narrower. Returns its unit axis and 1 - cos(half angle) (2: the whole sphere)."""
-    vx, vy, vz = tx - cx, ty - cy, tz - cz
-    d2 = vx * vx + vy * vy + vz * vz
-    ax, ay, az, omc = 0.0, 0.0, 1.0, 2.0
-    if d2 > grown * grown:
-        dn = np.sqrt(d2)
+    vx, vy, vz, dn, omc = _target_cone(cx, cy, cz, tx, ty, tz, grown)
+    ax, ay, az = 0.0, 0.0, 1.0
+    if omc < 2.0:
         ax, ay, az = vx / dn, vy / dn, vz / dn
-        omc = lk.sin_sqr_to_one_minus_cos(grown * grown / d2)
     if spot and omc_spot < omc:
         return -azx, -azy, -azz, omc_spot
     return ax, ay, az, omc
@@ -327,9 +346,7 @@ def _aim_line(q, tc, tr, tcdf, u0, u1, u2, u3, u4):
     c + h + t w)."""
     cx, cy, cz = q[lk.P_POS], q[lk.P_POS + 1], q[lk.P_POS + 2]
     radius = q[lk.P_RADIUS]
-    j = np.searchsorted(tcdf, u0, side="right")
-    if j >= tcdf.shape[0]:
-        j = tcdf.shape[0] - 1
+    j = _pick(tcdf, u0)
     ax, ay, az, omc = _line_cone(cx, cy, cz, tc[j, 0], tc[j, 1], tc[j, 2], tr[j] + radius,
                                  q[lk.P_SPOT] > 0.0, 1.0 - q[lk.P_COS_HALF],
                                  q[lk.P_AZ], q[lk.P_AZ + 1], q[lk.P_AZ + 2])
@@ -339,11 +356,10 @@ def _aim_line(q, tc, tr, tcdf, u0, u1, u2, u3, u4):
         px, py, pz, rho = tc[j, 0] - cx, tc[j, 1] - cy, tc[j, 2] - cz, tr[j]
     else:
         px, py, pz, rho = 0.0, 0.0, 0.0, radius
-    x, y = sampling.concentric_disk(u3, u4)
-    tx, ty, tz, bx, by, bz = sampling.basis(dx, dy, dz)
-    px += rho * (x * tx + y * bx)
-    py += rho * (x * ty + y * by)
-    pz += rho * (x * tz + y * bz)
+    ox, oy, oz, _, _ = _disk_offset(u3, u4, dx, dy, dz, rho)
+    px += ox
+    py += oy
+    pz += oz
     along = px * dx + py * dy + pz * dz
     return j, dx, dy, dz, px - along * dx, py - along * dy, pz - along * dz
 
@@ -419,11 +435,7 @@ def _emit_local(q, u0, u1, u2, u3, u4, inv_n, tc, tr, tp, tcdf, o, d, f, near, l
                 dx, dy, dz = sampling.uniform_sphere(u1[i], u2[i])
                 pdf = 1.0 / (4.0 * np.pi)
             if radius > 0.0:
-                x, y = sampling.concentric_disk(u3[i], u4[i])
-                tx, ty, tz, bx, by, bz = sampling.basis(dx, dy, dz)
-                hx = radius * (x * tx + y * bx)
-                hy = radius * (x * ty + y * by)
-                hz = radius * (x * tz + y * bz)
+                hx, hy, hz, x, y = _disk_offset(u3[i], u4[i], dx, dy, dz, radius)
                 h2 = r2 * (x * x + y * y)
                 if sphere:
                     lift = radius * np.sqrt(max(0.0, 1.0 - x * x - y * y))
@@ -490,12 +502,9 @@ def _emit_triangles(cdf, prob, v0, e1, e2, nrm, area, radiance, u0, u1, u2, u3, 
     """Emissive triangles, two-sided Lambertian (or aimed at the targets). Origins are
     moved off the triangle by ``geometry.offset_eps`` on the side the photon leaves
     towards: the triangle is geometry, and must not stop its own photons."""
-    k = cdf.shape[0]
     aimed = tr.shape[0] > 0
     for i in prange(o.shape[0]):
-        j = np.searchsorted(cdf, u5[i], side="right")
-        if j >= k:
-            j = k - 1
+        j = _pick(cdf, u5[i])
         b1, b2 = sampling.uniform_triangle(u3[i], u4[i])
         px = v0[j, 0] + b1 * e1[j, 0] + b2 * e2[j, 0]
         py = v0[j, 1] + b1 * e1[j, 1] + b2 * e2[j, 1]
@@ -545,15 +554,9 @@ def _emit_sun(q, plane, u0, u1, u2, u3, u4, inv_n, tc, tr, tp, tcdf, o, d, f):
         else:
             dx, dy, dz = -azx, -azy, -azz
             w0, w1, w2 = q[lk.P_STRENGTH], q[lk.P_STRENGTH + 1], q[lk.P_STRENGTH + 2]
-        j = np.searchsorted(tcdf, u0[i], side="right")
-        if j >= tcdf.shape[0]:
-            j = tcdf.shape[0] - 1
-        x, y = sampling.concentric_disk(u3[i], u4[i])
-        tx, ty, tz, bx, by, bz = sampling.basis(dx, dy, dz)
-        r = tr[j]
-        yx = tc[j, 0] + r * (x * tx + y * bx)
-        yy = tc[j, 1] + r * (x * ty + y * by)
-        yz = tc[j, 2] + r * (x * tz + y * bz)
+        j = _pick(tcdf, u0[i])
+        ex, ey, ez, _, _ = _disk_offset(u3[i], u4[i], dx, dy, dz, tr[j])
+        yx, yy, yz = tc[j, 0] + ex, tc[j, 1] + ey, tc[j, 2] + ez
         pdf = 0.0
         for k in range(tr.shape[0]):
             ex, ey, ez = yx - tc[k, 0], yy - tc[k, 1], yz - tc[k, 2]
@@ -577,12 +580,11 @@ def _emit_world(radiance, centre, radius, u1, u2, u3, u4, inv_n, o, d, f):
     w = 4.0 * np.pi * np.pi * radius * radius * inv_n
     for i in prange(o.shape[0]):
         dx, dy, dz = sampling.uniform_sphere(u1[i], u2[i])
-        x, y = sampling.concentric_disk(u3[i], u4[i])
-        tx, ty, tz, bx, by, bz = sampling.basis(dx, dy, dz)
+        ex, ey, ez, _, _ = _disk_offset(u3[i], u4[i], dx, dy, dz, radius)
         back = 1.05 * radius
-        o[i, 0] = centre[0] - back * dx + radius * (x * tx + y * bx)
-        o[i, 1] = centre[1] - back * dy + radius * (x * ty + y * by)
-        o[i, 2] = centre[2] - back * dz + radius * (x * tz + y * bz)
+        o[i, 0] = centre[0] - back * dx + ex
+        o[i, 1] = centre[1] - back * dy + ey
+        o[i, 2] = centre[2] - back * dz + ez
         d[i, 0], d[i, 1], d[i, 2] = dx, dy, dz
         f[i, 0], f[i, 1], f[i, 2] = radiance[0] * w, radiance[1] * w, radiance[2] * w
 

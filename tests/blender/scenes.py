@@ -68,6 +68,21 @@ def ensure_node_tree(idblock):
     return ensure(idblock)
 
 
+def world_volume(name, idname, **inputs):
+    """A new World ``name`` on the scene whose active output's Volume is one ``idname``
+    node with ``inputs`` (socket name -> default value); the World's other nodes (its
+    Background) kept. Returns (world, tree, node, output)."""
+    world = bpy.data.worlds.new(name)
+    bpy.context.scene.world = world
+    tree = ensure_node_tree(world)
+    node = tree.nodes.new(idname)
+    for key, value in inputs.items():
+        node.inputs[key].default_value = value
+    output = next(n for n in tree.nodes if n.type == 'OUTPUT_WORLD')
+    tree.links.new(node.outputs[0], output.inputs["Volume"])
+    return world, tree, node, output
+
+
 def eevee_id() -> str:
     """EEVEE's engine id in this Blender (photon_engine/compat.py)."""
     from tests.conftest import load_extension_package

@@ -27,13 +27,8 @@ def test_a_plain_scene_has_no_warning():
 
 
 def test_the_worlds_volume_is_exported_without_a_warning():
-    scene = lit()
-    world = bpy.data.worlds.new("Foggy World")
-    scene.world = world
-    tree = scenes.ensure_node_tree(world)
-    volume = tree.nodes.new('ShaderNodeVolumePrincipled')
-    output = next(n for n in tree.nodes if n.type == 'OUTPUT_WORLD')
-    tree.links.new(volume.outputs[0], output.inputs["Volume"])
+    lit()
+    scenes.world_volume("Foggy World", 'ShaderNodeVolumePrincipled')
     result = export()
     assert result.warnings == []  # a medium now (tests/blender/test_media.py)
     assert result.scene.media.names == ("Foggy World",)

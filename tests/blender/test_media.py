@@ -22,23 +22,9 @@ from photon_map.core.shading.interpreter import evaluate  # noqa: E402
 pytestmark = [pytest.mark.blender, pytest.mark.api]
 
 
-def _world_volume(name, idname, **inputs):
-    """A World whose active output's Volume is one ``idname`` node with ``inputs``."""
-    scene = bpy.context.scene
-    world = bpy.data.worlds.new(name)
-    scene.world = world
-    tree = scenes.ensure_node_tree(world)
-    node = tree.nodes.new(idname)
-    for key, value in inputs.items():
-        node.inputs[key].default_value = value
-    output = next(n for n in tree.nodes if n.type == 'OUTPUT_WORLD')
-    tree.links.new(node.outputs[0], output.inputs["Volume"])
-    return world, tree, node, output
-
-
 def test_principled_volume_on_the_world_has_cycles_coefficients():
     _lit()
-    _world_volume("Fog", 'ShaderNodeVolumePrincipled', **{
+    scenes.world_volume("Fog", 'ShaderNodeVolumePrincipled', **{
         "Color": (0.8, 0.5, 0.2, 1.0), "Density": 0.3, "Anisotropy": 0.4,
         "Absorption Color": (0.25, 0.0, 1.0, 1.0), "Emission Strength": 2.0,
         "Emission Color": (1.0, 0.5, 0.0, 1.0)})
@@ -55,7 +41,7 @@ def test_principled_volume_on_the_world_has_cycles_coefficients():
 
 def test_absorption_plus_scatter_add_and_a_linked_density_is_named():
     _lit()
-    world, tree, scatter, output = _world_volume("Haze", 'ShaderNodeVolumeScatter', **{
+    world, tree, scatter, output = scenes.world_volume("Haze", 'ShaderNodeVolumeScatter', **{
         "Color": (1.0, 0.5, 0.25, 1.0), "Density": 0.2, "Anisotropy": -0.3})
     absorb = tree.nodes.new('ShaderNodeVolumeAbsorption')
     absorb.inputs["Color"].default_value = (0.5, 1.0, 0.0, 1.0)
@@ -133,7 +119,7 @@ def test_a_volume_only_cube_is_a_medium_without_surface_and_an_open_one_is_named
 
 def test_a_fog_render_has_the_volume_passes_and_combined_is_their_sum():
     scene = scenes.plane_and_point_light(width=8, height=6)
-    _world_volume("Fog", 'ShaderNodeVolumeScatter', **{"Density": 0.2})
+    scenes.world_volume("Fog", 'ShaderNodeVolumeScatter', **{"Density": 0.2})
     scenes.use_photon_map(scene, samples=2, global_photons=2000, caustic_photons=0,
                           final_gather_rays=4)
     passes = scenes.render_passes(scene)
@@ -265,8 +251,8 @@ def test_a_world_fog_of_gradient_density_exports_its_program_and_renders():
     through it has Volume Direct light, finite and non-negative everywhere, and brighter
     fog on the x > 0 side (half the plane's width of the image on either side)."""
     scene = scenes.plane_and_point_light(width=16, height=12)
-    _world, tree, node, _ = _world_volume("Graded Fog", 'ShaderNodeVolumePrincipled',
-                                          **{"Color": (0.8, 0.8, 0.8, 1.0)})
+    _world, tree, node, _ = scenes.world_volume("Graded Fog", 'ShaderNodeVolumePrincipled',
+                                                **{"Color": (0.8, 0.8, 0.8, 1.0)})
     coords = tree.nodes.new('ShaderNodeTexCoord')
     gradient = tree.nodes.new('ShaderNodeTexGradient')
     tree.links.new(coords.outputs["Object"], gradient.inputs["Vector"])
