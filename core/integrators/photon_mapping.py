@@ -56,9 +56,7 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit, prange
 
-from .. import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
 from .. import sampling
 from ..materials import closure
 from ..passes import (LIGHT_PASSES, PASSES, VOLUME_PASSES, ProgressFn, RenderOutput, StopFn,
@@ -115,25 +113,6 @@ def _camera_pass(prepared: PreparedScene, settings: RenderSettings) -> _CameraPa
                                              None if media is None else media.medium),
                        stats=stats, volume=media,
                        outputs=passes + ((REST,) if len(passes) < len(terms) else ()))
-
-
-# --- kernels --------------------------------------------------------------------------------
-
-@njit(cache=True, parallel=True, error_model="numpy")
-def _pixel_mean_kernel(per_sample, samples, out):
-    """Mean over each pixel's consecutive samples, summed in sample order (deterministic)."""
-    for p in prange(out.shape[0]):
-        a0 = 0.0
-        a1 = 0.0
-        a2 = 0.0
-        base = p * samples
-        for s in range(samples):
-            a0 += per_sample[base + s, 0]
-            a1 += per_sample[base + s, 1]
-            a2 += per_sample[base + s, 2]
-        out[p, 0] = a0 / samples
-        out[p, 1] = a1 / samples
-        out[p, 2] = a2 / samples
 
 
 # --- one tile -------------------------------------------------------------------------------
@@ -433,9 +412,7 @@ def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> dict[str, np.ndarray]:
     if features is not None:
         kept = {**kept, "denoising_albedo": features.albedo, "denoising_normal": features.normal}
     for name, per_sample in kept.items():
-        mean = np.empty((pix.shape[0], 3))
-        _pixel_mean_kernel(per_sample, s_count, mean)
-        out[name] = mean
+        out[name] = gather.consecutive_mean(per_sample, s_count)
     ctx.stats["time_shading"] += time.perf_counter() - t0
     return out
 
