@@ -152,9 +152,12 @@ def _fly(medium: _Medium, hits, o, d, f, pid, n_diff, n_spec, seed, map_id, boun
         j, tr = _lead_transmittance(m, o, d, t_event, near, lead)
         passing = ~collided[j]
         f[j[passing]] *= tr[passing]
-        c = j[~passing]
-        v_flux[c] *= tr[~passing].astype(np.float32)
-        f_new[c] *= tr[~passing]
+        # A carried collision is stored, goes on, or both; the kernel leaves the other
+        # array's row unwritten (np.empty), so each is weighted only where it was written.
+        c, tr_c = j[~passing], tr[~passing]
+        stored, going = v_store[c], alive[c]
+        v_flux[c[stored]] *= tr_c[stored].astype(np.float32)
+        f_new[c[going]] *= tr_c[going]
     medium.vstore.add(v_store, v_camera, v_pos, v_flux, v_dir, gathered)
     prim = np.where(collided, -1, hits.prim).astype(hits.prim.dtype)
     return prim, collided, alive, o_new, d_new, f_new
