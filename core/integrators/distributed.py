@@ -24,7 +24,9 @@ optional dependency (requirements.txt; the Blender extension does not ship it).
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
+import logging
 import os
 import pickle
 import time
@@ -68,6 +70,14 @@ class Cluster:
 
     def close(self):
         try:
+            if self.cluster is not None:
+                # Closing our LocalCluster races each worker's heartbeat against the
+                # scheduler's shutdown; a worker that loses logs "Failed to communicate with
+                # scheduler during heartbeat" with a traceback, noise on a Ctrl-C in a
+                # terminal. The workers are ours and about to go: quiet their log first.
+                with contextlib.suppress(Exception):
+                    self.client.run(lambda: logging.getLogger("distributed.worker")
+                                    .setLevel(logging.CRITICAL), on_error="ignore")
             self.client.close()
         finally:
             if self.cluster is not None:
