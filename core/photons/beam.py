@@ -16,13 +16,18 @@ integrated along the ray in closed form, with a constant kernel over each photon
 The result is the radiance (W/(m^2 sr)) scattered into the ray by all the stored light
 (multiple scattering and volumetric caustics), to be attenuated no further.
 
-The query reuses the photon kd-tree (kdtree.balance_kernel: left-balanced, heap order,
-split planes through the photons): each node also keeps the largest radius of its subtree,
-so a ray visits a node only if it passes the node's cell grown by that radius.
+The query reuses the photon kd-tree's order (kdtree.balance_kernel: left-balanced, heap
+order, split planes through the photons), with a bounding box per inner node: the box of its
+subtree's photon spheres (position -+ radius, rounded outward to float32). A ray descends
+into a child only if it meets the child's box (a leaf: its photon's own test, no box), so
+the query visits about 2 nodes per photon it collects where the split-plane cells grown by
+the subtree's largest radius made it visit about 6 (fog_spot: 3.3 k nodes for 588 photons
+a camera ray, docs/volumes.md "Where the fog's time goes"). The visiting order is the
+same depth-first order as before, so the sum is the same bit for bit.
 
-Memory: 45 B per volume photon (position 12, flux 12, direction 12, radius 4, subtree
-radius 4, split axis 1), float32 throughout: volume maps are smaller than surface maps,
-and the estimate reads every field of every photon it meets.
+Memory: 52 B per volume photon (position 12, flux 12, direction 12, radius 4, and the
+inner nodes' boxes, 24 B for every other photon), float32 throughout: volume maps are
+smaller than surface maps, and the estimate reads every field of every photon it meets.
 """
 
 from __future__ import annotations
@@ -36,7 +41,9 @@ from .. import _numba_cache  # noqa: F401  (per-package numba cache, before any 
 from ..media.phase import hg_eval
 from .kdtree import balance_kernel, nearest_kernel, query_order, search_growth, tree_depth
 
-BYTES_PER_PHOTON = 12 + 12 + 12 + 4 + 4 + 1
+BYTES_PER_PHOTON = 12 + 12 + 12 + 4 + 12
+"""Bytes per volume photon (module docstring); the boxes are stored for the n // 2
+inner nodes, so a map of n photons holds 24 (n // 2) bytes of them."""
 STACK = 128  # deferred nodes of one ray's traversal (the tree's depth is at most 64)
 
 
@@ -64,17 +71,37 @@ def photon_radii(positions, k: int) -> np.ndarray:
 
 
 @njit(cache=True, error_model="numpy")
-def _subtree_radius(radius, out):
-    """out[i] = the largest radius in node i's subtree (children 2i+1, 2i+2)."""
-    n = radius.shape[0]
-    for i in range(n - 1, -1, -1):
-        r = radius[i]
-        c = 2 * i + 1
-        if c < n:
-            r = max(r, out[c])
-        if c + 1 < n:
-            r = max(r, out[c + 1])
-        out[i] = r
+def _sphere_bound(tree, radii, i, a, out):
+    """out (2,) float32 <- photon i's sphere along axis a, rounded outward to float32
+    (the query's float64 tests must not cut a sphere the float32 box rounded in)."""
+    c = np.float64(tree[i, a])
+    r = np.float64(radii[i])
+    out[0] = np.nextafter(np.float32(c - r), np.float32(-np.inf))
+    out[1] = np.nextafter(np.float32(c + r), np.float32(np.inf))
+
+
+@njit(cache=True, error_model="numpy")
+def _subtree_boxes(tree, radii, out):
+    """out (n // 2, 6) float32: inner node i's box (lo 0..2, hi 3..5) of the spheres of its
+    subtree (children 2i+1, 2i+2; a child past n // 2 is a leaf, its own sphere)."""
+    n = tree.shape[0]
+    inner = out.shape[0]
+    b = np.empty(2, np.float32)
+    for i in range(inner - 1, -1, -1):
+        for a in range(3):
+            _sphere_bound(tree, radii, i, a, b)
+            lo = b[0]
+            hi = b[1]
+            for c in range(2 * i + 1, min(2 * i + 3, n)):
+                if c < inner:
+                    lo = min(lo, out[c, a])
+                    hi = max(hi, out[c, a + 3])
+                else:
+                    _sphere_bound(tree, radii, c, a, b)
+                    lo = min(lo, b[0])
+                    hi = max(hi, b[1])
+            out[i, a] = lo
+            out[i, a + 3] = hi
 
 
 class VolumePhotonMap:
@@ -101,28 +128,24 @@ class VolumePhotonMap:
         if np.any(radii <= 0):
             raise ValueError("volume photon radii must be > 0")
         tree, perm, axis = balance_kernel(positions)
-        self.tree, self.axis = tree, axis
+        self.tree = tree
         self.flux = flux[perm]
         self.directions = directions[perm]
         self.radii = radii[perm]
-        self.subtree_radius = np.empty(n, np.float32)
-        _subtree_radius(self.radii, self.subtree_radius)
-        lo = positions.min(axis=0) if n else np.zeros(3, np.float32)
-        hi = positions.max(axis=0) if n else np.zeros(3, np.float32)
-        self.bounds = np.concatenate([lo, hi]).astype(np.float64)
+        self.boxes = np.empty((n // 2, 6), np.float32)
+        _subtree_boxes(tree, self.radii, self.boxes)
 
     def __len__(self):
         return int(self.tree.shape[0])
 
     @property
     def nbytes(self) -> int:
-        return sum(a.nbytes for a in (self.tree, self.axis, self.flux, self.directions,
-                                      self.radii, self.subtree_radius))
+        return sum(a.nbytes for a in (self.tree, self.flux, self.directions, self.radii,
+                                      self.boxes))
 
     def kernel_arrays(self):
-        """(tree, axis, flux, directions, radii, subtree radius, bounds (6,)) for kernels."""
-        return (self.tree, self.axis, self.flux, self.directions, self.radii,
-                self.subtree_radius, self.bounds)
+        """(tree, flux, directions, radii, inner nodes' boxes (n // 2, 6)) for kernels."""
+        return self.tree, self.flux, self.directions, self.radii, self.boxes
 
     def radiance(self, origins, directions, t_max, sigma_t, g: float) -> np.ndarray:
         """The beam radiance estimate (M, 3) float64, W/(m^2 sr), of M rays: origins,
@@ -138,21 +161,21 @@ class VolumePhotonMap:
         return out
 
 
-@njit(cache=True, error_model="numpy")
-def _segment_hits_box(ox, oy, oz, dx, dy, dz, t_max, box, grow):
-    """Whether o + t d, t in [0, t_max], meets the box (lo 0..2, hi 3..5) grown by ``grow``."""
+@njit(cache=True, error_model="numpy", inline="always")
+def _segment_hits_box(ox, oy, oz, ix, iy, iz, t_max, boxes, node):
+    """Whether o + t d, t in [0, t_max], meets boxes[node] (lo 0..2, hi 3..5); i = 1 / d
+    per axis, inf for a zero component (the ray parallel to that axis's slab)."""
     t0 = 0.0
     t1 = t_max
     for a in range(3):
         o = ox if a == 0 else (oy if a == 1 else oz)
-        d = dx if a == 0 else (dy if a == 1 else dz)
-        lo = box[a] - grow
-        hi = box[a + 3] + grow
-        if d == 0.0:
+        inv = ix if a == 0 else (iy if a == 1 else iz)
+        lo = boxes[node, a]
+        hi = boxes[node, a + 3]
+        if math.isinf(inv):
             if o < lo or o > hi:
                 return False
             continue
-        inv = 1.0 / d
         ta = (lo - o) * inv
         tb = (hi - o) * inv
         if ta > tb:
@@ -165,25 +188,27 @@ def _segment_hits_box(ox, oy, oz, dx, dy, dz, t_max, box, grow):
 
 
 @njit(cache=True, error_model="numpy")
-def beam_radiance(tree, axis, flux, directions, radii, subtree_radius, bounds, ox, oy, oz,
-                  dx, dy, dz, t_max, s0, s1, s2, g, stack_node, stack_box):
-    """The beam radiance estimate (L0, L1, L2) of one ray (module docstring); stack_node
-    (STACK,) int64 and stack_box (STACK, 6) float64 scratch."""
+def beam_radiance(tree, flux, directions, radii, boxes, ox, oy, oz, dx, dy, dz, t_max, s0, s1,
+                  s2, g, stack):
+    """The beam radiance estimate (L0, L1, L2) of one ray (module docstring); stack
+    (STACK,) int64 scratch. Depth first, a node's photon before its subtrees, the right
+    subtree before the left (the order fixes the float sum)."""
     n = tree.shape[0]
+    inner = boxes.shape[0]
     L0 = 0.0
     L1 = 0.0
     L2 = 0.0
-    box = np.empty(6)
-    top = 0
-    stack_node[0] = 0
-    stack_box[0, :] = bounds
+    ix = 1.0 / dx if dx != 0.0 else math.inf
+    iy = 1.0 / dy if dy != 0.0 else math.inf
+    iz = 1.0 / dz if dz != 0.0 else math.inf
+    grey = s0 == s1 and s1 == s2  # one exp for the three channels (the same value)
+    top = -1
+    if n and (inner == 0 or _segment_hits_box(ox, oy, oz, ix, iy, iz, t_max, boxes, 0)):
+        top = 0
+        stack[0] = 0
     while top >= 0:
-        node = stack_node[top]
-        box[:] = stack_box[top]
+        node = stack[top]
         top -= 1
-        if node >= n or not _segment_hits_box(ox, oy, oz, dx, dy, dz, t_max, box,
-                                               subtree_radius[node]):
-            continue
         # This node's photon: does the ray cross its disc within the segment?
         vx = tree[node, 0] - ox
         vy = tree[node, 1] - oy
@@ -196,37 +221,29 @@ def beam_radiance(tree, axis, flux, directions, radii, subtree_radius, bounds, o
                 cos = -(directions[node, 0] * dx + directions[node, 1] * dy
                         + directions[node, 2] * dz)
                 k = hg_eval(g, cos) / (math.pi * r * r)
-                L0 += flux[node, 0] * k * math.exp(-s0 * t)
-                L1 += flux[node, 1] * k * math.exp(-s1 * t)
-                L2 += flux[node, 2] * k * math.exp(-s2 * t)
-        # Children: the split plane through this photon halves the cell.
-        left = 2 * node + 1
-        if left < n:
-            ax = axis[node]
-            split = tree[node, ax]
-            top += 1
-            stack_node[top] = left
-            stack_box[top, :] = box
-            stack_box[top, ax + 3] = split
-            if left + 1 < n:
+                e0 = math.exp(-s0 * t)
+                e1 = e0 if grey else math.exp(-s1 * t)
+                e2 = e0 if grey else math.exp(-s2 * t)
+                L0 += flux[node, 0] * k * e0
+                L1 += flux[node, 1] * k * e1
+                L2 += flux[node, 2] * k * e2
+        # Children whose box the ray meets (a leaf has no box: its photon's test decides)
+        for c in range(2 * node + 1, min(2 * node + 3, n)):
+            if c >= inner or _segment_hits_box(ox, oy, oz, ix, iy, iz, t_max, boxes, c):
                 top += 1
-                stack_node[top] = left + 1
-                stack_box[top, :] = box
-                stack_box[top, ax] = split
+                stack[top] = c
     return L0, L1, L2
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
-def beam_rays(tree, axis, flux, directions, radii, subtree_radius, bounds, origins, dirs, t_max,
-              sigma_t, g, out):
+def beam_rays(tree, flux, directions, radii, boxes, origins, dirs, t_max, sigma_t, g, out):
     """beam_radiance for M rays -> out (M, 3)."""
     m = origins.shape[0]
     blocks = (m + 63) // 64
     for b in prange(blocks):
-        stack_node = np.empty(STACK, np.int64)
-        stack_box = np.empty((STACK, 6))
+        stack = np.empty(STACK, np.int64)
         for i in range(b * 64, min(m, (b + 1) * 64)):
             out[i, 0], out[i, 1], out[i, 2] = beam_radiance(
-                tree, axis, flux, directions, radii, subtree_radius, bounds, origins[i, 0],
-                origins[i, 1], origins[i, 2], dirs[i, 0], dirs[i, 1], dirs[i, 2], t_max[i],
-                sigma_t[0], sigma_t[1], sigma_t[2], g, stack_node, stack_box)
+                tree, flux, directions, radii, boxes, origins[i, 0], origins[i, 1],
+                origins[i, 2], dirs[i, 0], dirs[i, 1], dirs[i, 2], t_max[i], sigma_t[0],
+                sigma_t[1], sigma_t[2], g, stack)
