@@ -39,7 +39,7 @@ from numba import njit, prange
 
 from .. import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
 from ..media.phase import hg_eval
-from .kdtree import balance_kernel, nearest_kernel, query_order, search_growth, tree_depth
+from .kdtree import balance_kernel, kth_distance_kernel, query_order, search_growth, tree_depth
 
 BYTES_PER_PHOTON = 12 + 12 + 12 + 4 + 12
 """Bytes per volume photon (module docstring); the boxes are stored for the n // 2
@@ -63,11 +63,10 @@ def photon_radii(positions, k: int) -> np.ndarray:
         return np.zeros(0, np.float32)
     k = min(int(k), n)
     tree, _, axis = balance_kernel(positions)
-    idx = np.empty((n, k), np.int64)
-    d2 = np.empty((n, k), np.float32)
-    nearest_kernel(tree, axis, tree_depth(n), positions, query_order(positions), k,
-                   np.float32(np.inf), search_growth(k), idx, d2)
-    return np.sqrt(d2[:, k - 1]).astype(np.float32)
+    d2 = np.empty(n, np.float32)
+    kth_distance_kernel(tree, axis, tree_depth(n), positions, query_order(positions), k,
+                        np.float32(np.inf), search_growth(k), d2)
+    return np.sqrt(d2)
 
 
 @njit(cache=True, error_model="numpy")

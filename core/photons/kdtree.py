@@ -465,6 +465,23 @@ def nearest_kernel(tree, axis, depth, queries, order, k, r2, growth, out_idx, ou
                 out_d2[q, s] = np.inf
 
 
+@njit(parallel=True, cache=True, nogil=True)
+def kth_distance_kernel(tree, axis, depth, queries, order, k, r2, growth, out_d2):
+    """out_d2[q] (M,) float32 <- ``nearest_kernel``'s out_d2[q, c - 1]: the squared
+    distance to query q's k-th nearest photon within r2 (its farthest found if fewer, inf
+    if none), the max-heap's top, without sorting or writing the k neighbours out (the
+    volume photons' radii, photons/beam.py)."""
+    m = order.shape[0]
+    for b in prange((m + QUERY_BLOCK - 1) // QUERY_BLOCK):
+        heap, fbuf, ubuf, stack_i, stack_f, prev = knn_scratch(k)
+        for t in range(b * QUERY_BLOCK, min(m, (b + 1) * QUERY_BLOCK)):
+            q = order[t]
+            c = knn_search_coherent(tree, axis, depth, queries[q, 0], queries[q, 1],
+                                    queries[q, 2], k, r2, growth, heap, fbuf, ubuf,
+                                    stack_i, stack_f, prev)
+            out_d2[q] = _top_distance(heap, fbuf, ubuf) if c else np.float32(np.inf)
+
+
 @njit(cache=True, nogil=True, inline="always")
 def _compatible_side(site_normals, j, n0, n1, n2, inv, min_cos):
     """The first side s of point j whose normal agrees with (n0, n1, n2) * inv (cos >=
