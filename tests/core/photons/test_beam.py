@@ -48,6 +48,33 @@ def test_matches_brute_force():
     np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-12)
 
 
+@pytest.mark.parametrize("n", [1, 2, 3, 4, 7, 1000])
+def test_small_maps_match_brute_force(n):
+    """Maps without inner nodes (1 photon) or with few: the boxes of the inner nodes and
+    the leaves' own tests; photons of very different radii (a box holds its children's)."""
+    rng = np.random.default_rng(n)
+    pos = rng.random((n, 3)).astype(np.float32)
+    flux = rng.random((n, 3)).astype(np.float32)
+    dirs = rng.normal(size=(n, 3))
+    dirs = (dirs / np.linalg.norm(dirs, axis=1, keepdims=True)).astype(np.float32)
+    radii = np.exp(rng.uniform(np.log(1e-3), np.log(0.5), n)).astype(np.float32)
+    vmap = beam.VolumePhotonMap(pos, flux, dirs, radii)
+    assert vmap.boxes.shape == (n // 2, 6)
+    assert vmap.nbytes == n * 40 + (n // 2) * 24
+    m = 400
+    o = rng.uniform(-0.5, 1.5, (m, 3))
+    j = rng.integers(0, n, m)
+    d = pos[j] + rng.normal(0, 0.5, (m, 3)) * radii[j, None] - o  # near photon j
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    d[:40] = np.eye(3)[rng.integers(0, 3, 40)]  # axis-aligned
+    t_max = np.where(rng.random(m) < 0.5, 1e30, rng.uniform(0.1, 3.0, m))
+    sigma_t, g = np.array([0.3, 0.3, 0.3]), -0.2
+    got = vmap.radiance(o, d, t_max, sigma_t, g)
+    want = brute_force(pos, flux, dirs, radii, o, d, t_max, sigma_t, g)
+    assert np.count_nonzero(want[:, 0]) > m // 10
+    np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-12)
+
+
 def test_radii_are_the_kth_neighbour_distance():
     rng = np.random.default_rng(8)
     pos = rng.random((2000, 3)).astype(np.float32)

@@ -261,6 +261,25 @@ def testnearest_kernel_does_not_depend_on_the_query_order(shape, rng):
         np.testing.assert_array_equal(d2, want[1])
 
 
+@pytest.mark.parametrize("shape", ["random", "clustered", "duplicates"])
+def test_kth_distance_kernel_is_the_last_of_the_k_nearest(shape, rng):
+    """The k-th squared distance (the volume photons' radii), bit for bit the last column
+    of brute force's k nearest within r2: its farthest found when fewer, inf when none."""
+    pts = point_set(shape, rng, 3000)
+    tree, _, axis = balance(pts)
+    queries = np.vstack([point_set(shape, rng, 700), rng.random((300, 3), np.float32),
+                         [[1e3, -1e3, 5.0]]]).astype(np.float32)
+    for k, r2 in ((12, np.float32(0.3 ** 2)), (5, np.float32(0.02 ** 2)), (40, np.float32(np.inf))):
+        _, want = brute(tree, queries, k, r2)
+        found = np.isfinite(want)
+        last = np.where(found.any(axis=1),
+                        want[np.arange(len(want)), np.maximum(found.sum(axis=1) - 1, 0)], np.inf)
+        got = np.empty(len(queries), np.float32)
+        kdtree.kth_distance_kernel(tree, axis, tree_depth(tree.shape[0]), queries,
+                                   query_order(queries), k, r2, search_growth(k), got)
+        np.testing.assert_array_equal(got, last)
+
+
 def compatible_brute(tree, queries, normals, k, r2, site_normals, min_cos):
     """``nearest_compatible_kernel`` by brute force: the first of ``brute``'s k nearest
     with a side whose cosine (query normal normalised) is >= min_cos, as j * S + s."""
