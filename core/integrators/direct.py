@@ -61,6 +61,7 @@ def _shade_kernel(pair_source, pair_q, pair_dim, pair_pick_dim, pair_k, pair_dif
     the light's direction) are built once for all its pairs, at the first whose light
     sample succeeds, and evaluated per sample (``closure.parts_at``), as
     ``closure.eval_parts`` would (issue 13: building them was half the kernel's time).
+    The light's pdf is computed only where mis[i] reads it.
 
     f is the material's whole non-delta BSDF, split by ``closure.parts_at`` into the
     diffuse-like lobes' part (Lambert, Oren-Nayar, translucent, sheen: the part the photon
@@ -90,14 +91,14 @@ def _shade_kernel(pair_source, pair_q, pair_dim, pair_pick_dim, pair_k, pair_dif
             if source == SOURCE_LIGHT:
                 wx, wy, wz, dist, l0, l1, l2, cl, ok = light_kernels.sample_light(
                     q, px, py, pz, u1, u2)
-                if ok:
+                if ok and mis[i]:
                     pl = light_kernels.light_pdf(q, px, py, pz, wx, wy, wz, dist)
             elif source == SOURCE_TRIANGLES:
                 u0 = sampling.hash_uniform(seed, pixel[i], sample[i], pair_pick_dim[p])
                 wx, wy, wz, dist, l0, l1, l2, cl, ok = light_kernels.sample_triangles(
                     tris_cdf, tris_prob, tris_v0, tris_e1, tris_e2, tris_n, tris_area,
                     tris_rad, px, py, pz, u0, u1, u2)
-                if ok:
+                if ok and mis[i]:
                     j = min(np.searchsorted(tris_cdf, u0, side="right"), tris_cdf.shape[0] - 1)
                     pl = light_kernels.triangle_pdf(tris_prob, tris_area, j, wx, wy, wz,
                                                     tris_n[j, 0], tris_n[j, 1], tris_n[j, 2],
@@ -108,8 +109,9 @@ def _shade_kernel(pair_source, pair_q, pair_dim, pair_pick_dim, pair_k, pair_dif
                 wx, wy, wz, dist, l0, l1, l2, cl, ok = light_kernels.sample_world(
                     world[0], world[1], world[2], nsf[i, 0], nsf[i, 1], nsf[i, 2], u1, u2,
                     sphere)
-                pl = light_kernels.world_pdf(nsf[i, 0], nsf[i, 1], nsf[i, 2], wx, wy, wz,
-                                             sphere)
+                if mis[i]:
+                    pl = light_kernels.world_pdf(nsf[i, 0], nsf[i, 1], nsf[i, 2], wx, wy, wz,
+                                                 sphere)
             if not ok:
                 continue
             if not built:
