@@ -1,10 +1,11 @@
 """Direct illumination by shadow rays: the seed lecture's first term, L_direct, at surface
 points, from every light, the emissive triangles and the world.
 
-For each source and light sample, one numba kernel (``_shade_kernel``) samples a point
+For each source and light sample, one numba kernel (``_shade_kernel``, which takes many
+such pairs at once and builds each point's lobes once for them all) samples a point
 on the source (core/lights/kernels.py), evaluates the reflection lobes there (diffuse and
 rough glossy, core/materials/bsdf.py) and writes the unshadowed contribution f |cos| L / pdf with
-the shadow ray that decides it; the needed shadow rays are packed and sent to Embree in
+the shadow ray that decides it; each pair's needed shadow rays are packed and sent to Embree in
 one batch (``Accelerator.occluded``, or the cut-out transmittance of core/materials/textures.py);
 the clear ones are added to the target. Light samples are stratified over a pixel's
 samples x light samples (scrambled Sobol), keyed by (seed, pixel, sample).
