@@ -1,10 +1,11 @@
 """Direct illumination by shadow rays: the seed lecture's first term, L_direct, at surface
 points, from every light, the emissive triangles and the world.
 
-For each source and light sample, one numba kernel (``_shade_kernel``) samples a point
+For each source and light sample, one numba kernel (``_shade_kernel``, which takes many
+such pairs at once and builds each point's lobes once for them all) samples a point
 on the source (core/lights/kernels.py), evaluates the reflection lobes there (diffuse and
 rough glossy, core/materials/bsdf.py) and writes the unshadowed contribution f |cos| L / pdf with
-the shadow ray that decides it; the needed shadow rays are packed and sent to Embree in
+the shadow ray that decides it; each pair's needed shadow rays are packed and sent to Embree in
 one batch (``Accelerator.occluded``, or the cut-out transmittance of core/materials/textures.py);
 the clear ones are added to the target. Light samples are stratified over a pixel's
 samples x light samples (scrambled Sobol), keyed by (seed, pixel, sample).
@@ -37,19 +38,33 @@ from ..prepared import PreparedScene
 from ..settings import RenderSettings
 
 SOURCE_LIGHT, SOURCE_TRIANGLES, SOURCE_WORLD = 0, 1, 2
+SHADE_SLOTS = 1 << 20
+"""Most (point, light sample) slots of one ``_shade_kernel`` call (~53 bytes each: its
+contribution and shadow ray): ``shade`` hands the kernel as many of its (source, light
+sample) pairs as fit, at least one, so a point's lobes are built once for them all."""
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
-def _shade_kernel(source, q, tris_cdf, tris_prob, tris_v0, tris_e1, tris_e2, tris_n, tris_area,
-                  tris_rad, world, tab, pos, ngf, nsf, tan, d, front, mat, eps, thr, texel,
-                  diffuse_on, mis, lam, pixel, sample, seed, dim, pick_dim, k, k_count, bits,
-                  use_diffuse,
-                  use_glossy, extent, contrib, sh_o, sh_d, sh_t, need):
-    """One light sample per point: unshadowed contribution f |cos| L / pdf / k_count and
-    the shadow ray that decides it (need[i]). Light samples are stratified over the
-    pixel's samples x light samples (index sample * k_count + k).
+def _shade_kernel(pair_source, pair_q, pair_dim, pair_pick_dim, pair_k, pair_diffuse,
+                  pair_glossy, tris_cdf, tris_prob, tris_v0, tris_e1, tris_e2, tris_n,
+                  tris_area, tris_rad, world, tab, pos, ngf, nsf, tan, d, front, mat, eps, thr,
+                  texel, diffuse_on, mis, lam, pixel, sample, seed, k_count, bits, extent,
+                  contrib, sh_o, sh_d, sh_t, need):
+    """For each point i and each of P (source, light sample) pairs p: one light sample,
+    its unshadowed contribution f |cos| L / pdf / k_count (contrib[p, i]) and the shadow
+    ray that decides it (need[p, i]). Light samples are stratified over the pixel's
+    samples x light samples (index sample * k_count + k).
 
-    f is the material's whole non-delta BSDF, split by ``closure.eval_parts`` into the
+    Pair p: its source (pair_source SOURCE_*, pair_q the light's parameter row), its
+    random streams (pair_dim the light sample's, pair_pick_dim the triangle pick's), its
+    light sample k (pair_k) and the light's diffuse / glossy visibility (pair_diffuse,
+    pair_glossy, 0 or 1). The point's lobes (``closure.hit_lobes``: they do not depend on
+    the light's direction) are built once for all its pairs, at the first whose light
+    sample succeeds, and evaluated per sample (``closure.parts_at``), as
+    ``closure.eval_parts`` would (issue 13: building them was half the kernel's time).
+    The light's pdf is computed only where mis[i] reads it.
+
+    f is the material's whole non-delta BSDF, split by ``closure.parts_at`` into the
     diffuse-like lobes' part (Lambert, Oren-Nayar, translucent, sheen: the part the photon
     maps continue; times diffuse_on[i]) and the glossy lobes' part, which camera paths also
     reach by sampling the BSDF where mis[i]: there the glossy part takes the power
@@ -60,76 +75,89 @@ def _shade_kernel(source, q, tris_cdf, tris_prob, tris_v0, tris_e1, tris_e2, tri
     fmax = 3.0e38
     scale = 1.0 / k_count
     for i in prange(pos.shape[0]):
-        need[i] = False
-        contrib[i, 0] = 0.0
-        contrib[i, 1] = 0.0
-        contrib[i, 2] = 0.0
-        u1, u2 = sampling.sobol2(sample[i] * k_count + k, bits,
-                                 sampling.pattern(seed, pixel[i], dim))
         px, py, pz = pos[i, 0], pos[i, 1], pos[i, 2]
-        pl = 0.0
-        if source == SOURCE_LIGHT:
-            wx, wy, wz, dist, l0, l1, l2, cl, ok = light_kernels.sample_light(q, px, py, pz, u1, u2)
-            if ok:
-                pl = light_kernels.light_pdf(q, px, py, pz, wx, wy, wz, dist)
-        elif source == SOURCE_TRIANGLES:
-            u0 = sampling.hash_uniform(seed, pixel[i], sample[i], pick_dim)
-            wx, wy, wz, dist, l0, l1, l2, cl, ok = light_kernels.sample_triangles(
-                tris_cdf, tris_prob, tris_v0, tris_e1, tris_e2, tris_n, tris_area, tris_rad,
-                px, py, pz, u0, u1, u2)
-            if ok:
-                j = min(np.searchsorted(tris_cdf, u0, side="right"), tris_cdf.shape[0] - 1)
-                pl = light_kernels.triangle_pdf(tris_prob, tris_area, j, wx, wy, wz,
-                                                tris_n[j, 0], tris_n[j, 1], tris_n[j, 2], dist)
-        else:
-            # the whole sphere where the surface transmits: the world behind it too
-            sphere = closure.transmits(tab, mat[i])
-            wx, wy, wz, dist, l0, l1, l2, cl, ok = light_kernels.sample_world(
-                world[0], world[1], world[2], nsf[i, 0], nsf[i, 1], nsf[i, 2], u1, u2, sphere)
-            pl = light_kernels.world_pdf(nsf[i, 0], nsf[i, 1], nsf[i, 2], wx, wy, wz, sphere)
-        if not ok:
-            continue
         m = mat[i]
         wox, woy, woz = -d[i, 0], -d[i, 1], -d[i, 2]
-        d0, d1, d2, g0, g1, g2, pb = closure.eval_parts(
-            tab, m, texel[i, 0], texel[i, 1], texel[i, 2], wox, woy, woz, wx, wy, wz,
-            nsf[i, 0], nsf[i, 1], nsf[i, 2], ngf[i, 0], ngf[i, 1], ngf[i, 2],
-            tan[i, 0], tan[i, 1], tan[i, 2], front[i], False, lam[i])
-        f0, f1, f2 = d0 + g0, d1 + g1, d2 + g2
-        if f0 <= 0.0 and f1 <= 0.0 and f2 <= 0.0:
-            continue
-        wl = 1.0
-        if mis[i] and pl > 0.0:
-            pc = pb * continue_probability(f0, f1, f2, g0, g1, g2)
-            wl = light_kernels.power_heuristic(k_count, pl, 1.0, pc)
-        kd = use_diffuse * diffuse_on[i] * scale
-        kg = use_glossy * wl * scale
-        c0 = (d0 * kd + g0 * kg) * l0 * thr[i, 0]
-        c1 = (d1 * kd + g1 * kg) * l1 * thr[i, 1]
-        c2 = (d2 * kd + g2 * kg) * l2 * thr[i, 2]
-        if c0 <= 0.0 and c1 <= 0.0 and c2 <= 0.0:
-            continue
-        contrib[i, 0] = c0
-        contrib[i, 1] = c1
-        contrib[i, 2] = c2
-        e = eps[i]
-        if np.isinf(dist):
-            tf = fmax
-        else:
-            qx, qy, qz = px + wx * dist, py + wy * dist, pz + wz * dist
-            tf = dist - e - geometry.offset_eps(qx, qy, qz, extent) / max(cl, 1e-3)
-            if tf <= 0.0:
-                continue  # the light touches the surface: nothing can come in between
-        # The shadow ray leaves on the side of the light (transmission lobes: the far side).
-        side = e if ngf[i, 0] * wx + ngf[i, 1] * wy + ngf[i, 2] * wz >= 0.0 else -e
-        sh_o[i, 0] = px + side * ngf[i, 0]
-        sh_o[i, 1] = py + side * ngf[i, 1]
-        sh_o[i, 2] = pz + side * ngf[i, 2]
-        sh_d[i, 0] = wx
-        sh_d[i, 1] = wy
-        sh_d[i, 2] = wz
-        sh_t[i] = min(tf, fmax)
-        need[i] = True
+        built = False
+        for p in range(pair_source.shape[0]):
+            need[p, i] = False
+            contrib[p, i, 0] = 0.0
+            contrib[p, i, 1] = 0.0
+            contrib[p, i, 2] = 0.0
+            source = pair_source[p]
+            q = pair_q[p]
+            u1, u2 = sampling.sobol2(sample[i] * k_count + pair_k[p], bits,
+                                     sampling.pattern(seed, pixel[i], pair_dim[p]))
+            pl = 0.0
+            if source == SOURCE_LIGHT:
+                wx, wy, wz, dist, l0, l1, l2, cl, ok = light_kernels.sample_light(
+                    q, px, py, pz, u1, u2)
+                if ok and mis[i]:
+                    pl = light_kernels.light_pdf(q, px, py, pz, wx, wy, wz, dist)
+            elif source == SOURCE_TRIANGLES:
+                u0 = sampling.hash_uniform(seed, pixel[i], sample[i], pair_pick_dim[p])
+                wx, wy, wz, dist, l0, l1, l2, cl, ok = light_kernels.sample_triangles(
+                    tris_cdf, tris_prob, tris_v0, tris_e1, tris_e2, tris_n, tris_area,
+                    tris_rad, px, py, pz, u0, u1, u2)
+                if ok and mis[i]:
+                    j = min(np.searchsorted(tris_cdf, u0, side="right"), tris_cdf.shape[0] - 1)
+                    pl = light_kernels.triangle_pdf(tris_prob, tris_area, j, wx, wy, wz,
+                                                    tris_n[j, 0], tris_n[j, 1], tris_n[j, 2],
+                                                    dist)
+            else:
+                # the whole sphere where the surface transmits: the world behind it too
+                sphere = closure.transmits(tab, m)
+                wx, wy, wz, dist, l0, l1, l2, cl, ok = light_kernels.sample_world(
+                    world[0], world[1], world[2], nsf[i, 0], nsf[i, 1], nsf[i, 2], u1, u2,
+                    sphere)
+                if mis[i]:
+                    pl = light_kernels.world_pdf(nsf[i, 0], nsf[i, 1], nsf[i, 2], wx, wy, wz,
+                                                 sphere)
+            if not ok:
+                continue
+            if not built:
+                L, F = closure.hit_lobes(tab, m, texel[i, 0], texel[i, 1], texel[i, 2], wox,
+                                         woy, woz, nsf[i, 0], nsf[i, 1], nsf[i, 2], ngf[i, 0],
+                                         ngf[i, 1], ngf[i, 2], tan[i, 0], tan[i, 1], tan[i, 2],
+                                         front[i], lam[i])
+                built = True
+            d0, d1, d2, g0, g1, g2, pb = closure.parts_at(L, F, wx, wy, wz, ngf[i, 0],
+                                                          ngf[i, 1], ngf[i, 2], False, True)
+            f0, f1, f2 = d0 + g0, d1 + g1, d2 + g2
+            if f0 <= 0.0 and f1 <= 0.0 and f2 <= 0.0:
+                continue
+            wl = 1.0
+            if mis[i] and pl > 0.0:
+                pc = pb * continue_probability(f0, f1, f2, g0, g1, g2)
+                wl = light_kernels.power_heuristic(k_count, pl, 1.0, pc)
+            kd = pair_diffuse[p] * diffuse_on[i] * scale
+            kg = pair_glossy[p] * wl * scale
+            c0 = (d0 * kd + g0 * kg) * l0 * thr[i, 0]
+            c1 = (d1 * kd + g1 * kg) * l1 * thr[i, 1]
+            c2 = (d2 * kd + g2 * kg) * l2 * thr[i, 2]
+            if c0 <= 0.0 and c1 <= 0.0 and c2 <= 0.0:
+                continue
+            contrib[p, i, 0] = c0
+            contrib[p, i, 1] = c1
+            contrib[p, i, 2] = c2
+            e = eps[i]
+            if np.isinf(dist):
+                tf = fmax
+            else:
+                qx, qy, qz = px + wx * dist, py + wy * dist, pz + wz * dist
+                tf = dist - e - geometry.offset_eps(qx, qy, qz, extent) / max(cl, 1e-3)
+                if tf <= 0.0:
+                    continue  # the light touches the surface: nothing can come in between
+            # The shadow ray leaves on the side of the light (transmission lobes: the far side).
+            side = e if ngf[i, 0] * wx + ngf[i, 1] * wy + ngf[i, 2] * wz >= 0.0 else -e
+            sh_o[p, i, 0] = px + side * ngf[i, 0]
+            sh_o[p, i, 1] = py + side * ngf[i, 1]
+            sh_o[p, i, 2] = pz + side * ngf[i, 2]
+            sh_d[p, i, 0] = wx
+            sh_d[p, i, 1] = wy
+            sh_d[p, i, 2] = wz
+            sh_t[p, i] = min(tf, fmax)
+            need[p, i] = True
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
@@ -305,54 +333,69 @@ def shade(ctx: DirectLighting, hit: ShadingPoints, pixel, sample, depth, target)
     lam = np.zeros(n) if hit.wavelength is None else hit.wavelength
     tangent = (closure.default_tangents(n) if hit.tangent is None
                else np.ascontiguousarray(hit.tangent, np.float64))
-    contrib = np.empty((n, 3))
-    sh_o = np.empty((n, 3), np.float32)
-    sh_d = np.empty((n, 3), np.float32)
-    sh_t = np.empty(n, np.float32)
-    need = np.empty(n, bool)
-    idx = np.empty(n, np.int64)
-    pk_o, pk_d, pk_t = np.empty_like(sh_o), np.empty_like(sh_d), np.empty_like(sh_t)
     sources = [(SOURCE_LIGHT, i) for i in range(ls.count) if ls.emits(i)]
     if tris.count:
         sources.append((SOURCE_TRIANGLES, ls.count))
     if np.any(ctx.world > 0):
         sources.append((SOURCE_WORLD, -1))
-    for source, i in sources:
-        q = ls.params[i] if source == SOURCE_LIGHT else ctx.no_light
-        use_d = float(ls.visible_diffuse[i]) if source == SOURCE_LIGHT else 1.0
-        use_g = float(ls.visible_glossy[i]) if source == SOURCE_LIGHT else 1.0
-        shadows = bool(ls.cast_shadow[i]) if source == SOURCE_LIGHT else True
-        dim = sampling.stream(sampling.LIGHT_SAMPLE, depth, i + 1)
-        for k in range(k_count):
+    # Every (source, light sample) pair, in the order their light is added to the target.
+    pairs = [(source, i, k) for source, i in sources for k in range(k_count)]
+    if not pairs:
+        return
+    per_call = max(1, min(len(pairs), SHADE_SLOTS // max(n, 1)))
+    contrib = np.empty((per_call, n, 3))
+    sh_o = np.empty((per_call, n, 3), np.float32)
+    sh_d = np.empty((per_call, n, 3), np.float32)
+    sh_t = np.empty((per_call, n), np.float32)
+    need = np.empty((per_call, n), bool)
+    idx = np.empty(n, np.int64)
+    pk_o, pk_d = np.empty((n, 3), np.float32), np.empty((n, 3), np.float32)
+    pk_t = np.empty(n, np.float32)
+    tab = ctx.closures if hit.closures is None else hit.closures
+    for first in range(0, len(pairs), per_call):
+        group = pairs[first:first + per_call]
+        p_source = np.array([source for source, _, _ in group], np.int64)
+        p_q = np.stack([ls.params[i] if source == SOURCE_LIGHT else ctx.no_light
+                        for source, i, _ in group])
+        p_dim = np.array([sampling.stream(sampling.LIGHT_SAMPLE, depth, i + 1)
+                          for _, i, _ in group], np.int64)
+        p_pick = np.array([sampling.stream(sampling.LIGHT_PICK, depth, k) for _, _, k in group],
+                          np.int64)
+        p_k = np.array([k for _, _, k in group], np.int64)
+        p_diffuse = np.array([float(ls.visible_diffuse[i]) if source == SOURCE_LIGHT else 1.0
+                              for source, i, _ in group])
+        p_glossy = np.array([float(ls.visible_glossy[i]) if source == SOURCE_LIGHT else 1.0
+                             for source, i, _ in group])
+        t0 = time.perf_counter()
+        _shade_kernel(p_source, p_q, p_dim, p_pick, p_k, p_diffuse, p_glossy, tris.cdf,
+                      tris.probability, tris.v0, tris.e1, tris.e2, tris.normal, tris.area,
+                      tris.radiance, ctx.world, tab, hit.position, hit.ng, hit.ns, tangent,
+                      hit.direction, front, hit.material, hit.eps, hit.throughput, texel,
+                      diffuse_on, mis, lam, pixel, sample, ctx.seed, k_count, bits, ctx.extent,
+                      contrib, sh_o, sh_d, sh_t, need)
+        ctx.stats["time_shading"] += time.perf_counter() - t0
+        for p, (source, i, k) in enumerate(group):
             t0 = time.perf_counter()
-            _shade_kernel(source, q, tris.cdf, tris.probability, tris.v0, tris.e1, tris.e2,
-                          tris.normal, tris.area, tris.radiance, ctx.world,
-                          ctx.closures if hit.closures is None else hit.closures,
-                          hit.position, hit.ng, hit.ns, tangent, hit.direction, front,
-                          hit.material,
-                          hit.eps,
-                          hit.throughput, texel, diffuse_on, mis, lam, pixel, sample,
-                          ctx.seed, dim, sampling.stream(sampling.LIGHT_PICK, depth, k),
-                          k, k_count, bits, use_d, use_g,
-                          ctx.extent, contrib, sh_o, sh_d, sh_t, need)
+            c_p, o_p, d_p, t_p, need_p = contrib[p], sh_o[p], sh_d[p], sh_t[p], need[p]
             if source == SOURCE_TRIANGLES and tris.textured is not None:
-                _textured_triangles(ctx, tris, hit, pixel, sample, dim, depth, k, contrib)
+                _textured_triangles(ctx, tris, hit, pixel, sample, int(p_dim[p]), depth, k, c_p)
             if ctx.medium is not None:  # the shadow segment's transmittance
-                ctx.medium.attenuate(contrib, need, sh_o, sh_d, sh_t)
+                ctx.medium.attenuate(c_p, need_p, o_p, d_p, t_p)
             t1 = time.perf_counter()
-            c = _compact_kernel(need, sh_o, sh_d, sh_t, idx, pk_o, pk_d, pk_t) if shadows else 0
+            shadows = bool(ls.cast_shadow[i]) if source == SOURCE_LIGHT else True
+            c = _compact_kernel(need_p, o_p, d_p, t_p, idx, pk_o, pk_d, pk_t) if shadows else 0
             occ = np.zeros(0, bool)
             if c and ctx.surfaces.cutout:
                 # Shadows through cut-outs: the light times the product of (1 - opacity).
                 trans = ctx.surfaces.transmittance(ctx.accel, ctx.tri_vertices, ctx.tri_normals,
                                                    ctx.extent, pk_o[:c], pk_d[:c], pk_t[:c])
-                contrib[idx[:c]] *= trans[:, None]
+                c_p[idx[:c]] *= trans[:, None]
                 occ = trans <= 0.0
                 ctx.stats["rays_shadow"] += c
             elif c:
                 occ = ctx.accel.occluded(pk_o[:c], pk_d[:c], pk_t[:c])
                 ctx.stats["rays_shadow"] += c
             t2 = time.perf_counter()
-            _gather_kernel(target, hit.rows, contrib, idx[:c], occ)
+            _gather_kernel(target, hit.rows, c_p, idx[:c], occ)
             ctx.stats["time_shading"] += t1 - t0 + time.perf_counter() - t2
             ctx.stats["time_shadow"] += t2 - t1
