@@ -121,8 +121,7 @@ def _cache_points_kernel(tri_v, cdf, u0, u1, u2, pos, nrm, tri, bu, bv):
     """Points uniform over the area of the triangles (cdf over their areas); bu, bv: their
     barycentrics (Embree's u, v: weights of corners 1 and 2)."""
     for i in prange(u0.shape[0]):
-        t = np.searchsorted(cdf, u0[i] * cdf[-1], side="right")
-        t = min(t, cdf.shape[0] - 1)
+        t = sampling.pick(cdf, u0[i] * cdf[-1])
         b0, b1 = sampling.uniform_triangle(u1[i], u2[i])
         bu[i] = b0
         bv[i] = b1
