@@ -64,6 +64,7 @@ from .. import sampling
 from ..prepared import PreparedScene
 from ..scene import geometry
 from ..shading import light_path
+from ..passes import consecutive_mean
 from ..settings import RenderSettings
 from . import camera_paths, volume
 from ..media import regions
@@ -238,32 +239,6 @@ def cached_radiance(terms: "PhotonTerms", points, normals, albedo) -> np.ndarray
                                          albedo[missing], terms.global_k, terms.global_radius,
                                          terms.filter)
         terms.stats["cache_misses"] = terms.stats.get("cache_misses", 0) + int(missing.size)
-    return out
-
-
-@njit(cache=True, parallel=True, error_model="numpy")
-def _consecutive_mean_kernel(values, count, out):
-    for p in prange(out.shape[0]):
-        a0 = 0.0
-        a1 = 0.0
-        a2 = 0.0
-        base = p * count
-        for s in range(count):
-            a0 += values[base + s, 0]
-            a1 += values[base + s, 1]
-            a2 += values[base + s, 2]
-        out[p, 0] = a0 / count
-        out[p, 1] = a1 / count
-        out[p, 2] = a2 / count
-
-
-def consecutive_mean(values: np.ndarray, count: int) -> np.ndarray:
-    """(N, 3) float64 mean of each run of ``count`` consecutive rows of ``values``
-    (N * count, 3) float64, summed in row order: a pixel's samples, a camera sample's
-    gather rays. Deterministic, and equal bit for bit to numpy's
-    ``values.reshape(N, count, 3).mean(axis=1)`` (also summed in order), on all threads."""
-    out = np.empty((values.shape[0] // count, 3))
-    _consecutive_mean_kernel(values, count, out)
     return out
 
 
