@@ -1,5 +1,6 @@
 """What a render returns: the pass names (the keys of ``RenderOutput.passes``) and their
-names in Blender, ``RenderOutput``, and the callbacks every integrator takes.
+names in Blender, ``RenderOutput``, the callbacks every integrator takes, and
+``consecutive_mean``, the per-pixel (per-sample) mean of rows of samples (gather rays).
 
 PASSES lists the terms summed into "combined", in summation order (the seed lecture's
 split: emission, environment, direct, specular, caustics, indirect diffuse); LIGHT_PASSES
@@ -16,6 +17,9 @@ from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
+from numba import njit, prange
+
+from . import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
 
 
 PASSES = ("emission", "environment", "direct", "specular", "caustics", "indirect")
@@ -65,3 +69,29 @@ class RenderOutput:
     stats: dict = field(default_factory=dict)
     cancelled: bool = False
     photon_maps: UsedPhotonMaps | None = None
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def _consecutive_mean_kernel(values, count, out):
+    for p in prange(out.shape[0]):
+        a0 = 0.0
+        a1 = 0.0
+        a2 = 0.0
+        base = p * count
+        for s in range(count):
+            a0 += values[base + s, 0]
+            a1 += values[base + s, 1]
+            a2 += values[base + s, 2]
+        out[p, 0] = a0 / count
+        out[p, 1] = a1 / count
+        out[p, 2] = a2 / count
+
+
+def consecutive_mean(values: np.ndarray, count: int) -> np.ndarray:
+    """(N, 3) float64 mean of each run of ``count`` consecutive rows of ``values``
+    (N * count, 3) float64, summed in row order: a pixel's samples, a camera sample's
+    gather rays. Deterministic, and equal bit for bit to numpy's
+    ``values.reshape(N, count, 3).mean(axis=1)`` (also summed in order), on all threads."""
+    out = np.empty((values.shape[0] // count, 3))
+    _consecutive_mean_kernel(values, count, out)
+    return out

@@ -173,6 +173,12 @@ class PreparedScene:
         return used
 
 
+_BATCH_COLUMNS = {"kind": np.int32, "weight": np.float64, "params": np.float64,
+                  "texture": np.int32, "abbe": None}
+"""The closure columns of a ``HitShader`` batch's table and the dtype ``shade`` writes and
+``merge`` keeps them in (None: the prepared table's own)."""
+
+
 class HitShader:
     """The materials' shader programs at batches of hits (docs/shading.md, "At the hits").
 
@@ -617,9 +623,8 @@ class HitShader:
             out = np.empty((size,) + a.shape[1:], a.dtype if dtype is None else dtype)
             out[:a.shape[0]] = a
             return out
-        kind, weight = grown(tab.kind, total, np.int32), grown(tab.weight, total, np.float64)
-        params = grown(tab.params, total, np.float64)
-        texture, abbe = grown(tab.texture, total, np.int32), grown(tab.abbe, total)
+        kind, weight, params, texture, abbe = (grown(getattr(tab, f), total, dt)
+                                               for f, dt in _BATCH_COLUMNS.items())
         first, count = grown(tab.first, n_rows, np.int32), grown(tab.count, n_rows, np.int32)
         done = 0
         next_closure = n_cl
@@ -670,12 +675,11 @@ class HitShader:
         ``shade`` batch's table and the rows (int32) of the hits kept from it; the rows
         come back concatenated in that order. The prepared rows and closures stay first,
         as in every batch; each kept hit's programmed row follows, with copies of its
-        closures (as ``shade`` writes them: int32 kinds, float64 weights and parameters),
-        so every hit reads the closures its own batch gave it."""
+        closures (in ``shade``'s dtypes, ``_BATCH_COLUMNS``), so every hit reads the
+        closures its own batch gave it."""
         tab = self.table
         n_mat, n_cl = tab.first.shape[0], tab.kind.shape[0]
-        cols = {"kind": np.int32, "weight": np.float64, "params": np.float64,
-                "texture": np.int32, "abbe": tab.abbe.dtype}
+        cols = {f: getattr(tab, f).dtype if dt is None else dt for f, dt in _BATCH_COLUMNS.items()}
         parts = {f: [getattr(tab, f)] for f in cols}
         first, count, out = [tab.first], [tab.count], []
         next_row, next_closure = n_mat, n_cl

@@ -308,7 +308,25 @@ def uniform_triangle(u1, u2):
     return su * (1.0 - u2), su * u2
 
 
+@njit(cache=True, error_model="numpy")
+def pick(cdf, u):
+    """The index (int) a uniform u picks by the (K,) cumulative distribution cdf (float64,
+    non-decreasing, K >= 1): the first j with cdf[j] > u, so that j has probability
+    cdf[j] - cdf[j - 1] for u uniform in [0, cdf[-1]); the last one, K - 1, when rounding
+    puts u at or beyond cdf[-1]. ``pick_many`` is its vectorised form."""
+    j = np.searchsorted(cdf, u, side="right")
+    if j >= cdf.shape[0]:
+        j = cdf.shape[0] - 1
+    return j
+
+
 # --- vectorised wrappers, for tests and Python-level callers ------------------------------
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def _pick_kernel(cdf, u, out):
+    for i in prange(u.shape[0]):
+        out[i] = pick(cdf, u[i])
+
 
 @njit(cache=True, error_model="numpy")
 def _vec_cosine(u1, u2, out):
@@ -373,6 +391,14 @@ def sample_uniform_disk(u1, u2) -> np.ndarray:
     u1, u2 = _pair(u1, u2)
     out = np.empty((u1.shape[0], 2))
     _vec_disk(u1, u2, out)
+    return out
+
+
+def pick_many(cdf: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """``pick`` for each of the uniforms u (N,) float64: (N,) int64 indices into the (K,)
+    float64 cdf."""
+    out = np.empty(u.shape[0], np.int64)
+    _pick_kernel(cdf, u, out)
     return out
 
 

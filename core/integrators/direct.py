@@ -100,7 +100,7 @@ def _shade_kernel(pair_source, pair_q, pair_dim, pair_pick_dim, pair_k, pair_dif
                     tris_cdf, tris_prob, tris_v0, tris_e1, tris_e2, tris_n, tris_area,
                     tris_rad, px, py, pz, u0, u1, u2)
                 if ok and mis[i]:
-                    j = min(np.searchsorted(tris_cdf, u0, side="right"), tris_cdf.shape[0] - 1)
+                    j = sampling.pick(tris_cdf, u0)
                     pl = light_kernels.triangle_pdf(tris_prob, tris_area, j, wx, wy, wz,
                                                     tris_n[j, 0], tris_n[j, 1], tris_n[j, 2],
                                                     dist)

@@ -64,6 +64,7 @@ from .. import sampling
 from ..prepared import PreparedScene
 from ..scene import geometry
 from ..shading import light_path
+from ..passes import consecutive_mean
 from ..settings import RenderSettings
 from . import camera_paths, volume
 from ..media import regions
@@ -121,8 +122,7 @@ def _cache_points_kernel(tri_v, cdf, u0, u1, u2, pos, nrm, tri, bu, bv):
     """Points uniform over the area of the triangles (cdf over their areas); bu, bv: their
     barycentrics (Embree's u, v: weights of corners 1 and 2)."""
     for i in prange(u0.shape[0]):
-        t = np.searchsorted(cdf, u0[i] * cdf[-1], side="right")
-        t = min(t, cdf.shape[0] - 1)
+        t = sampling.pick(cdf, u0[i] * cdf[-1])
         b0, b1 = sampling.uniform_triangle(u1[i], u2[i])
         bu[i] = b0
         bv[i] = b1
@@ -239,32 +239,6 @@ def cached_radiance(terms: "PhotonTerms", points, normals, albedo) -> np.ndarray
                                          albedo[missing], terms.global_k, terms.global_radius,
                                          terms.filter)
         terms.stats["cache_misses"] = terms.stats.get("cache_misses", 0) + int(missing.size)
-    return out
-
-
-@njit(cache=True, parallel=True, error_model="numpy")
-def _consecutive_mean_kernel(values, count, out):
-    for p in prange(out.shape[0]):
-        a0 = 0.0
-        a1 = 0.0
-        a2 = 0.0
-        base = p * count
-        for s in range(count):
-            a0 += values[base + s, 0]
-            a1 += values[base + s, 1]
-            a2 += values[base + s, 2]
-        out[p, 0] = a0 / count
-        out[p, 1] = a1 / count
-        out[p, 2] = a2 / count
-
-
-def consecutive_mean(values: np.ndarray, count: int) -> np.ndarray:
-    """(N, 3) float64 mean of each run of ``count`` consecutive rows of ``values``
-    (N * count, 3) float64, summed in row order: a pixel's samples, a camera sample's
-    gather rays. Deterministic, and equal bit for bit to numpy's
-    ``values.reshape(N, count, 3).mean(axis=1)`` (also summed in order), on all threads."""
-    out = np.empty((values.shape[0] // count, 3))
-    _consecutive_mean_kernel(values, count, out)
     return out
 
 
@@ -454,7 +428,7 @@ def _through_medium(terms: PhotonTerms, o, d, hits, thr, radiance, rows) -> np.n
     """Final-gather segments through the scene's media: radiance[rows] += thr x the beam
     estimate of every volume photon along their homogeneous stretches (single scattering
     included, as the global map of final gathering holds direct photons) and the media's
-    emission along them; returns thr x their transmittance."""
+    emission along them; returns thr x their transmittance. thr (M, 3) or None (all 1)."""
     seg = np.where(hits.prim >= 0, hits.t.astype(np.float64), np.inf)
     st = terms.medium.stretches(o, d, seg)
     vmap = terms.volume_gather_map
@@ -464,15 +438,15 @@ def _through_medium(terms: PhotonTerms, o, d, hits, thr, radiance, rows) -> np.n
         s_o = np.asarray(o, np.float64)[ray] + st.t0[scat, None] * np.asarray(d, np.float64)[ray]
         est = volume.beam_estimate(vmap, s_o, np.asarray(d, np.float64)[ray], st.length[scat],
                                    st.sigma_t[scat], st.g[scat])
-        np.add.at(radiance, rows[ray], thr[ray] * st.before[scat] * est)
+        np.add.at(radiance, rows[ray], _times(thr, ray, st.before[scat]) * est)
     if terms.medium.emits:
         # No shadow ray samples an emissive medium: its direct light at the gathering
         # point is what the gather rays see of it (the global map holds the rest).
         glow = np.flatnonzero(np.any(st.emission > 0, axis=1))
         ray = st.ray[glow]
-        np.add.at(radiance, rows[ray], thr[ray] * st.before[glow] * regions.emitted(
+        np.add.at(radiance, rows[ray], _times(thr, ray, st.before[glow]) * regions.emitted(
             st.emission[glow], st.sigma_t[glow], st.length[glow]))
-    return thr * st.through
+    return _times(thr, None, st.through)
 
 
 def _follow_rough(prepared, seed, depth, bounce, ray_pixel, index, rs, hits, hs, pos, ngf, nsf, d,
@@ -540,6 +514,12 @@ def _take(a, idx):
     return idx if a is None else a[idx]
 
 
+def _times(thr, idx, x):
+    """_take(thr, idx) * x, x itself when thr is None: final gathering's throughput (M, 3)
+    while it is all 1 (1 * x is x bit for bit; no (M, 3) product on the common path)."""
+    return x if thr is None else _take(thr, idx) * x
+
+
 def _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sample,
                         depth, bsdf=None, lam=None) -> np.ndarray:
     t_start = time.perf_counter()
@@ -570,8 +550,7 @@ def _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sa
     rows = None if ok.all() else np.flatnonzero(ok)
     o, d = _take(o, rows), _take(d, rows)
     live = o.shape[0]
-    thr = np.ones((live, 3)) if bsdf is None else _take(weight, rows)
-    unit = bsdf is None  # thr is still all 1: the estimates need no product
+    thr = None if bsdf is None else _take(weight, rows)  # None: all 1 (_times)
     mats = prepared.materials
     # Each gather ray's wavelength (nm, 0 while RGB): its camera path's, else picked at its
     # first dispersive surface, as camera paths pick theirs (docs/dispersion.md).
@@ -588,10 +567,11 @@ def _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sa
         terms.stats["rays_gather"] += o.shape[0]
         if terms.medium is not None:
             thr = _through_medium(terms, o, d, hits, thr, radiance, ray_ids)
-            unit = False
         # Escaping rays and light sources count nothing (direct light holds them).
         hit = None if np.all(hits.prim >= 0) else np.flatnonzero(hits.prim >= 0)
-        rows, thr, d, lam = _take(rows, hit), _take(thr, hit), _take(d, hit), _take(lam, hit)
+        rows, d, lam = _take(rows, hit), _take(d, hit), _take(lam, hit)
+        if thr is not None:
+            thr = _take(thr, hit)
         prim, hu, hv = _take(hits.prim, hit), _take(hits.u, hit), _take(hits.v, hit)
         path = None
         if prepared.hit_shader.reads_light_path:  # a diffuse reflection from the camera
@@ -607,9 +587,8 @@ def _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sa
             u_lam = sampling.uniform(st.seed, _take(ray_pixel, rows), _take(index, rows),
                                      sampling.stream(sampling.CAMERA_WAVELENGTH, depth, bounce,
                                                      sampling.GATHER_LOBE))
-            thr = np.array(thr)
+            thr = np.ones((mat.shape[0], 3)) if thr is None else np.array(thr)
             camera_paths.pick_wavelengths(prepared.closures, mat, u_lam, lam, thr)
-            unit = False
         diffuse = prepared.has_diffuse[mat]
         diff = None if diffuse.all() else np.flatnonzero(diffuse)
         rough = prepared.sampled_only[mat] | prepared.glossy_on_diffuse[mat]
@@ -631,7 +610,7 @@ def _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sa
                               front[bd], tangent=tan, wavelength=lam[bd])
                 est = radiance_estimate(terms.global_map, p2[bd], n2[bd], None, terms.global_k,
                                         terms.global_radius, terms.filter, bsdf=hb)
-                radiance[_take(rows, bd)] += thr[bd] * est
+                radiance[_take(rows, bd)] += _times(thr, bd, est)
                 terms.stats["gather_queries"] += bd.size
                 md = _take(mat, diff)
         if md.size:
@@ -654,8 +633,7 @@ def _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sa
                 est = radiance_estimate(terms.global_map, p2d, n2d,
                                         albedo, terms.global_k,
                                         terms.global_radius, terms.filter)
-            if not unit:  # 1 * est is est: no (M, 3) product on the common path
-                est = _take(thr, diff) * est
+            est = _times(thr, diff, est)
             target = _take(rows, diff)
             if target is None:
                 radiance += est
@@ -673,6 +651,8 @@ def _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sa
         sr = np.flatnonzero(rough)
         if sd.size == 0 and sr.size == 0:
             break
+        if thr is None:
+            thr = np.ones((mat.shape[0], 3))
         dim = sampling.stream(sampling.GATHER_LOBE, depth, bounce)
         go = []
         if sd.size:
@@ -692,7 +672,6 @@ def _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sa
                                     _take(rows, sr), hits, _take(hit, sr), p2[sr], n2[sr],
                                     s2s[sr], d[sr], front[sr], mat[sr], e2[sr], thr[sr], lam[sr],
                                     tab, crow[sr]))
-        unit = False
         if len(go) == 1:
             rows, o, d, thr, lam = go[0]
         else:

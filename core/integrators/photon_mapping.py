@@ -60,7 +60,7 @@ import numpy as np
 from .. import sampling
 from ..materials import closure
 from ..passes import (LIGHT_PASSES, PASSES, VOLUME_PASSES, ProgressFn, RenderOutput, StopFn,
-                      TileFn, UsedPhotonMaps)
+                      TileFn, UsedPhotonMaps, consecutive_mean)
 from ..prepared import PreparedScene, prepare
 from ..scene import camera, geometry
 from ..shading import light_path
@@ -412,7 +412,7 @@ def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> dict[str, np.ndarray]:
     if features is not None:
         kept = {**kept, "denoising_albedo": features.albedo, "denoising_normal": features.normal}
     for name, per_sample in kept.items():
-        out[name] = gather.consecutive_mean(per_sample, s_count)
+        out[name] = consecutive_mean(per_sample, s_count)
     ctx.stats["time_shading"] += time.perf_counter() - t0
     return out
 

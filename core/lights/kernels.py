@@ -277,10 +277,7 @@ def sample_light(q, px, py, pz, u1, u2):
 @njit(cache=True, error_model="numpy")
 def sample_triangles(cdf, prob, v0, e1, e2, nrm, area, radiance, px, py, pz, u0, u1, u2):
     """Sample the emissive triangles (picked by cdf, uniform on the triangle) from p."""
-    k = cdf.shape[0]
-    j = np.searchsorted(cdf, u0, side="right")
-    if j >= k:
-        j = k - 1
+    j = sampling.pick(cdf, u0)
     b1, b2 = sampling.uniform_triangle(u1, u2)
     dx = v0[j, 0] + b1 * e1[j, 0] + b2 * e2[j, 0] - px
     dy = v0[j, 1] + b1 * e1[j, 1] + b2 * e2[j, 1] - py

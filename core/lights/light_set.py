@@ -29,6 +29,7 @@ import numpy as np
 from numba import njit, prange
 
 from .. import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
+from .. import sampling
 from . import kernels as lk
 from ..scene.contract import (AREA_ELLIPSE, LIGHT_AREA, LIGHT_POINT, LIGHT_SPOT, LIGHT_SUN, Lights, Materials, Mesh)
 
@@ -208,7 +209,7 @@ class EmissiveTriangles:
     def points(self, u0, u1, u2):
         """(j, b1, b2): the triangle (row) and barycentrics ``lk.sample_triangles`` and the
         photon emission pick with uniforms u0 (pick), u1, u2 (N,), vectorised."""
-        j = np.minimum(np.searchsorted(self.cdf, u0, side="right"), self.count - 1)
+        j = sampling.pick_many(self.cdf, u0)
         su = np.sqrt(u1)
         return j, su * (1.0 - u2), su * u2
 

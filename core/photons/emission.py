@@ -250,16 +250,6 @@ def allocate(weights: np.ndarray, total: int) -> np.ndarray:
 # --- kernels ------------------------------------------------------------------------------
 
 @njit(cache=True, error_model="numpy")
-def _pick(cdf, u):
-    """Index a uniform u in [0, 1) picks by the (K,) cdf (a target, a triangle): the last
-    one when rounding puts u beyond it."""
-    j = np.searchsorted(cdf, u, side="right")
-    if j >= cdf.shape[0]:
-        j = cdf.shape[0] - 1
-    return j
-
-
-@njit(cache=True, error_model="numpy")
 def _target_cone(px, py, pz, tx, ty, tz, r):
     """The cone a sphere (centre t, radius r, metres) subtends from the point p: v = t - p
     (metres, the cone's axis unnormalised), its length dn (metres) and 1 - cos(half
@@ -301,7 +291,7 @@ def _cone_pdf_mix(px, py, pz, dx, dy, dz, tc, tr, tp):
 @njit(cache=True, error_model="numpy")
 def _aim(px, py, pz, tc, tr, tcdf, u0, u1, u2):
     """Pick a target by its cdf and a direction uniform in the cone it subtends from p."""
-    j = _pick(tcdf, u0)
+    j = sampling.pick(tcdf, u0)
     vx, vy, vz, dn, omc = _target_cone(px, py, pz, tc[j, 0], tc[j, 1], tc[j, 2], tr[j])
     if omc >= 2.0:
         return sampling.uniform_sphere(u1, u2)
@@ -346,7 +336,7 @@ def _aim_line(q, tc, tr, tcdf, u0, u1, u2, u3, u4):
     c + h + t w)."""
     cx, cy, cz = q[lk.P_POS], q[lk.P_POS + 1], q[lk.P_POS + 2]
     radius = q[lk.P_RADIUS]
-    j = _pick(tcdf, u0)
+    j = sampling.pick(tcdf, u0)
     ax, ay, az, omc = _line_cone(cx, cy, cz, tc[j, 0], tc[j, 1], tc[j, 2], tr[j] + radius,
                                  q[lk.P_SPOT] > 0.0, 1.0 - q[lk.P_COS_HALF],
                                  q[lk.P_AZ], q[lk.P_AZ + 1], q[lk.P_AZ + 2])
@@ -504,7 +494,7 @@ def _emit_triangles(cdf, prob, v0, e1, e2, nrm, area, radiance, u0, u1, u2, u3, 
     towards: the triangle is geometry, and must not stop its own photons."""
     aimed = tr.shape[0] > 0
     for i in prange(o.shape[0]):
-        j = _pick(cdf, u5[i])
+        j = sampling.pick(cdf, u5[i])
         b1, b2 = sampling.uniform_triangle(u3[i], u4[i])
         px = v0[j, 0] + b1 * e1[j, 0] + b2 * e2[j, 0]
         py = v0[j, 1] + b1 * e1[j, 1] + b2 * e2[j, 1]
@@ -554,7 +544,7 @@ def _emit_sun(q, plane, u0, u1, u2, u3, u4, inv_n, tc, tr, tp, tcdf, o, d, f):
         else:
             dx, dy, dz = -azx, -azy, -azz
             w0, w1, w2 = q[lk.P_STRENGTH], q[lk.P_STRENGTH + 1], q[lk.P_STRENGTH + 2]
-        j = _pick(tcdf, u0[i])
+        j = sampling.pick(tcdf, u0[i])
         ex, ey, ez, _, _ = _disk_offset(u3[i], u4[i], dx, dy, dz, tr[j])
         yx, yy, yz = tc[j, 0] + ex, tc[j, 1] + ey, tc[j, 2] + ez
         pdf = 0.0

@@ -68,12 +68,21 @@ def fly_kernel(o, d, flux, pid, n_diff, n_spec, start, t0, t1, sigma_a, sigma_s,
     surface map of final gathering holds direct photons), with v_pos (N, 3) float32 metres,
     v_flux (N, 3) float32 W, v_dir (N, 3) float32 unit propagation direction; alive (N,)
     bool, a collided photon goes on from o_new along d_new (float32) with f_new (float64).
+    Every output row is written: those of a photon not stored (v_pos, v_flux, v_dir) or
+    not going on (o_new, d_new, f_new) are zeros, so callers may weigh or copy whole rows.
     """
     for i in prange(o.shape[0]):
         collided[i] = False
         v_store[i] = False
         v_camera[i] = mode == MODE_CAUSTIC
         alive[i] = False
+        for c in range(3):
+            v_pos[i, c] = 0.0
+            v_flux[i, c] = 0.0
+            v_dir[i, c] = 0.0
+            o_new[i, c] = 0.0
+            d_new[i, c] = 0.0
+            f_new[i, c] = 0.0
         scattered = False
         t, w0, w1, w2, gs = 0.0, 1.0, 1.0, 1.0, 0.0
         for k in range(start[i], start[i + 1]):

@@ -152,12 +152,11 @@ def _fly(medium: _Medium, hits, o, d, f, pid, n_diff, n_spec, seed, map_id, boun
         j, tr = _lead_transmittance(m, o, d, t_event, near, lead)
         passing = ~collided[j]
         f[j[passing]] *= tr[passing]
-        # A carried collision is stored, goes on, or both; the kernel leaves the other
-        # array's row unwritten (np.empty), so each is weighted only where it was written.
+        # a carried collision's stored and going-on flux (the kernel's rows of a photon
+        # not stored or not going on are zeros)
         c, tr_c = j[~passing], tr[~passing]
-        stored, going = v_store[c], alive[c]
-        v_flux[c[stored]] *= tr_c[stored].astype(np.float32)
-        f_new[c[going]] *= tr_c[going]
+        v_flux[c] *= tr_c.astype(np.float32)
+        f_new[c] *= tr_c
     medium.vstore.add(v_store, v_camera, v_pos, v_flux, v_dir, gathered)
     prim = np.where(collided, -1, hits.prim).astype(hits.prim.dtype)
     return prim, collided, alive, o_new, d_new, f_new

@@ -101,3 +101,17 @@ def test_orthonormal_basis(rng):
         np.testing.assert_allclose(np.sum(a * c, axis=1), 0, atol=1e-12)
     np.testing.assert_allclose(np.linalg.norm(t, axis=1), 1, rtol=1e-12)
     np.testing.assert_allclose(np.cross(t, b), n, atol=1e-12)  # right-handed
+
+
+def test_pick_follows_the_cdf_ties_and_the_end():
+    # zero-probability rows (ties in the cdf) are never picked; u at a step picks the next
+    # row; rounding past the last entry picks the last row, never K
+    cdf = np.array([0.25, 0.25, 0.75, 1.0])
+    u = np.array([0.0, 0.2499, 0.25, 0.5, 0.75, 0.999, 1.0, 1.5])
+    want = [0, 0, 2, 2, 3, 3, 3, 3]
+    np.testing.assert_array_equal(sampling.pick_many(cdf, u), want)
+    assert [sampling.pick(cdf, x) for x in u] == want
+    n = 200_000
+    j = sampling.pick_many(cdf, sampling.uniform(3, np.arange(n), np.zeros(n, np.int64), 0))
+    np.testing.assert_allclose(np.bincount(j, minlength=4) / n, [0.25, 0, 0.5, 0.25],
+                               atol=5 * np.sqrt(0.25 / n))
