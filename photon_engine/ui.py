@@ -50,6 +50,7 @@ class PHOTON_MAP_RENDER_PT_sampling(PhotonMapPanel, bpy.types.Panel):
         col.active = settings.integrator == 'photon_map'
         col = layout.column(align=True)
         col.prop(settings, "light_samples")  # both integrators' shadow rays
+        col.prop(settings, "volume_light_samples")
         layout.prop(settings, "seed")
 
 

@@ -55,6 +55,7 @@ class VolumeTerms:
     prepared: PreparedScene
     seed: int
     light_samples: int
+    """Single-scattering samples per light and camera sample (settings.volume_light_samples)."""
     sample_bits: int
     volume_map: VolumePhotonMap | None = None
     caustic_map: VolumePhotonMap | None = None
@@ -70,9 +71,9 @@ def prepare(settings: RenderSettings, prepared: PreparedScene, samples: int) -> 
     medium = prepared.medium
     if medium is None:
         return None
+    k = int(settings.volume_light_samples)
     return VolumeTerms(medium=medium, prepared=prepared, seed=int(settings.seed),
-                       light_samples=int(settings.light_samples),
-                       sample_bits=sampling.index_bits(int(samples) * int(settings.light_samples)))
+                       light_samples=k, sample_bits=sampling.index_bits(int(samples) * k))
 
 
 @njit(cache=True, parallel=True, error_model="numpy")

@@ -79,7 +79,7 @@ def test_translator_carries_every_value(pm):
 
     props = bpy.context.scene.photon_map
     props.samples, props.max_specular_depth, props.light_samples = 3, 5, 2
-    props.seed, props.threads = 77, 1
+    props.seed, props.threads, props.volume_light_samples = 77, 1, 9
     props.global_photons, props.caustic_photons, props.photon_max_bounces = 1234, 567, 3
     props.global_k, props.caustic_k, props.final_gather_rays = 11, 13, 17
     props.global_radius, props.caustic_radius = 0.25, 0.125
@@ -88,6 +88,7 @@ def test_translator_carries_every_value(pm):
     core = to_core_settings(props)
     assert (core.samples, core.max_specular_depth, core.light_samples, core.seed, core.threads) == (
         3, 5, 2, 77, 1)
+    assert core.volume_light_samples == 9
     assert (core.global_photons, core.caustic_photons, core.photon_max_bounces) == (1234, 567, 3)
     assert (core.global_k, core.caustic_k, core.final_gather_rays) == (11, 13, 17)
     assert (core.global_radius, core.caustic_radius) == (0.25, 0.125)
