@@ -60,13 +60,14 @@ class RenderSettings:
     """Random seed: the same settings and seed give the same image."""
     light_samples: int = 1
     """Shadow rays per light per camera sample at each diffuse hit."""
-    volume_light_samples: int = 16
+    volume_light_samples: int = 0
     """Single-scattering samples (an equiangular distance and a shadow ray) per light per
     camera sample along each stretch of a camera ray through a medium; per pass in
-    progressive mode. Only scenes with a medium read it. 16 by default: along a ray
-    through fog Volume Direct carries most of the image's variance while the camera
-    sample's cost is the beam estimate and the photon pass (docs/volumes.md, "Volume
-    light samples")."""
+    progressive mode. Only scenes with a medium read it. 0 = automatic
+    (core/integrators/volume.py ``volume_light_samples``): 16 where every medium is
+    homogeneous (along a ray through fog Volume Direct carries most of the image's variance,
+    and a sample costs little beside the beam estimate), 4 where a density varies (each
+    shadow ray is tracked through it); docs/volumes.md, "Volume light samples"."""
     threads: int = 0
     """Worker threads for ray tracing and shading; 0 = all cores."""
 
@@ -177,7 +178,7 @@ class RenderSettings:
             "max_specular_depth": (0, 1024),
             "seed": (0, 2**31 - 1),
             "light_samples": (1, 1024),
-            "volume_light_samples": (1, 1024),
+            "volume_light_samples": (0, 1024),
             "threads": (0, 1024),
             "global_photons": (0, 1 << 30),
             "caustic_photons": (0, 1 << 30),

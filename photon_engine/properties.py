@@ -168,9 +168,10 @@ class PhotonMapRenderSettings(bpy.types.PropertyGroup):
         description="Single-scattering samples per light for each camera sample along a ray "
                     "through fog or smoke (a distance on the ray and a shadow ray; in "
                     "progressive mode and the viewport: per pass). Only scenes with a volume "
-                    "read it; the fog's direct light is most of its noise, and these samples "
-                    "cost little beside the volume photons' estimate",
-        min=1, max=1024, soft_max=64, default=16,
+                    "read it. 0 = automatic: 16 in homogeneous media, where the fog's direct "
+                    "light is most of its noise and these samples cost little beside the "
+                    "volume photons' estimate; 4 where a density varies",
+        min=0, max=1024, soft_max=64, default=0,
     )
     seed: IntProperty(
         name="Seed",

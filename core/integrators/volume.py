@@ -64,6 +64,26 @@ class VolumeTerms:
     collisions too, as standard SPPM's photon direct light, core/integrators/sppm.py)."""
 
 
+AUTO_SAMPLES_HOMOGENEOUS = 16
+"""Automatic volume light samples where every medium is homogeneous: measured best per
+second on World fog and a fog cube (Volume Direct's noise 3-7x lower at 0-7 % more time,
+docs/volumes.md "Volume light samples")."""
+AUTO_SAMPLES_VARYING = 4
+"""Automatic volume light samples where a density varies: each shadow ray is tracked
+through the density, so 16 samples tripled the camera pass of a Noise-density cube for
+1.3x less noise; 4 were level with 1 per second there."""
+
+
+def volume_light_samples(settings: RenderSettings, medium: regions.Medium) -> int:
+    """Single-scattering samples per light and camera sample: settings.volume_light_samples,
+    or for 0 (automatic) AUTO_SAMPLES_HOMOGENEOUS / AUTO_SAMPLES_VARYING by whether any of
+    the scene's media has a varying density."""
+    k = int(settings.volume_light_samples)
+    if k:
+        return k
+    return AUTO_SAMPLES_VARYING if medium.heterogeneous else AUTO_SAMPLES_HOMOGENEOUS
+
+
 def prepare(settings: RenderSettings, prepared: PreparedScene, samples: int) -> VolumeTerms | None:
     """The volume terms of a render, or None when the scene has no medium to integrate
     (then every image is exactly as without media). Raises SceneError for a medium the
@@ -71,7 +91,7 @@ def prepare(settings: RenderSettings, prepared: PreparedScene, samples: int) -> 
     medium = prepared.medium
     if medium is None:
         return None
-    k = int(settings.volume_light_samples)
+    k = volume_light_samples(settings, medium)
     return VolumeTerms(medium=medium, prepared=prepared, seed=int(settings.seed),
                        light_samples=k, sample_bits=sampling.index_bits(int(samples) * k))
 

@@ -7,7 +7,7 @@ import pytest
 from scipy.integrate import trapezoid
 
 from core import sampling
-from core.integrators import photon_mapping
+from core.integrators import photon_mapping, volume
 from core.lights import kernels as light_kernels
 from core.lights.light_set import LightSet, sample_direct
 from core.media import regions
@@ -148,14 +148,18 @@ def test_volume_light_samples_divide_single_scatterings_variance():
     scene, ref = _escaping_fog(4)
     want = ref.reshape(64, 4, 3).mean(axis=1).reshape(8, 8, 3)
     errors = {}
-    for k in (1, 16):
+    images = {}
+    for k in (1, 16, 0):
         st = RenderSettings(samples=4, volume_light_samples=k, caustics=False,
                             indirect_mode="off", threads=2)
-        vd = photon_mapping.render(scene, st).passes["volume_direct"].astype(np.float64)
-        errors[k] = float(np.mean((vd / want - 1.0) ** 2))
+        images[k] = photon_mapping.render(scene, st).passes["volume_direct"]
+        errors[k] = float(np.mean((images[k].astype(np.float64) / want - 1.0) ** 2))
     print(f"\nVolume Direct per-pixel relative squared error: 1 sample {errors[1]:.3g}, "
           f"16 samples {errors[16]:.3g}")
     assert errors[16] < errors[1] / 4.0, errors
+    # 0, automatic: a homogeneous fog takes AUTO_SAMPLES_HOMOGENEOUS = 16
+    assert volume.AUTO_SAMPLES_HOMOGENEOUS == 16
+    assert np.array_equal(images[0], images[16])
     lights = Lights.from_list([{"kind": LIGHT_POINT, "position": [0.2, -0.1, 1.0],
                                 "power": 100.0}])
     clear = _floor_scene({"diffuse": [0.8, 0.8, 0.8]}, lights)

@@ -9,7 +9,7 @@ import pytest
 from scipy import stats
 
 from core import prepared as prepared_mod
-from core.integrators import photon_mapping
+from core.integrators import photon_mapping, volume
 from core.media import tracking
 from core.media.density import measure_majorant, principled_volume_coefficients
 from core.scene import shapes
@@ -200,6 +200,24 @@ def test_a_programs_density_gives_the_transmittance_of_its_optical_depth():
         mean, se = T.mean(axis=0), T.std(axis=0) / np.sqrt(n)
         assert np.all(np.abs(mean - exact) < np.minimum(4 * se + 1e-9, 2e-3)), (mean, exact)
     prep.close()
+
+
+def test_automatic_volume_light_samples_follow_the_density():
+    """Volume Light Samples 0 (automatic): AUTO_SAMPLES_VARYING (4) when a medium's density
+    varies (its shadow rays are tracked), AUTO_SAMPLES_HOMOGENEOUS (16) for the same box of
+    constant density; a hand-set count is taken as it is."""
+    assert (volume.AUTO_SAMPLES_VARYING, volume.AUTO_SAMPLES_HOMOGENEOUS) == (4, 16)
+    varying = _scene(_ramp_box(sigma_s=(0.5, 0.5, 0.5)))
+    constant = dataclasses.replace(varying, media=dataclasses.replace(
+        varying.media, density_texture=np.full_like(varying.media.density_texture, -1)))
+    for scene, want in ((varying, 4), (constant, 16)):
+        prep = prepared_mod.prepare(scene, 1)
+        try:
+            assert volume.prepare(RenderSettings(), prep, 4).light_samples == want
+            st = RenderSettings(volume_light_samples=7)
+            assert volume.prepare(st, prep, 4).light_samples == 7
+        finally:
+            prep.close()
 
 
 def test_the_majorant_bounds_a_smooth_field_and_clipping_is_reported():
