@@ -16,26 +16,24 @@ from tests.blender import cycles_reference as ref  # noqa: E402
 # through Blender, its passes summed) is tests/blender/test_media.py in the default suite.
 pytestmark = [pytest.mark.blender, pytest.mark.slow]
 
-def _render(name):
-    return media.render_photon_map(media.SCENES[name](), **SPOT_SETTINGS)
-
-
 def _figures(name, passes):
     return media.figures(name, passes, media.load_reference(name))
 
 
 SPOT_SETTINGS = dict(global_photons=400_000)
-"""fog_spot's overrides of PHOTON_MAP_SETTINGS. With Volume Light Samples 16 (the default
-since 2026-12-05) the cone apex's Volume Direct noise is gone, and what is left in the worst
-8 x 8 block is the volume photons' noise at 100k global photons: worst block 12.5 / 10.0 %
-(seeds 1 / 2; seed 1's bottom-left floor block); at 400k 4.6 / 6.0 / 5.2 / 6.3 % (seeds
-1-4; channel means -0.62 / -0.40 / -0.81 / -0.22 %), a 6 s render. Before, with one volume light sample, 12.5 / 8.4 % at 100k and
-still 10.0 / 8.7 % at 64 spp and 1M global photons (the apex pair, docs/volumes.md)."""
+"""fog_spot's overrides of PHOTON_MAP_SETTINGS. With 16 volume light samples (what the
+automatic Volume Light Samples picks in this homogeneous fog since 2026-12-05) the cone
+apex's Volume Direct noise is gone, and what is left in the worst 8 x 8 block is the
+volume photons' noise at 100k global photons: worst block 12.5 / 10.0 % (seeds 1 / 2;
+seed 1's bottom-left floor block); at 400k 4.6 / 6.0 / 5.2 / 6.3 % (seeds 1-4; channel
+means -0.62 / -0.40 / -0.81 / -0.22 %), a 6 s render. Before, with one volume light
+sample, 12.5 / 8.4 % at 100k and still 10.0 / 8.7 % at 64 spp and 1M global photons (the
+apex pair, docs/volumes.md)."""
 
 
 @pytest.fixture(scope="module")
 def fog_spot():
-    return _render("fog_spot")
+    return media.render_photon_map(media.SCENES["fog_spot"](), **SPOT_SETTINGS)
 
 
 def test_spot_lit_fog_channel_means_match_cycles(fog_spot):

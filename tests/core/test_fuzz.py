@@ -265,8 +265,8 @@ def test_corrupted_scenes_are_refused_naming_the_field(case):
 SETTINGS_BAD = st.one_of(
     st.tuples(st.sampled_from(["samples", "global_photons", "caustic_photons", "global_k",
                                "caustic_k", "photon_max_bounces", "final_gather_rays",
-                               "max_specular_depth", "seed", "light_samples", "volume_light_samples",
-                               "threads"]),
+                               "max_specular_depth", "seed", "light_samples",
+                               "volume_light_samples", "threads"]),
               st.one_of(st.integers(-2**40, -1), st.integers(2**31, 2**62), st.floats(),
                         st.booleans(), st.text(max_size=3))),
     st.tuples(st.sampled_from(["global_radius", "caustic_radius", "overlay_dot_radius"]),
