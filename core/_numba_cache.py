@@ -32,14 +32,15 @@ _CORE_DIR = os.path.dirname(os.path.abspath(__file__))
 
 
 def core_sources() -> list[str]:
-    """Every core source file (core/*.py and the subpackages' files), relative to core/
-    with "/" separators, sorted."""
+    """Every core source file (core/*.py and the subpackages' files) and every data file
+    kernels freeze into their code as constants (*.npz: materials/albedo_tables.npz),
+    relative to core/ with "/" separators, sorted."""
     found = []
     for folder, dirs, files in os.walk(_CORE_DIR):
         dirs[:] = sorted(d for d in dirs if d != "__pycache__")
         rel = os.path.relpath(folder, _CORE_DIR)
         for name in files:
-            if name.endswith(".py"):
+            if name.endswith((".py", ".npz")):
                 found.append(name if rel == "." else f"{rel}/{name}".replace(os.sep, "/"))
     return sorted(found)
 

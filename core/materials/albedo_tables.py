@@ -16,6 +16,12 @@ The tables (``albedo_tables.npz`` beside this file, float64) are Monte Carlo est
 - ``sheen`` (3, 32 roughness, 32 mu): Cycles' fitted LTC (a, b, albedo) of the Microfiber
   sheen (copied from Cycles' scene/shader.tables: the fit cannot be re-derived here).
 
+The kernels read them as module constants (``GGX_E`` ... ``SHEEN``, loaded at import):
+numba freezes a global array into the compiled code, so they cost no reference counting
+per call, where the same arrays carried in ``closure.ClosureTable`` were increfed and
+decrefed at every lobe-building call (issue 13: a third of building a hit's lobes). The
+numba cache's digest covers this file's data (core/_numba_cache.py).
+
 Every axis is sampled at i / (n - 1) and read with linear interpolation, clamped, as
 Cycles' lookup_table_read does.
 
@@ -44,6 +50,11 @@ def load(path: str = PATH) -> dict[str, np.ndarray]:
         raise FileNotFoundError(f"{path} is missing: run tools/albedo_tables.py")
     with np.load(path) as z:
         return {k: np.ascontiguousarray(z[k], np.float64) for k in NAMES}
+
+
+GGX_E, GGX_EAVG, GLASS_E, GLASS_EAVG, SCHLICK_S, SCHLICK5_S, SHEEN = (
+    load()[k] for k in NAMES)
+"""The tables, frozen into the kernels that read them (module docstring)."""
 
 
 @njit(cache=True, error_model="numpy")

@@ -85,8 +85,8 @@ class ClosureTable(NamedTuple):
 
     kind: (C,) int32 CLOSURE_*; weight: (C, 3) float64; params: (C, PARAM_COUNT) float64;
     texture: (C,) int32 (-1 none); first, count: (M,) int32 closures of material m.
-    The albedo look-up tables (float64, shapes in albedo_tables.py): ggx_E, ggx_Eavg,
-    glass_E, glass_Eavg, schlick_s, schlick5_s, sheen.
+    (The albedo look-up tables are albedo_tables.py's module constants, not fields: every
+    array here is reference-counted at each call that takes the table.)
     abbe: (C,) float64, the Abbe number of each closure's material (``Materials.abbe``;
     0 = no dispersion): the transmission lobes' IOR at a path's wavelength.
     """
@@ -96,25 +96,12 @@ class ClosureTable(NamedTuple):
     texture: np.ndarray
     first: np.ndarray
     count: np.ndarray
-    ggx_E: np.ndarray
-    ggx_Eavg: np.ndarray
-    glass_E: np.ndarray
-    glass_Eavg: np.ndarray
-    schlick_s: np.ndarray
-    schlick5_s: np.ndarray
-    sheen: np.ndarray
     abbe: np.ndarray
-
-
-_TABLES = None
 
 
 def table(materials) -> ClosureTable:
     """The ``ClosureTable`` of a ``core.scene.contract.Materials`` (stored or derived
     closures, ``Materials.closure_table()``), float64 / int32 contiguous copies."""
-    global _TABLES
-    if _TABLES is None:
-        _TABLES = albedo_tables.load()
     t = materials.closure_table()
     abbe = np.zeros(t["kind"].shape[0])
     for m, v in enumerate(materials.abbe()):
@@ -126,8 +113,7 @@ def table(materials) -> ClosureTable:
         texture=np.ascontiguousarray(t["texture"], np.int32),
         first=np.ascontiguousarray(t["first"], np.int32),
         count=np.ascontiguousarray(t["count"], np.int32),
-        abbe=abbe,
-        **{k: _TABLES[k] for k in albedo_tables.NAMES})
+        abbe=abbe)
 
 
 # --- the lobe list of one hit ------------------------------------------------------------------
@@ -188,14 +174,16 @@ def _row(L, n, kind, w0, w1, w2, sw):
 
 
 @njit(cache=True, error_model="numpy")
-def _compensate(tab, L, k, rough, mu, glass, eta, f0, f1, f2):
+def _compensate(L, k, rough, mu, glass, eta, f0, f1, f2):
     """Multiscatter GGX on lobe k: weight *= 1 + Fms (1 - E) / E per channel (Fss = f*), the
     sample weight by the mean "darkening" (Cycles' microfacet_ggx_preserve_energy). Returns
     the darkening (RGB) that Cycles folds into the lobe's weight (its albedo for layering)."""
     if glass:
-        e, e_avg = albedo_tables.glass_e(tab.glass_E, tab.glass_Eavg, rough, mu, eta)
+        e, e_avg = albedo_tables.glass_e(albedo_tables.GLASS_E, albedo_tables.GLASS_EAVG,
+                                         rough, mu, eta)
     else:
-        e, e_avg = albedo_tables.reflect_e(tab.ggx_E, tab.ggx_Eavg, rough, mu)
+        e, e_avg = albedo_tables.reflect_e(albedo_tables.GGX_E, albedo_tables.GGX_EAVG,
+                                           rough, mu)
     e = max(e, 1e-4)
     scale = 1.0 / e
     m0 = albedo_tables.compensation(e, e_avg, f0)
@@ -216,7 +204,7 @@ def _rough_of(ax, ay):
 
 
 @njit(cache=True, error_model="numpy")
-def _ggx_lobe(tab, L, n, w0, w1, w2, ax, ay, rc, rs, mode, p, q, eta, mu, multi, fss,
+def _ggx_lobe(L, n, w0, w1, w2, ax, ay, rc, rs, mode, p, q, eta, mu, multi, fss,
               beck=False):
     """Append a GGX (``beck``: Beckmann) reflection lobe with Fresnel ``mode`` (params p, q:
     3-tuples) and its sample weight mean(w) * mean(Fresnel albedo estimate); multiscatter
@@ -233,10 +221,11 @@ def _ggx_lobe(tab, L, n, w0, w1, w2, ax, ay, rc, rs, mode, p, q, eta, mu, multi,
     rough = _rough_of(ax, ay)
     # Fresnel albedo estimate at wo (bsdf_microfacet_estimate_albedo)
     if mode == FR_SCHLICK or mode == FR_DIELECTRIC:
-        s = albedo_tables.read_3d(tab.schlick_s, rough, mu, albedo_tables.ior_z(eta))
+        s = albedo_tables.read_3d(albedo_tables.SCHLICK_S, rough, mu,
+                                  albedo_tables.ior_z(eta))
         e0, e1, e2 = p[0] + (1.0 - p[0]) * s, p[1] + (1.0 - p[1]) * s, p[2] + (1.0 - p[2]) * s
     elif mode == FR_F82:
-        s = albedo_tables.read_2d(tab.schlick5_s, rough, mu)
+        s = albedo_tables.read_2d(albedo_tables.SCHLICK5_S, rough, mu)
         e0, e1, e2 = p[0] + (1.0 - p[0]) * s, p[1] + (1.0 - p[1]) * s, p[2] + (1.0 - p[2]) * s
     elif mode == FR_CONDUCTOR:
         e0 = fresnel.conductor(mu, p[0], q[0])
@@ -248,14 +237,14 @@ def _ggx_lobe(tab, L, n, w0, w1, w2, ax, ay, rc, rs, mode, p, q, eta, mu, multi,
     L[k, EST] = 1.0
     d0 = d1 = d2 = 1.0
     if multi:
-        d0, d1, d2 = _compensate(tab, L, k, rough, mu, False, 1.0, fss[0], fss[1], fss[2])
+        d0, d1, d2 = _compensate(L, k, rough, mu, False, 1.0, fss[0], fss[1], fss[2])
     else:
-        L[k, EST] = albedo_tables.read_2d(tab.ggx_E, rough, mu)
+        L[k, EST] = albedo_tables.read_2d(albedo_tables.GGX_E, rough, mu)
     return n, (e0, e1, e2), (d0, d1, d2)
 
 
 @njit(cache=True, error_model="numpy")
-def _glass_lobe(tab, L, n, w0, w1, w2, alpha, eta, refract_only, f0, rt, tt, mu, multi,
+def _glass_lobe(L, n, w0, w1, w2, alpha, eta, refract_only, f0, rt, tt, mu, multi,
                 beck=False):
     """Append a rough dielectric lobe (f0, rt, tt: 3-tuples), GGX or (``beck``) Beckmann.
     Returns n + 1."""
@@ -273,7 +262,7 @@ def _glass_lobe(tab, L, n, w0, w1, w2, alpha, eta, refract_only, f0, rt, tt, mu,
     if refract_only:
         L[k, EST] = 1.0
         return n
-    s = albedo_tables.read_3d(tab.schlick_s, rough, mu, albedo_tables.ior_z(eta))
+    s = albedo_tables.read_3d(albedo_tables.SCHLICK_S, rough, mu, albedo_tables.ior_z(eta))
     est = 0.0
     for j in range(3):
         fj = f0[j] + (1.0 - f0[j]) * s
@@ -281,7 +270,7 @@ def _glass_lobe(tab, L, n, w0, w1, w2, alpha, eta, refract_only, f0, rt, tt, mu,
     L[k, SW] *= est
     L[k, EST] = est
     if multi:
-        _compensate(tab, L, k, rough, mu, True, eta, tt[0], tt[1], tt[2])
+        _compensate(L, k, rough, mu, True, eta, tt[0], tt[1], tt[2])
     return n
 
 
@@ -300,12 +289,12 @@ def _layer(a0, a1, a2, v0, v1, v2):
 
 
 @njit(cache=True, error_model="numpy")
-def _sheen_lobe(tab, L, n, w0, w1, w2, roughness, mu, wox, woy):
+def _sheen_lobe(L, n, w0, w1, w2, roughness, mu, wox, woy):
     """Append a sheen lobe (weight w times the LTC's albedo); returns (n', albedo factor)."""
     r = min(max(roughness, 1e-3), 1.0)
-    a = albedo_tables.read_2d(tab.sheen[0], mu, r)
-    b = albedo_tables.read_2d(tab.sheen[1], mu, r)
-    alb = albedo_tables.read_2d(tab.sheen[2], mu, r)
+    a = albedo_tables.read_2d(albedo_tables.SHEEN[0], mu, r)
+    b = albedo_tables.read_2d(albedo_tables.SHEEN[1], mu, r)
+    alb = albedo_tables.read_2d(albedo_tables.SHEEN[2], mu, r)
     if abs(a) < 1e-5 or alb < 1e-5:
         return n, 0.0
     k = n
@@ -334,7 +323,7 @@ def _diffuse(L, n, w0, w1, w2, sigma, r0, r1, r2):
 
 
 @njit(cache=True, error_model="numpy")
-def _principled(tab, L, n, W0, W1, W2, p, b0, b1, b2, wox, woy, woz, entering, abbe, lam,
+def _principled(L, n, W0, W1, W2, p, b0, b1, b2, wox, woy, woz, entering, abbe, lam,
                 cnx=0.0, cny=0.0, cnz=0.0):
     """Principled BSDF v2 (svm_node_closure_bsdf, CLOSURE_BSDF_PRINCIPLED_ID); abbe, lam:
     the transmission's dispersion at the path's wavelength (``transmission_ior``); cn: the
@@ -373,7 +362,7 @@ def _principled(tab, L, n, W0, W1, W2, p, b0, b1, b2, wox, woy, woz, entering, a
             snx, sny, snz = snx / ln, sny / ln, snz / ln
             sox, soy, soz = _into_frame(snx, sny, snz, wox, woy, woz)
             mu_s = min(soz, 1.0)
-        n, alb = _sheen_lobe(tab, L, n, s0, s1, s2, min(max(p[cl.SHEEN_ROUGHNESS], 0.0), 1.0),
+        n, alb = _sheen_lobe(L, n, s0, s1, s2, min(max(p[cl.SHEEN_ROUGHNESS], 0.0), 1.0),
                              mu_s, sox, soy)
         if tilted and n > k:
             L[k, OWN] = 1.0
@@ -388,7 +377,7 @@ def _principled(tab, L, n, W0, W1, W2, p, b0, b1, b2, wox, woy, woz, entering, a
         f0c = fresnel.f0_from_ior(cior)
         fss = fresnel.dielectric_fss(cior)
         k = n
-        n, est, dk = _ggx_lobe(tab, L, n, coat_w * W0, coat_w * W1, coat_w * W2, ca, ca,
+        n, est, dk = _ggx_lobe(L, n, coat_w * W0, coat_w * W1, coat_w * W2, ca, ca,
                                1.0, 0.0, FR_DIELECTRIC, (f0c, f0c, f0c), (0.0, 0.0, 0.0),
                                cior, mu_c, True, (fss, fss, fss))
         if own:
@@ -427,7 +416,7 @@ def _principled(tab, L, n, W0, W1, W2, p, b0, b1, b2, wox, woy, woz, entering, a
              fresnel.f82_b(cb2, min(st2, 1.0)))
         fss = (fresnel.f82_fss(cb0, q[0]), fresnel.f82_fss(cb1, q[1]),
                fresnel.f82_fss(cb2, q[2]))
-        n, _, _ = _ggx_lobe(tab, L, n, metallic * W0, metallic * W1, metallic * W2, ax, ay,
+        n, _, _ = _ggx_lobe(L, n, metallic * W0, metallic * W1, metallic * W2, ax, ay,
                             rc, rs, FR_F82, (cb0, cb1, cb2), q, 1.0, mu, multi, fss)
         W0 *= 1.0 - metallic
         W1 *= 1.0 - metallic
@@ -437,13 +426,13 @@ def _principled(tab, L, n, W0, W1, W2, p, b0, b1, b2, wox, woy, woz, entering, a
     tw = min(max(p[cl.TRANSMISSION], 0.0), 1.0)
     if tw > CUTOFF:
         if thin:
-            n = _thin_glass(tab, L, n, tw * W0, tw * W1, tw * W2, rough * rough, ior,
+            n = _thin_glass(L, n, tw * W0, tw * W1, tw * W2, rough * rough, ior,
                             (st0, st1, st2), (cb0, cb1, cb2), mu)
         else:
             tior = transmission_ior(ior, abbe, lam)
             eta = tior if entering else 1.0 / tior
             f0 = fresnel.f0_from_ior(tior)
-            n = _glass_lobe(tab, L, n, tw * W0, tw * W1, tw * W2, rough * rough, eta, False,
+            n = _glass_lobe(L, n, tw * W0, tw * W1, tw * W2, rough * rough, eta, False,
                             (min(f0 * st0, 1.0), min(f0 * st1, 1.0), min(f0 * st2, 1.0)),
                             (1.0, 1.0, 1.0), (np.sqrt(cb0), np.sqrt(cb1), np.sqrt(cb2)), mu,
                             multi)
@@ -465,7 +454,7 @@ def _principled(tab, L, n, W0, W1, W2, p, b0, b1, b2, wox, woy, woz, entering, a
         s = (fresnel.dielectric_fss(eta) - f0r) / (1.0 - f0r) if f0r < 1.0 else 1.0
         s = min(max(s, 0.0), 1.0)
         fss = (f00 + (1.0 - f00) * s, f01 + (1.0 - f01) * s, f02 + (1.0 - f02) * s)
-        n, est, dk = _ggx_lobe(tab, L, n, W0, W1, W2, ax, ay, rc, rs, FR_SCHLICK,
+        n, est, dk = _ggx_lobe(L, n, W0, W1, W2, ax, ay, rc, rs, FR_SCHLICK,
                                (f00, f01, f02), (0.0, 0.0, 0.0), eta, mu, multi, fss)
         W0, W1, W2 = _layer(W0 * dk[0] * est[0], W1 * dk[1] * est[1], W2 * dk[2] * est[2],
                             W0, W1, W2)
@@ -489,7 +478,7 @@ def _principled(tab, L, n, W0, W1, W2, p, b0, b1, b2, wox, woy, woz, entering, a
 
 
 @njit(cache=True, error_model="numpy")
-def _thin_glass(tab, L, n, w0, w1, w2, alpha, ior, rtint, ttint, mu):
+def _thin_glass(L, n, w0, w1, w2, alpha, ior, rtint, ttint, mu):
     """Thin Wall transmission (Blender 5.2, bsdf_thin_glass_setup): a glossy reflection and a
     straight-through transmission (GGX about -n of the mirrored wo, roughened for the two
     refractions), weighted by the sheet's reflectance and transmittance summed over its
@@ -509,7 +498,7 @@ def _thin_glass(tab, L, n, w0, w1, w2, alpha, ior, rtint, ttint, mu):
     rough = np.sqrt(alpha)
     if R[0] > 0.0 or R[1] > 0.0 or R[2] > 0.0:
         k = n
-        n, _, _ = _ggx_lobe(tab, L, n, R[0] * w0, R[1] * w1, R[2] * w2, alpha, alpha, 1.0, 0.0,
+        n, _, _ = _ggx_lobe(L, n, R[0] * w0, R[1] * w1, R[2] * w2, alpha, alpha, 1.0, 0.0,
                             FR_NONE, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 1.0, mu, True, rtint)
     if Tt[0] > 0.0 or Tt[1] > 0.0 or Tt[2] > 0.0:
         at = min(max(alpha * np.sqrt(3.4 * (ior - 1.0) * (ior - 0.5) ** 2 / (ior ** 3))
@@ -520,7 +509,7 @@ def _thin_glass(tab, L, n, w0, w1, w2, alpha, ior, rtint, ttint, mu):
         L[k, AX] = at
         L[k, AY] = at
         if not microfacet.is_singular(at, at):
-            _compensate(tab, L, k, np.sqrt(at), mu, False, 1.0, 1.0, 1.0, 1.0)
+            _compensate(L, k, np.sqrt(at), mu, False, 1.0, 1.0, 1.0, 1.0)
     return n
 
 
@@ -563,7 +552,7 @@ def _lobes(tab, m, c0, c1, c2, wox, woy, woz, entering, lam=0.0, ux=1.0, uy=0.0,
                     cnx, cny, cnz = cnx / ln, cny / ln, cnz / ln
                 else:
                     cnx = cny = cnz = 0.0
-            n = _principled(tab, L, n, W0, W1, W2, p, b0, b1, b2, wox, woy, woz, entering,
+            n = _principled(L, n, W0, W1, W2, p, b0, b1, b2, wox, woy, woz, entering,
                             tab.abbe[c], lam, cnx, cny, cnz)
         elif kind == cl.CLOSURE_DIFFUSE:
             n = _diffuse(L, n, W0 * col0, W1 * col1, W2 * col2, rough,
@@ -572,7 +561,7 @@ def _lobes(tab, m, c0, c1, c2, wox, woy, woz, entering, lam=0.0, ux=1.0, uy=0.0,
             n = _row(L, n, L_TRANSLUCENT, W0 * col0, W1 * col1, W2 * col2,
                      _mean3(W0 * col0, W1 * col1, W2 * col2))
         elif kind == cl.CLOSURE_SHEEN:
-            n, _ = _sheen_lobe(tab, L, n, W0 * col0, W1 * col1, W2 * col2, rough, mu, wox, woy)
+            n, _ = _sheen_lobe(L, n, W0 * col0, W1 * col1, W2 * col2, rough, mu, wox, woy)
         elif kind == cl.CLOSURE_GLOSSY:
             a = rough * rough
             an = min(max(p[cl.ANISOTROPIC], -0.99), 0.99)
@@ -584,7 +573,7 @@ def _lobes(tab, m, c0, c1, c2, wox, woy, woz, entering, lam=0.0, ux=1.0, uy=0.0,
                 else:
                     ax, ay = a * (1.0 - an), a / (1.0 - an)
                 rc, rs = _aniso_rotation(p[cl.ANISOTROPIC_ROTATION])
-            n, _, _ = _ggx_lobe(tab, L, n, W0 * col0, W1 * col1, W2 * col2, ax, ay, rc, rs,
+            n, _, _ = _ggx_lobe(L, n, W0 * col0, W1 * col1, W2 * col2, ax, ay, rc, rs,
                                 FR_NONE, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 1.0, mu, multi,
                                 (col0, col1, col2), beck)
         elif kind == cl.CLOSURE_METALLIC:
@@ -603,7 +592,7 @@ def _lobes(tab, m, c0, c1, c2, wox, woy, woz, entering, lam=0.0, ux=1.0, uy=0.0,
                       max(p[cl.METAL_K + 2], 0.0))
                 fss = (fresnel.conductor_fss(nn[0], kk[0]), fresnel.conductor_fss(nn[1], kk[1]),
                        fresnel.conductor_fss(nn[2], kk[2]))
-                n, _, _ = _ggx_lobe(tab, L, n, W0, W1, W2, ax, ay, rc, rs, FR_CONDUCTOR, nn,
+                n, _, _ = _ggx_lobe(L, n, W0, W1, W2, ax, ay, rc, rs, FR_CONDUCTOR, nn,
                                     kk, 1.0, mu, multi, fss, beck)
             else:
                 f0 = (min(col0, 1.0), min(col1, 1.0), min(col2, 1.0))
@@ -614,18 +603,18 @@ def _lobes(tab, m, c0, c1, c2, wox, woy, woz, entering, lam=0.0, ux=1.0, uy=0.0,
                      fresnel.f82_b(f0[2], tint[2]))
                 fss = (fresnel.f82_fss(f0[0], q[0]), fresnel.f82_fss(f0[1], q[1]),
                        fresnel.f82_fss(f0[2], q[2]))
-                n, _, _ = _ggx_lobe(tab, L, n, W0, W1, W2, ax, ay, rc, rs, FR_F82, f0, q, 1.0,
+                n, _, _ = _ggx_lobe(L, n, W0, W1, W2, ax, ay, rc, rs, FR_F82, f0, q, 1.0,
                                     mu, multi, fss, beck)
         elif kind == cl.CLOSURE_GLASS or kind == cl.CLOSURE_REFRACTION:
             ior = transmission_ior(max(p[cl.IOR], 1e-5), tab.abbe[c], lam)
             eta = ior if entering else 1.0 / ior
             if kind == cl.CLOSURE_GLASS:
                 f0 = fresnel.f0_from_ior(ior)
-                n = _glass_lobe(tab, L, n, W0, W1, W2, rough * rough, eta, False,
+                n = _glass_lobe(L, n, W0, W1, W2, rough * rough, eta, False,
                                 (f0, f0, f0), (col0, col1, col2), (col0, col1, col2), mu,
                                 multi, beck)
             else:
-                n = _glass_lobe(tab, L, n, W0 * col0, W1 * col1, W2 * col2, rough * rough,
+                n = _glass_lobe(L, n, W0 * col0, W1 * col1, W2 * col2, rough * rough,
                                 eta, True, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (1.0, 1.0, 1.0),
                                 mu, False, beck)
     return L[:n]

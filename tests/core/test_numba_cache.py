@@ -14,15 +14,19 @@ CORE = pathlib.Path(_numba_cache.__file__).resolve().parent
 
 
 def test_the_digest_reads_every_core_source_file():
-    on_disk = sorted(p.relative_to(CORE).as_posix() for p in CORE.rglob("*.py")
+    on_disk = sorted(p.relative_to(CORE).as_posix()
+                     for pattern in ("*.py", "*.npz") for p in CORE.rglob(pattern)
                      if "__pycache__" not in p.parts)
     assert _numba_cache.core_sources() == on_disk
     assert "photons/kdtree.py" in on_disk and "integrators/sppm.py" in on_disk
+    # the albedo tables are frozen into the kernels as constants
+    assert "materials/albedo_tables.npz" in on_disk
 
 
-def test_the_digest_changes_with_a_subpackage_file(monkeypatch):
+@pytest.mark.parametrize("edited", ["photons/kdtree.py", "materials/albedo_tables.npz"])
+def test_the_digest_changes_with_a_subpackage_file(monkeypatch, edited):
     before = _numba_cache._sources_digest()
-    path = CORE / "photons" / "kdtree.py"
+    path = CORE / edited
     real_open = open
 
     def edited_open(name, mode="r", *a, **kw):
