@@ -229,6 +229,9 @@ class HitShader:
         self.mesh_material = mesh.material_index
         self.active = bool(np.any(self.programmed & used))
         self.table = closures
+        # materials with a tangent-dependent closure (``closure.anisotropic_rows``) as
+        # prepared: ``tangents`` reads this at the hits that kept the prepared table
+        self.anisotropic = closure.anisotropic_rows(closures)
         # materials whose diffuse lobe lies under a Principled BSDF's layers (dielectric
         # specular, coat, sheen): its albedo is base x (1 - the layers' albedo toward the
         # viewer), not the constant Materials.diffuse, so the photon terms take
@@ -558,7 +561,12 @@ class HitShader:
         out = closure.default_tangents(n)
         if n == 0:
             return out
-        sel = np.flatnonzero(closure.anisotropic_rows(tab, rows))
+        if tab is self.table:  # rows are materials: no per-hit scan of their closures
+            if not self.anisotropic.any():
+                return out
+            sel = np.flatnonzero(self.anisotropic[rows])
+        else:
+            sel = np.flatnonzero(closure.anisotropic_rows(tab, rows))
         if sel.size == 0:
             return out
         obj = self.tri_object[prim[sel]]

@@ -38,6 +38,8 @@ from ..prepared import PreparedScene
 from ..settings import RenderSettings
 
 SOURCE_LIGHT, SOURCE_TRIANGLES, SOURCE_WORLD = 0, 1, 2
+POINT_BLOCK = 256
+"""Points a parallel task of ``_shade_kernel`` shades with one lobe buffer."""
 SHADE_SLOTS = 1 << 20
 """Most (point, light sample) slots of one ``_shade_kernel`` call (~53 bytes each: its
 contribution and shadow ray): ``shade`` hands the kernel as many of its (source, light
@@ -60,8 +62,9 @@ def _shade_kernel(pair_source, pair_q, pair_dim, pair_pick_dim, pair_k, pair_dif
     light sample k (pair_k) and the light's diffuse / glossy visibility (pair_diffuse,
     pair_glossy, 0 or 1). The point's lobes (``closure.hit_lobes``: they do not depend on
     the light's direction) are built once for all its pairs, at the first whose light
-    sample succeeds, and evaluated per sample (``closure.parts_at``), as
-    ``closure.eval_parts`` would (issue 13: building them was half the kernel's time).
+    sample succeeds, into the block's ``closure.lobe_buffer``, and evaluated per sample
+    (``closure.parts_at``), as ``closure.eval_parts`` would (issue 13: building them was
+    half the kernel's time).
     The light's pdf is computed only where mis[i] reads it.
 
     f is the material's whole non-delta BSDF, split by ``closure.parts_at`` into the
@@ -74,90 +77,96 @@ def _shade_kernel(pair_source, pair_q, pair_dim, pair_pick_dim, pair_k, pair_dif
     (docs/dispersion.md), as the continuation samples them."""
     fmax = 3.0e38
     scale = 1.0 / k_count
-    for i in prange(pos.shape[0]):
-        px, py, pz = pos[i, 0], pos[i, 1], pos[i, 2]
-        m = mat[i]
-        wox, woy, woz = -d[i, 0], -d[i, 1], -d[i, 2]
-        built = False
-        for p in range(pair_source.shape[0]):
-            need[p, i] = False
-            contrib[p, i, 0] = 0.0
-            contrib[p, i, 1] = 0.0
-            contrib[p, i, 2] = 0.0
-            source = pair_source[p]
-            q = pair_q[p]
-            u1, u2 = sampling.sobol2(sample[i] * k_count + pair_k[p], bits,
-                                     sampling.pattern(seed, pixel[i], pair_dim[p]))
-            pl = 0.0
-            if source == SOURCE_LIGHT:
-                wx, wy, wz, dist, l0, l1, l2, cl, ok = light_kernels.sample_light(
-                    q, px, py, pz, u1, u2)
-                if ok and mis[i]:
-                    pl = light_kernels.light_pdf(q, px, py, pz, wx, wy, wz, dist)
-            elif source == SOURCE_TRIANGLES:
-                u0 = sampling.hash_uniform(seed, pixel[i], sample[i], pair_pick_dim[p])
-                wx, wy, wz, dist, l0, l1, l2, cl, ok = light_kernels.sample_triangles(
-                    tris_cdf, tris_prob, tris_v0, tris_e1, tris_e2, tris_n, tris_area,
-                    tris_rad, px, py, pz, u0, u1, u2)
-                if ok and mis[i]:
-                    j = sampling.pick(tris_cdf, u0)
-                    pl = light_kernels.triangle_pdf(tris_prob, tris_area, j, wx, wy, wz,
-                                                    tris_n[j, 0], tris_n[j, 1], tris_n[j, 2],
-                                                    dist)
-            else:
-                # the whole sphere where the surface transmits: the world behind it too
-                sphere = closure.transmits(tab, m)
-                wx, wy, wz, dist, l0, l1, l2, cl, ok = light_kernels.sample_world(
-                    world[0], world[1], world[2], nsf[i, 0], nsf[i, 1], nsf[i, 2], u1, u2,
-                    sphere)
-                if mis[i]:
-                    pl = light_kernels.world_pdf(nsf[i, 0], nsf[i, 1], nsf[i, 2], wx, wy, wz,
-                                                 sphere)
-            if not ok:
-                continue
-            if not built:
-                L, F = closure.hit_lobes(tab, m, texel[i, 0], texel[i, 1], texel[i, 2], wox,
-                                         woy, woz, nsf[i, 0], nsf[i, 1], nsf[i, 2], ngf[i, 0],
-                                         ngf[i, 1], ngf[i, 2], tan[i, 0], tan[i, 1], tan[i, 2],
-                                         front[i], lam[i])
-                built = True
-            d0, d1, d2, g0, g1, g2, pb = closure.parts_at(L, F, wx, wy, wz, ngf[i, 0],
-                                                          ngf[i, 1], ngf[i, 2], False, True)
-            f0, f1, f2 = d0 + g0, d1 + g1, d2 + g2
-            if f0 <= 0.0 and f1 <= 0.0 and f2 <= 0.0:
-                continue
-            wl = 1.0
-            if mis[i] and pl > 0.0:
-                pc = pb * continue_probability(f0, f1, f2, g0, g1, g2)
-                wl = light_kernels.power_heuristic(k_count, pl, 1.0, pc)
-            kd = pair_diffuse[p] * diffuse_on[i] * scale
-            kg = pair_glossy[p] * wl * scale
-            c0 = (d0 * kd + g0 * kg) * l0 * thr[i, 0]
-            c1 = (d1 * kd + g1 * kg) * l1 * thr[i, 1]
-            c2 = (d2 * kd + g2 * kg) * l2 * thr[i, 2]
-            if c0 <= 0.0 and c1 <= 0.0 and c2 <= 0.0:
-                continue
-            contrib[p, i, 0] = c0
-            contrib[p, i, 1] = c1
-            contrib[p, i, 2] = c2
-            e = eps[i]
-            if np.isinf(dist):
-                tf = fmax
-            else:
-                qx, qy, qz = px + wx * dist, py + wy * dist, pz + wz * dist
-                tf = dist - e - geometry.offset_eps(qx, qy, qz, extent) / max(cl, 1e-3)
-                if tf <= 0.0:
-                    continue  # the light touches the surface: nothing can come in between
-            # The shadow ray leaves on the side of the light (transmission lobes: the far side).
-            side = e if ngf[i, 0] * wx + ngf[i, 1] * wy + ngf[i, 2] * wz >= 0.0 else -e
-            sh_o[p, i, 0] = px + side * ngf[i, 0]
-            sh_o[p, i, 1] = py + side * ngf[i, 1]
-            sh_o[p, i, 2] = pz + side * ngf[i, 2]
-            sh_d[p, i, 0] = wx
-            sh_d[p, i, 1] = wy
-            sh_d[p, i, 2] = wz
-            sh_t[p, i] = min(tf, fmax)
-            need[p, i] = True
+    n_points = pos.shape[0]
+    for block in prange((n_points + POINT_BLOCK - 1) // POINT_BLOCK):
+        lobes = closure.lobe_buffer(tab)  # the block's scratch: no allocation per point
+        F = np.empty(12)
+        for i in range(block * POINT_BLOCK, min(n_points, (block + 1) * POINT_BLOCK)):
+            px, py, pz = pos[i, 0], pos[i, 1], pos[i, 2]
+            m = mat[i]
+            wox, woy, woz = -d[i, 0], -d[i, 1], -d[i, 2]
+            built = False
+            for p in range(pair_source.shape[0]):
+                need[p, i] = False
+                contrib[p, i, 0] = 0.0
+                contrib[p, i, 1] = 0.0
+                contrib[p, i, 2] = 0.0
+                source = pair_source[p]
+                q = pair_q[p]
+                u1, u2 = sampling.sobol2(sample[i] * k_count + pair_k[p], bits,
+                                         sampling.pattern(seed, pixel[i], pair_dim[p]))
+                pl = 0.0
+                if source == SOURCE_LIGHT:
+                    wx, wy, wz, dist, l0, l1, l2, cl, ok = light_kernels.sample_light(
+                        q, px, py, pz, u1, u2)
+                    if ok and mis[i]:
+                        pl = light_kernels.light_pdf(q, px, py, pz, wx, wy, wz, dist)
+                elif source == SOURCE_TRIANGLES:
+                    u0 = sampling.hash_uniform(seed, pixel[i], sample[i], pair_pick_dim[p])
+                    wx, wy, wz, dist, l0, l1, l2, cl, ok = light_kernels.sample_triangles(
+                        tris_cdf, tris_prob, tris_v0, tris_e1, tris_e2, tris_n, tris_area,
+                        tris_rad, px, py, pz, u0, u1, u2)
+                    if ok and mis[i]:
+                        j = sampling.pick(tris_cdf, u0)
+                        pl = light_kernels.triangle_pdf(tris_prob, tris_area, j, wx, wy, wz,
+                                                        tris_n[j, 0], tris_n[j, 1], tris_n[j, 2],
+                                                        dist)
+                else:
+                    # the whole sphere where the surface transmits: the world behind it too
+                    sphere = closure.transmits(tab, m)
+                    wx, wy, wz, dist, l0, l1, l2, cl, ok = light_kernels.sample_world(
+                        world[0], world[1], world[2], nsf[i, 0], nsf[i, 1], nsf[i, 2], u1, u2,
+                        sphere)
+                    if mis[i]:
+                        pl = light_kernels.world_pdf(nsf[i, 0], nsf[i, 1], nsf[i, 2], wx, wy, wz,
+                                                     sphere)
+                if not ok:
+                    continue
+                if not built:
+                    nl = closure.hit_lobes_into(lobes, F, tab, m, texel[i, 0], texel[i, 1],
+                                                texel[i, 2], wox, woy, woz, nsf[i, 0], nsf[i, 1],
+                                                nsf[i, 2], ngf[i, 0], ngf[i, 1], ngf[i, 2],
+                                                tan[i, 0], tan[i, 1], tan[i, 2], front[i],
+                                                lam[i])
+                    L = lobes[:nl]
+                    built = True
+                d0, d1, d2, g0, g1, g2, pb = closure.parts_at(L, F, wx, wy, wz, ngf[i, 0],
+                                                              ngf[i, 1], ngf[i, 2], False, True)
+                f0, f1, f2 = d0 + g0, d1 + g1, d2 + g2
+                if f0 <= 0.0 and f1 <= 0.0 and f2 <= 0.0:
+                    continue
+                wl = 1.0
+                if mis[i] and pl > 0.0:
+                    pc = pb * continue_probability(f0, f1, f2, g0, g1, g2)
+                    wl = light_kernels.power_heuristic(k_count, pl, 1.0, pc)
+                kd = pair_diffuse[p] * diffuse_on[i] * scale
+                kg = pair_glossy[p] * wl * scale
+                c0 = (d0 * kd + g0 * kg) * l0 * thr[i, 0]
+                c1 = (d1 * kd + g1 * kg) * l1 * thr[i, 1]
+                c2 = (d2 * kd + g2 * kg) * l2 * thr[i, 2]
+                if c0 <= 0.0 and c1 <= 0.0 and c2 <= 0.0:
+                    continue
+                contrib[p, i, 0] = c0
+                contrib[p, i, 1] = c1
+                contrib[p, i, 2] = c2
+                e = eps[i]
+                if np.isinf(dist):
+                    tf = fmax
+                else:
+                    qx, qy, qz = px + wx * dist, py + wy * dist, pz + wz * dist
+                    tf = dist - e - geometry.offset_eps(qx, qy, qz, extent) / max(cl, 1e-3)
+                    if tf <= 0.0:
+                        continue  # the light touches the surface: nothing can come in between
+                # The shadow ray leaves on the side of the light (transmission lobes: the far side).
+                side = e if ngf[i, 0] * wx + ngf[i, 1] * wy + ngf[i, 2] * wz >= 0.0 else -e
+                sh_o[p, i, 0] = px + side * ngf[i, 0]
+                sh_o[p, i, 1] = py + side * ngf[i, 1]
+                sh_o[p, i, 2] = pz + side * ngf[i, 2]
+                sh_d[p, i, 0] = wx
+                sh_d[p, i, 1] = wy
+                sh_d[p, i, 2] = wz
+                sh_t[p, i] = min(tf, fmax)
+                need[p, i] = True
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
@@ -261,8 +270,9 @@ class ShadingPoints(NamedTuple):
     material (N,) int32; eps (N,) ray offsets (core/scene/geometry.py); throughput (N, 3)
     path weights; albedo (N, 3) the diffuse albedo there (textured); rows (N,) int64 the
     unique rows of the target they add to. texel (N, 3): the texel colour multiplying the
-    closures' COLOR (None: albedo over the material's diffuse weight, 1 where it has none); diffuse_on (N,) float64, 1 where the
-    diffuse part's direct light counts here (None: everywhere); mis (N,) bool, the path
+    closures' COLOR (None: albedo over the material's diffuse weight, 1 where it has
+    none); diffuse_on (N,) float64, 1 where the diffuse part's direct light counts here
+    (None: everywhere); mis (N,) bool, the path
     goes on by sampling the BSDF here, so the glossy part is weighted against it (None:
     nowhere); front (N,) bool, the point was reached from the front of the mesh's geometric
     normal (a dielectric's eta for the transmitted light; None: from the front);

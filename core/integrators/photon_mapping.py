@@ -223,6 +223,8 @@ def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> dict[str, np.ndarray]:
     mats = pr.materials
     k_light = int(st.light_samples)
     blur_global = global_after_glossy(ctx.terms) and ctx.terms.active
+    # some material emits (a constant or a program's emission): else the hits add none
+    emits = bool(np.any(mats["emission"] != 0.0) or pr.hit_shader.emission_programmed.any())
     t0 = time.perf_counter()
 
     # Generate camera rays
@@ -338,12 +340,13 @@ def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> dict[str, np.ndarray]:
             thr = np.array(thr)  # the hits' own copy (thr[h] may be a view)
             camera_paths.pick_wavelengths(tab, crow, u_lam, lam, thr)
         tangent = pr.hit_shader.tangents(prim, pos, tab, crow)
-        emission = pr.hit_shader.emission_at(prim, hits.u[h], hits.v[h], d, mat,
-                                             mats["emission"][mat], path)
-        if pr.emissive.count and np.any(prev_pdf > 0):
-            emission = emission * camera_paths.emission_weight(
-                pr, prim, hits.t[h], d, prev_pdf, k_light)[:, None]
-        _add(emit_target, rows, thr * emission)  # two-sided, like Cycles' closure
+        if emits:  # (the (N, 3) scatter-add of zeros was 5 % of a camera pass)
+            emission = pr.hit_shader.emission_at(prim, hits.u[h], hits.v[h], d, mat,
+                                                 mats["emission"][mat], path)
+            if pr.emissive.count and np.any(prev_pdf > 0):
+                emission = emission * camera_paths.emission_weight(
+                    pr, prim, hits.t[h], d, prev_pdf, k_light)[:, None]
+            _add(emit_target, rows, thr * emission)  # two-sided, like Cycles' closure
         if features is not None:
             features.surface(rows, albedo, mats["specular"][mat], mats["transmission"][mat],
                              mats["alpha"][mat], nsf)

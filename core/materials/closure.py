@@ -514,14 +514,36 @@ def _thin_glass(L, n, w0, w1, w2, alpha, ior, rtint, ttint, mu):
 
 
 @njit(cache=True, error_model="numpy")
+def lobe_buffer(tab):
+    """Room for the lobe rows of any material of ``tab`` (``hit_lobes_into``): (R, NL)
+    float64, R = MAX_LOBES x the most closures a material has. A kernel over many hits
+    takes one per block of hits: a heap allocation per hit (``hit_lobes``) was a fifth
+    of the direct-light kernel's time (issue 13, docs/core_renderer.md)."""
+    most = 1
+    for m in range(tab.count.shape[0]):
+        most = max(most, tab.count[m])
+    return np.empty((most * MAX_LOBES, NL))
+
+
+@njit(cache=True, error_model="numpy")
 def _lobes(tab, m, c0, c1, c2, wox, woy, woz, entering, lam=0.0, ux=1.0, uy=0.0, uz=0.0,
            bx=0.0, by=1.0, bz=0.0, nx=0.0, ny=0.0, nz=1.0):
     """The lobe rows (n, NL) of material m for wo (local frame, wo.z > 0); lam the path's
     wavelength in nm (0: RGB, the transmission lobes at their IOR); u, b, n: the local
     frame's axes in world space (a world-space Coat Normal is taken into it)."""
+    L = np.empty((max(tab.count[m], 1) * MAX_LOBES, NL))
+    n = _lobes_into(L, tab, m, c0, c1, c2, wox, woy, woz, entering, lam, ux, uy, uz,
+                    bx, by, bz, nx, ny, nz)
+    return L[:n]
+
+
+@njit(cache=True, error_model="numpy")
+def _lobes_into(L, tab, m, c0, c1, c2, wox, woy, woz, entering, lam, ux, uy, uz,
+                bx, by, bz, nx, ny, nz):
+    """``_lobes`` written into L's first rows (at least MAX_LOBES x material m's closure
+    count of them); returns their number."""
     first = tab.first[m]
     count = tab.count[m]
-    L = np.empty((max(count, 1) * MAX_LOBES, NL))
     n = 0
     mu = min(max(woz, 0.0), 1.0)
     for c in range(first, first + count):
@@ -617,7 +639,7 @@ def _lobes(tab, m, c0, c1, c2, wox, woy, woz, entering, lam=0.0, ux=1.0, uy=0.0,
                 n = _glass_lobe(L, n, W0 * col0, W1 * col1, W2 * col2, rough * rough,
                                 eta, True, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (1.0, 1.0, 1.0),
                                 mu, False, beck)
-    return L[:n]
+    return n
 
 
 
@@ -844,7 +866,7 @@ def _lobe_side(L, k, wix, wiy, wiz):
     return wiz
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def lobe_eval(L, k, wox, woy, woz, wix, wiy, wiz):
     """Lobe k's f (RGB, 1/sr, without the cosine, weight NOT applied) and pdf at (wo, wi),
     local frame (a lobe with a normal of its own, ``OWN``, sees them in its frame)."""
@@ -968,7 +990,7 @@ def lobes_eval(L, wox, woy, woz, wix, wiy, wiz):
     return f0, f1, f2, pdf
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def lobes_eval_parts(L, wox, woy, woz, wix, wiy, wiz, cosine, side=0.0):
     """``lobes_eval`` split by lobe kind: (diffuse-like f |cos| RGB, glossy f |cos| RGB,
     pdf), local frame; without the |cos| factor (f alone, 1/sr) unless ``cosine``. The
@@ -1034,27 +1056,43 @@ def eval_bsdf(tab, m, c0, c1, c2, wox, woy, woz, wix, wiy, wiz, nsx, nsy, nsz,
     return lobes_eval(L, lox, loy, loz, lix, liy, liz)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def hit_lobes(tab, m, c0, c1, c2, wox, woy, woz, nsx, nsy, nsz, ngx, ngy, ngz, tx, ty, tz,
               entering, lam=0.0):
     """Material m's lobe rows at one hit and its shading frame, to evaluate many wi at the
     same wo (``parts_at``; photon gathering): (L (n, NL) float64, F (12,) float64: t, b, n
     and wo in the local frame). No rows where wo is below the surface. lam: the path's
-    wavelength in nm, 0 for an RGB path (``transmission_ior``)."""
+    wavelength in nm, 0 for an RGB path (``transmission_ior``). A kernel over many hits
+    writes them into a ``lobe_buffer`` of its own instead (``hit_lobes_into``).
+
+    Inlined into its callers (``inline="always"``), as ``parts_at``, ``lobes_eval_parts``
+    and ``lobe_eval``: numba increfs and decrefs every array a function takes at each call
+    it cannot prune, and these run per hit and per light sample (issue 13)."""
+    L = np.empty((max(tab.count[m], 1) * MAX_LOBES, NL))
+    F = np.empty(12)
+    n = hit_lobes_into(L, F, tab, m, c0, c1, c2, wox, woy, woz, nsx, nsy, nsz, ngx, ngy, ngz,
+                       tx, ty, tz, entering, lam)
+    return L[:n], F
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def hit_lobes_into(L, F, tab, m, c0, c1, c2, wox, woy, woz, nsx, nsy, nsz, ngx, ngy, ngz,
+                   tx, ty, tz, entering, lam):
+    """``hit_lobes`` written into L (a ``lobe_buffer``) and F (12,) float64; returns the
+    number of rows n (``L[:n]`` are the lobes; 0 where wo is below the surface)."""
     ux, uy, uz, bx, by, bz, nx, ny, nz = _local(nsx, nsy, nsz, ngx, ngy, ngz, tx, ty, tz,
                                                 wox, woy, woz)
-    F = np.empty(12)
     F[0], F[1], F[2], F[3], F[4], F[5], F[6], F[7], F[8] = ux, uy, uz, bx, by, bz, nx, ny, nz
     F[9] = wox * ux + woy * uy + woz * uz
     F[10] = wox * bx + woy * by + woz * bz
     F[11] = wox * nx + woy * ny + woz * nz
     if F[11] <= 0.0:
-        return np.empty((1, NL))[:0], F
-    return _lobes(tab, m, c0, c1, c2, F[9], F[10], F[11], entering, lam, ux, uy, uz,
-                  bx, by, bz, nx, ny, nz), F
+        return 0
+    return _lobes_into(L, tab, m, c0, c1, c2, F[9], F[10], F[11], entering, lam, ux, uy, uz,
+                       bx, by, bz, nx, ny, nz)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def parts_at(L, F, wix, wiy, wiz, ngx, ngy, ngz, sided, cosine):
     """``lobes_eval_parts`` of ``hit_lobes``' (L, F) at the world direction wi: (d0, d1,
     d2, g0, g1, g2, pdf). With ``sided`` (photons gathered from both sides) a lobe counts
