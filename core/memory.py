@@ -9,7 +9,8 @@ core/integrators/distributed.py asks the same function):
   per-bounce pieces, PhotonMap construction, the radiance cache of final gathering), plus
   one chunk of photons in flight (``tracing.CHUNK``);
 - the camera pass: the per-pixel accumulators x resolution, the camera samples in flight
-  (a tile) and the final-gather rays traced together (``gather.GATHER_BATCH``).
+  (a tile), the final-gather rays traced together (``gather.GATHER_BATCH``) and direct
+  light's (point, light sample) slots of one kernel call (``direct.SHADE_SLOTS``).
 
 Photons stored are not known before tracing: a photon is stored at each diffuse hit until
 Russian roulette absorbs it, so the global map is estimated at sum_{b < B} a^b per emitted
@@ -78,6 +79,11 @@ SAMPLES_PER_TILE = 4 << 16
 """Most camera samples of a tile (photon_mapping: 4 x TARGET_SAMPLES_PER_TILE)."""
 GATHER_BATCH = 1 << 20
 """Most final-gather rays traced together (core/integrators/gather.py GATHER_BATCH)."""
+SHADE_SLOTS = 1 << 20
+"""Most (point, light sample) slots of one direct-light kernel call, unless one point per
+slot is more (core/integrators/direct.py SHADE_SLOTS)."""
+BYTES_PER_SHADE_SLOT = 53
+"""A slot's contribution (3 float64) and shadow ray (7 float32 and a bool)."""
 CACHE_FRACTION = 0.25
 """Radiance-cache points per stored global photon (core/integrators/gather.py)."""
 
@@ -140,6 +146,14 @@ def _has_specular(scene: Scene) -> bool:
     return bool(np.any(np.asarray(mats.specular) > 0) or np.any(np.asarray(mats.transmission) > 0))
 
 
+def shade_slots(scene: Scene, settings: RenderSettings, points: int) -> int:
+    """Direct light's slots at ``points`` shading points at once (``direct.shade``: as many
+    (source, light sample) pairs a call as SHADE_SLOTS allows, at least one), with every
+    light, the emissive triangles and the world counted as sources (an upper bound)."""
+    pairs = (scene.lights.count + 2) * max(1, int(settings.light_samples))
+    return max(points, min(SHADE_SLOTS, points * pairs))
+
+
 def estimate(scene: Scene, settings: RenderSettings) -> MemoryEstimate:
     """Bytes at the peak of rendering ``scene`` with ``settings`` (module doc), by part."""
     st = settings
@@ -154,8 +168,10 @@ def estimate(scene: Scene, settings: RenderSettings) -> MemoryEstimate:
         parts["photons"] = int(BYTES_PER_PASS_PHOTON * stored
                                + BYTES_PER_PHOTON_IN_FLIGHT * min(st.photons_per_pass, CHUNK))
         names["photons"] = '"Photons per Pass"'
-        # The visible points, the image sums (float64 total and pass, float32 result).
-        parts["pixels"] = int(pixels * (BYTES_PER_VISIBLE_POINT + 2 * 24 + 12))
+        # The visible points, the image sums (float64 total and pass, float32 result),
+        # direct light's slots at the visible points.
+        parts["pixels"] = int(pixels * (BYTES_PER_VISIBLE_POINT + 2 * 24 + 12)
+                              + BYTES_PER_SHADE_SLOT * shade_slots(scene, st, pixels))
         names["pixels"] = '"Resolution"'
         return MemoryEstimate(parts, names)
     gather = st.indirect_mode == "final_gather"
@@ -181,7 +197,8 @@ def estimate(scene: Scene, settings: RenderSettings) -> MemoryEstimate:
     rays = 0
     if gather and n_global:
         rays = min(GATHER_BATCH, samples * max(1, st.final_gather_rays // st.samples))
-    tile = BYTES_PER_SAMPLE_IN_FLIGHT * samples + BYTES_PER_GATHER_RAY * rays
+    tile = (BYTES_PER_SAMPLE_IN_FLIGHT * samples + BYTES_PER_GATHER_RAY * rays
+            + BYTES_PER_SHADE_SLOT * shade_slots(scene, st, samples))
     assembled = pixels * (12 * outputs + 24)
     camera_peak = images + max(tile, assembled)
     if photon_peak >= maps_kept + camera_peak:

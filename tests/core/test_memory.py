@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from core import memory, progressive, render
-from core.integrators import distributed
+from core.integrators import direct, distributed
 from core.settings import RenderSettings, SettingsError
 from tests.core.test_extremes import closed_box_scene
 
@@ -148,3 +148,36 @@ def test_the_distributed_estimate_is_the_same_function():
     assert distributed.memory_estimate(scene, settings) == memory.estimate(scene, settings).total
     more = settings.with_values(photons_per_pass=600_000)
     assert distributed.memory_estimate(scene, more) > distributed.memory_estimate(scene, settings)
+
+
+@pytest.mark.parametrize("points", [1000, 300_000, 3_000_000])
+@pytest.mark.parametrize("light_samples", [1, 4, 64])
+def test_the_estimate_holds_direct_lights_slots(points, light_samples):
+    """direct.shade allocates its (point, light sample) slots per kernel call: as many of
+    the (source, light sample) pairs as SHADE_SLOTS allows, at least one. The estimate's
+    count bounds that for any sources the scene can have (its lights, the emissive
+    triangles, the world)."""
+    assert memory.SHADE_SLOTS == direct.SHADE_SLOTS
+    scene = closed_box_scene(0.5)
+    st = RenderSettings(light_samples=light_samples)
+    bound = memory.shade_slots(scene, st, points)
+    for sources in range(1, scene.lights.count + 3):
+        pairs = sources * light_samples
+        per_call = max(1, min(pairs, direct.SHADE_SLOTS // points))  # as direct.shade
+        assert per_call * points <= bound
+    # and the bound is no looser than the cap or one slot a point
+    assert bound == max(points, min(memory.SHADE_SLOTS,
+                                    points * (scene.lights.count + 2) * light_samples))
+    # a render's estimate grows by those bytes with the light samples where the camera
+    # pass's tile is its peak (256 x 256 x 16 samples: SAMPLES_PER_TILE in flight)
+    import dataclasses
+    wide = dataclasses.replace(scene, camera=dataclasses.replace(scene.camera, width=256,
+                                                                  height=256))
+    est = {k: memory.estimate(wide, RenderSettings(samples=16, global_photons=1000,
+                                                   caustic_photons=100, light_samples=k))
+           for k in (1, 64)}
+    assert "tile" in est[1].parts
+    tile = memory.SAMPLES_PER_TILE
+    assert est[64].total - est[1].total == memory.BYTES_PER_SHADE_SLOT * (
+        memory.shade_slots(wide, RenderSettings(light_samples=64), tile)
+        - memory.shade_slots(wide, RenderSettings(light_samples=1), tile)) > 0
