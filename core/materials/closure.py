@@ -1131,15 +1131,26 @@ def sample_bsdf(tab, m, c0, c1, c2, wox, woy, woz, nsx, nsy, nsz, ngx, ngy, ngz,
     """Sample wi for material m: (wix, wiy, wiz, w0, w1, w2, pdf, flags), w = f |cos| / pdf
     (path weight, RGB), pdf 0 for a delta lobe, flags LOBE_* (0: no direction). u_lobe
     picks the lobe (and, rescaled, a dielectric's reflection vs refraction). lam: the
-    path's wavelength in nm, 0 for an RGB path (``transmission_ior``)."""
+    path's wavelength in nm, 0 for an RGB path (``transmission_ior``). A kernel over many
+    hits builds the lobes in a ``lobe_buffer`` of its own (``sample_bsdf_into``)."""
+    L = np.empty((max(tab.count[m], 1) * MAX_LOBES, NL))
+    return sample_bsdf_into(L, tab, m, c0, c1, c2, wox, woy, woz, nsx, nsy, nsz, ngx, ngy,
+                            ngz, tx, ty, tz, entering, u_lobe, u1, u2, lam)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def sample_bsdf_into(buffer, tab, m, c0, c1, c2, wox, woy, woz, nsx, nsy, nsz, ngx, ngy, ngz,
+                     tx, ty, tz, entering, u_lobe, u1, u2, lam):
+    """``sample_bsdf`` with material m's lobes built in ``buffer`` (a ``lobe_buffer``);
+    inlined (per photon bounce: its array arguments' reference counts, issue 13)."""
     ux, uy, uz, bx, by, bz, nx, ny, nz = _local(nsx, nsy, nsz, ngx, ngy, ngz, tx, ty, tz,
                                                 wox, woy, woz)
     lox, loy, loz = wox * ux + woy * uy + woz * uz, wox * bx + woy * by + woz * bz, \
         wox * nx + woy * ny + woz * nz
     if loz <= 0.0:
         return 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0
-    L = _lobes(tab, m, c0, c1, c2, lox, loy, loz, entering, lam, ux, uy, uz, bx, by, bz,
-               nx, ny, nz)
+    L = buffer[:_lobes_into(buffer, tab, m, c0, c1, c2, lox, loy, loz, entering, lam, ux, uy,
+                            uz, bx, by, bz, nx, ny, nz)]
     total = 0.0
     for k in range(L.shape[0]):
         total += L[k, SW]

@@ -68,6 +68,7 @@ def _scatter_range(tri_v, tri_n, tri_mat, extent, tab, has_diffuse, has_specular
                    store, s_pos, s_flux, s_dir, alive, o_new, d_new, f_new, lo, hi):
     """Photons [lo, hi) of scatter_kernel, as a plain serial loop: numba compiles it
     about twice as fast as the same body inside a prange loop."""
+    lobes = closure.lobe_buffer(tab)  # the block's scratch: no allocation per bounce
     for i in range(lo, hi):
         store[i] = False
         alive[i] = False
@@ -137,8 +138,8 @@ def _scatter_range(tri_v, tri_n, tri_mat, extent, tab, has_diffuse, has_specular
             tx, ty, tz = tan[i, 0], tan[i, 1], tan[i, 2]
         else:
             tx, ty, tz = DEFAULT_TANGENT
-        ox, oy, oz, w0, w1, w2, pdf, flags = closure.sample_bsdf(
-            tab, row, c0, c1, c2, -dx, -dy, -dz, sx, sy, sz, gx, gy, gz,
+        ox, oy, oz, w0, w1, w2, pdf, flags = closure.sample_bsdf_into(
+            lobes, tab, row, c0, c1, c2, -dx, -dy, -dz, sx, sy, sz, gx, gy, gz,
             tx, ty, tz, entering, u_lobe, u1, u2, li)
         if flags == 0:
             continue  # absorbed: no direction
