@@ -134,15 +134,19 @@ def main() -> None:
     # PhotonMap construction (balancing) that follows.
     real_map, split = tracing.PhotonMap, {"tracing": 0, "build": 0}
 
-    def measured_map(*a, **kw):
-        if not split["tracing"]:  # the first build: both maps are traced by then
-            split["tracing"] = tracemalloc.get_traced_memory()[1]
-        tracemalloc.reset_peak()
-        pm = real_map(*a, **kw)
-        split["build"] = max(split["build"], tracemalloc.get_traced_memory()[1])
-        return pm
+    class MeasuredMap(real_map):
+        """The tracer builds its maps with ``PhotonMap.from_parts``: measured here."""
 
-    tracing.PhotonMap = measured_map  # the tracer's maps, built through the measuring one
+        @classmethod
+        def from_parts(cls, *a, **kw):
+            if not split["tracing"]:  # the first build: both maps are traced by then
+                split["tracing"] = tracemalloc.get_traced_memory()[1]
+            tracemalloc.reset_peak()
+            pm = real_map.from_parts(*a, **kw)
+            split["build"] = max(split["build"], tracemalloc.get_traced_memory()[1])
+            return pm
+
+    tracing.PhotonMap = MeasuredMap  # the tracer's maps, built through the measuring one
     tracemalloc.start()
     try:
         trace(scene, settings)
