@@ -76,11 +76,14 @@ from ..photons.photon_map import PhotonMap, squared_radius
 
 CACHE_FRACTION = 0.25
 """Most radiance-cache points per stored global photon (Christensen's precomputation)."""
-CACHE_POINTS_PER_DISC = 50.0
-"""Radiance-cache points per gather disc (area pi r^2 of the global radius): about r/4
-apart. The cached estimate is smooth at the scale r, so a denser cache only costs k-NN
-searches; with the automatic radius this is CACHE_FRACTION x stored photons at k = 50
-and falls as 1/k above it."""
+CACHE_POINTS_PER_DISC = 12.0
+"""Radiance-cache points per gather disc (area pi r^2 of the global radius): about r/2
+apart, one k-nearest radius (the automatic radius is twice it, photons.estimate.auto_radius).
+The cached estimate is smooth at that scale and a gather hit reads its nearest point, whose
+offset averages out over a pixel's gather rays: 50 points (r/4 apart) cost 4x the k-NN
+searches (40 % of a Preview render) for the same error (docs/core_renderer.md, "The radiance
+cache's density"). With the automatic radius this is 3 / k of the stored photons (6 % at
+k = 50)."""
 CACHE_NEIGHBOURS = 2
 """Cache points examined per gather hit, each with its two sides (the nearest side with a
 compatible normal is used)."""

@@ -450,11 +450,11 @@ def test_preview_and_final_gather_agree_on_the_cornell_box():
 
 
 def test_radiance_cache_count_follows_the_gather_disc():
-    """50 points per gather disc, capped at a quarter of the stored photons: with the
-    automatic radius that is N / 4 up to k = 50 and 12.5 N / k above."""
+    """12 points per gather disc, capped at a quarter of the stored photons: with the
+    automatic radius (twice the k-nearest radius) that is 3 N / k from k = 12 on."""
     area, stored = 7.0, 200_000
-    for k, expected in ((10, stored // 4), (50, stored // 4), (100, stored // 8),
-                        (200, stored // 16)):
+    for k, expected in ((10, stored // 4), (12, stored // 4), (50, 3 * stored // 50),
+                        (100, 3 * stored // 100), (200, 3 * stored // 200)):
         r = estimate.auto_radius(area, k, stored)
         assert abs(gather.cache_point_count(stored, area, r) - expected) <= 1, k
     assert gather.cache_point_count(stored, area, 1e-9) == stored // 4  # tiny hand-set radius
