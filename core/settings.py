@@ -53,7 +53,15 @@ MAX_TIME_BUDGET = 1e7
 @dataclass(frozen=True)
 class RenderSettings:
     samples: int = 16
-    """Camera samples per pixel (jittered within the pixel)."""
+    """Camera samples per pixel (jittered within the pixel); with adaptive sampling the
+    most a pixel takes."""
+    adaptive_threshold: float = 0.0
+    """Adaptive sampling's noise threshold (core/integrators/adaptive.py): a pixel stops
+    taking samples once its relative standard error is below it; 0 = off (every pixel
+    takes ``samples``)."""
+    adaptive_min_samples: int = 0
+    """Samples every pixel takes before adaptive sampling judges its noise; 0 = automatic
+    (a quarter of ``samples``, at least 4)."""
     max_specular_depth: int = 8
     """Maximum number of mirror/glass bounces followed from the camera."""
     seed: int = 0
@@ -175,6 +183,7 @@ class RenderSettings:
     def validated(self) -> "RenderSettings":
         checks = {
             "samples": (1, 1 << 20),
+            "adaptive_min_samples": (0, 1 << 20),
             "max_specular_depth": (0, 1024),
             "seed": (0, 2**31 - 1),
             "light_samples": (1, 1024),
@@ -200,6 +209,11 @@ class RenderSettings:
             if not ok or not (0.0 <= float(v) <= MAX_RADIUS):
                 raise SettingsError(f'"{name}" must be a number in [0, {MAX_RADIUS:g}] '
                                     f'(metres; 0 = automatic), got {v!r}')
+        v = self.adaptive_threshold
+        ok = isinstance(v, (int, float)) and not isinstance(v, bool)
+        if not ok or not (0.0 <= float(v) <= 1.0):
+            raise SettingsError(f'"adaptive_threshold" must be a number in [0, 1] '
+                                f'(0 = no adaptive sampling), got {v!r}')
         v = self.overlay_dot_radius
         ok = isinstance(v, (int, float)) and not isinstance(v, bool)
         if not ok or not (0.0 <= float(v) <= MAX_DOT_RADIUS_PX):

@@ -19,6 +19,7 @@ from bpy.props import (BoolProperty, EnumProperty, FloatProperty, IntProperty, P
 
 from ..core.presets import DEFAULT_QUALITY, PRESET_FIELDS, PRESETS, QUALITIES
 from ..core.scene.contract import MIN_ABBE
+from ..core.settings import RenderSettings
 from . import overlay
 
 INDIRECT_MODE_ITEMS = [
@@ -149,8 +150,25 @@ class PhotonMapRenderSettings(bpy.types.PropertyGroup):
     # Camera pass.
     samples: IntProperty(
         name="Samples",
-        description="Camera rays per pixel, jittered within the pixel; noise falls as 1/sqrt(samples)",
-        min=1, max=1 << 20, soft_max=4096, default=16,
+        description="Camera rays per pixel, jittered within the pixel; noise falls as "
+                    "1/sqrt(samples). With a Noise Threshold, the most a pixel takes",
+        min=1, max=1 << 20, soft_max=4096, default=RenderSettings.samples,
+    )
+    adaptive_threshold: FloatProperty(
+        name="Noise Threshold",
+        description="Adaptive sampling: a pixel stops taking samples once its estimated "
+                    "relative noise (standard error over its value, or over 0.1 in the dark) "
+                    "is below this. Glossy highlights, rough glass and the light seen through "
+                    "them take every sample, matte walls stop early. 0 = off, every pixel "
+                    "takes all samples",
+        min=0.0, max=1.0, soft_max=0.2, step=0.1, precision=3,
+        default=RenderSettings.adaptive_threshold,
+    )
+    adaptive_min_samples: IntProperty(
+        name="Min Samples",
+        description="Samples every pixel takes before its noise is judged; 0 = automatic "
+                    "(a quarter of Samples, at least 4)",
+        min=0, max=1 << 20, soft_max=4096, default=RenderSettings.adaptive_min_samples,
     )
     max_specular_depth: IntProperty(
         name="Max Specular Depth",
@@ -451,10 +469,10 @@ def to_core_settings(props):
 
     Raises core.settings.SettingsError naming the setting when a value is out of range.
     """
-    from ..core.settings import RenderSettings
-
     return RenderSettings().with_values(
         samples=props.samples,
+        adaptive_threshold=float(props.adaptive_threshold),
+        adaptive_min_samples=props.adaptive_min_samples,
         max_specular_depth=props.max_specular_depth,
         light_samples=props.light_samples,
         volume_light_samples=props.volume_light_samples,

@@ -273,6 +273,10 @@ def photon_log(stats) -> list[str]:
         if stats.get(f"{key}_photons_stored"):
             lines.append(f"{label} map: {stats[f'{key}_photons_stored']:,} photons stored, "
                          f"gather radius {stats.get(f'{key}_radius', 0.0):.4g} m")
+    samples, mean = stats.get("samples"), stats.get("samples_mean")
+    if samples and mean is not None and mean < samples:  # adaptive sampling stopped early
+        lines.append(f"adaptive sampling: {mean:.1f} samples per pixel on average "
+                     f"(at most {samples})")
     if stats.get("gather_rays_per_sample"):
         lines.append(f"final gathering: {stats['gather_rays_per_sample']} rays per camera "
                      f"sample, {stats.get('rays_gather', 0):,} gather rays")

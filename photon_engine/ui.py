@@ -46,8 +46,13 @@ class PHOTON_MAP_RENDER_PT_sampling(PhotonMapPanel, bpy.types.Panel):
         layout.prop(settings, "integrator")
         layout.prop(settings, "quality")
         col = layout.column(align=True)
-        col.prop(settings, "samples")
         col.active = settings.integrator == 'photon_map'
+        col.prop(settings, "adaptive_threshold")
+        col.prop(settings, "samples", text="Max Samples" if settings.adaptive_threshold > 0
+                 else "Samples")
+        sub = col.column(align=True)
+        sub.active = settings.adaptive_threshold > 0
+        sub.prop(settings, "adaptive_min_samples")
         col = layout.column(align=True)
         col.prop(settings, "light_samples")  # both integrators' shadow rays
         col.prop(settings, "volume_light_samples")

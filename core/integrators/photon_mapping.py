@@ -66,7 +66,8 @@ from ..scene import camera, geometry
 from ..shading import light_path
 from ..scene.contract import Scene
 from ..settings import RenderSettings
-from . import camera_paths, debug_overlay, denoise_features, direct, gather, photon_terms, volume
+from . import (adaptive, camera_paths, debug_overlay, denoise_features, direct, gather,
+               photon_terms, volume)
 
 # A tile holds about this many camera samples (all samples of its pixels); tiles grow
 # while they take less than TILE_SECONDS and shrink when longer, so that progress (and
@@ -95,6 +96,8 @@ class _CameraPass:
     direct: direct.DirectLighting
     stats: dict
     outputs: tuple
+    emits: bool
+    """Some material emits (a constant or a program's emission): else the hits add none."""
     terms: gather.PhotonTerms | None = None
     volume: volume.VolumeTerms | None = None
 
@@ -112,7 +115,9 @@ def _camera_pass(prepared: PreparedScene, settings: RenderSettings) -> _CameraPa
                        direct=direct.prepare(settings, prepared, settings.samples, stats,
                                              None if media is None else media.medium),
                        stats=stats, volume=media,
-                       outputs=passes + ((REST,) if len(passes) < len(terms) else ()))
+                       outputs=passes + ((REST,) if len(passes) < len(terms) else ()),
+                       emits=bool(np.any(prepared.materials["emission"] != 0.0)
+                                  or prepared.hit_shader.emission_programmed.any()))
 
 
 # --- one tile -------------------------------------------------------------------------------
@@ -209,12 +214,64 @@ def global_after_glossy(terms) -> bool:
             and terms.mode == "final_gather")
 
 
-def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> dict[str, np.ndarray]:
-    """Per-pixel means (P, 3) float64 of every pass for the pixels ``pix`` (P,) int64."""
+def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> tuple[dict[str, np.ndarray], np.ndarray]:
+    """Per-pixel means (P, 3) float64 of every pass (and denoising feature) for the pixels
+    ``pix`` (P,) int64, and the samples each pixel took (P,) int64.
+
+    Without adaptive sampling every pixel takes ``settings.samples``. With it
+    (``settings.adaptive_threshold`` > 0) every pixel first takes ``adaptive.min_samples``,
+    then the pixels whose ``adaptive.relative_error`` is still above the threshold double
+    their samples, round after round, up to ``settings.samples``. A sample is the same
+    whichever round takes it: its random numbers are those of its index in the pixel's
+    set of ``settings.samples``, whose first 2^b indices are themselves stratified
+    (``sampling.stratified2``)."""
+    st = ctx.settings
+    pix = pix.astype(np.int64)
+    first = adaptive.min_samples(st)
+    values, features = _trace_samples(ctx, pix, 0, first)
+    count = np.full(pix.shape[0], first, np.int64)
+    if first == st.samples:  # every sample in one round: their means, in sample order
+        return {**{name: consecutive_mean(v, first) for name, v in values.items()},
+                **features}, count
+    sums = {name: consecutive_mean(v, first) * first for name, v in values.items()}
+    sums.update({name: v * first for name, v in features.items()})
+    moments = adaptive.Moments(pix.shape[0])
+    moments.add(np.arange(pix.shape[0]), _combined(values, ctx.outputs), first)
+    lo = first
+    while lo < st.samples:
+        active = np.flatnonzero(adaptive.relative_error(moments) > st.adaptive_threshold)
+        if active.size == 0:
+            break
+        hi = min(2 * lo, st.samples)
+        k = hi - lo
+        values, features = _trace_samples(ctx, pix[active], lo, hi)
+        for name, v in values.items():
+            sums[name][active] += consecutive_mean(v, k) * k
+        for name, v in features.items():
+            sums[name][active] += v * k
+        moments.add(active, _combined(values, ctx.outputs), k)
+        count[active] = hi
+        lo = hi
+    return {name: v / count[:, None] for name, v in sums.items()}, count
+
+
+def _combined(values: dict[str, np.ndarray], outputs: tuple) -> np.ndarray:
+    """(N, 3) float64: each sample's sum of the light terms (what "combined" averages)."""
+    total = np.zeros_like(values[outputs[0]])
+    for name in outputs:
+        total += values[name]
+    return total
+
+
+def _trace_samples(ctx: _CameraPass, pix: np.ndarray, lo: int, hi: int):
+    """Trace samples lo ... hi - 1 of each pixel ``pix`` (P,) int64: (the per-sample values
+    (P * (hi - lo), 3) float64 of each produced pass (``ctx.outputs``), a pixel's samples
+    consecutive; the per-pixel means (P, 3) of the denoising features, or {} without
+    them)."""
     st = ctx.settings
     s_count = st.samples
-    pixel = np.repeat(pix.astype(np.int64), s_count)
-    sample = np.tile(np.arange(s_count, dtype=np.int64), pix.shape[0])
+    pixel = np.repeat(pix, hi - lo)
+    sample = np.tile(np.arange(lo, hi, dtype=np.int64), pix.shape[0])
     n = pixel.shape[0]
     # Switched-off passes share the REST accumulator: every term still reaches combined.
     kept = {name: np.zeros((n, 3)) for name in ctx.outputs}
@@ -223,8 +280,7 @@ def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> dict[str, np.ndarray]:
     mats = pr.materials
     k_light = int(st.light_samples)
     blur_global = global_after_glossy(ctx.terms) and ctx.terms.active
-    # some material emits (a constant or a program's emission): else the hits add none
-    emits = bool(np.any(mats["emission"] != 0.0) or pr.hit_shader.emission_programmed.any())
+    emits = ctx.emits
     t0 = time.perf_counter()
 
     # Generate camera rays
@@ -410,14 +466,11 @@ def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> dict[str, np.ndarray]:
         tmax = None
         ctx.stats["time_shading"] += time.perf_counter() - t0
 
-    t0 = time.perf_counter()
-    out = {}
+    means = {}
     if features is not None:
-        kept = {**kept, "denoising_albedo": features.albedo, "denoising_normal": features.normal}
-    for name, per_sample in kept.items():
-        out[name] = consecutive_mean(per_sample, s_count)
-    ctx.stats["time_shading"] += time.perf_counter() - t0
-    return out
+        means = {"denoising_albedo": consecutive_mean(features.albedo, hi - lo),
+                 "denoising_normal": consecutive_mean(features.normal, hi - lo)}
+    return kept, means
 
 
 # --- the render -----------------------------------------------------------------------------
@@ -480,6 +533,7 @@ def render(scene: Scene, settings: RenderSettings | None = None,
     n_pix = w * h
     features = denoise_features.FEATURES if settings.denoising_data else ()
     images = {name: np.zeros((n_pix, 3)) for name in (*ctx.outputs, *features)}
+    samples_taken = np.zeros(n_pix, np.int64)
     done = 0
     # Start small (the first tile also pays for loading the kernels), then adapt.
     per_tile = max(1, TARGET_SAMPLES_PER_TILE // 8 // settings.samples)
@@ -492,9 +546,10 @@ def render(scene: Scene, settings: RenderSettings | None = None,
         while done < n_pix and not cancelled:
             t0 = time.perf_counter()
             rows = np.arange(done, min(n_pix, done + per_tile), dtype=np.int64)
-            result = _render_tile(ctx, frame_pixels[rows])
+            result, taken = _render_tile(ctx, frame_pixels[rows])
             for name in (*ctx.outputs, *features):
                 images[name][rows] = result[name]
+            samples_taken[rows] = taken
             done += rows.shape[0]
             tiles += 1
             took = time.perf_counter() - t0
@@ -542,6 +597,9 @@ def render(scene: Scene, settings: RenderSettings | None = None,
             + stats["rays_gather"])
     stats.update({
         "pixels": done, "samples": settings.samples, "tiles": tiles,
+        # samples per rendered pixel: all ``samples`` without adaptive sampling
+        "samples_per_pixel": samples_taken.reshape(h, w),
+        "samples_mean": float(samples_taken[:done].mean()) if done else 0.0,
         "passes_produced": tuple(p for p in ctx.outputs if p != REST),
         "pass_buffers": len(ctx.outputs),
         "rays_total": rays, "time_prepare": t_prepared - t_start,
