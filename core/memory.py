@@ -53,17 +53,24 @@ BYTES_PER_TRIANGLE = 400
 """The prepared scene's per-triangle tables and Embree's tree."""
 TEXTURE_FACTOR = 2.0
 """Texture memory held during a render per byte of the scene's texels."""
-BYTES_PER_STORED_PHOTON = 100
-"""Peak of the photon pass per global photon stored with final gathering: the tracer's
-pieces (36 B), PhotonMap construction (54-57 B, benchmarks/bench_photon_memory.py), the
-radiance cache (CACHE_FRACTION points per photon)."""
+BYTES_PER_STORED_PHOTON = 40
+"""Peak of the photon pass per global photon stored with final gathering, its radiance
+cache apart (BYTES_PER_CACHE_POINT): fitted with BYTES_PER_PHOTON_IN_FLIGHT to the peaks
+tests/core/test_memory.py measures (2026-12-05: 62.9 / 82.3 / 125.3 MB above the baseline
+for 0.40 / 0.79 / 1.59 M stored, 200k / 400k / 800k emitted; the map of final gathering
+holds the direct photons, about twice the stored photons of the same emission)."""
+BYTES_PER_CACHE_POINT = 180
+"""A radiance-cache point at its build (its k-NN rows, both sides' estimates, the tree):
+what the peaks fell by when the cache went from 0.25 to 0.06 points per photon."""
 BYTES_PER_STORED_PHOTON_NO_CACHE = 75
 """The same for a map without the radiance cache (caustic map, preview)."""
 BYTES_PER_MAP_PHOTON = 40
 """A photon of a built map kept through the camera pass (23 B encoded, the tree, its cache
 share)."""
-BYTES_PER_PHOTON_IN_FLIGHT = 200
-"""A photon of the tracer's chunk (tracing.CHUNK photons at most)."""
+BYTES_PER_PHOTON_IN_FLIGHT = 120
+"""A photon of the tracer's chunk (tracing.CHUNK photons at most); fitted with
+BYTES_PER_STORED_PHOTON (200 until 2026-12-05, when the preview map's estimate read
+1.4-1.5x its measured peak)."""
 BYTES_PER_SAMPLE_IN_FLIGHT = 80
 """A camera sample of a tile being shaded (rays, hits, throughput, the terms)."""
 BYTES_PER_GATHER_RAY = 40
@@ -85,7 +92,20 @@ slot is more (core/integrators/direct.py SHADE_SLOTS)."""
 BYTES_PER_SHADE_SLOT = 53
 """A slot's contribution (3 float64) and shadow ray (7 float32 and a bool)."""
 CACHE_FRACTION = 0.25
-"""Radiance-cache points per stored global photon (core/integrators/gather.py)."""
+"""Most radiance-cache points per stored global photon (core/integrators/gather.py)."""
+CACHE_POINTS_PER_DISC = 12.0
+"""Radiance-cache points per disc of the global radius (core/integrators/gather.py)."""
+RADIUS_FACTOR = 2.0
+"""The automatic radius over the k-nearest one (core/photons/estimate.py)."""
+
+
+def cache_fraction(settings: RenderSettings) -> float:
+    """Radiance-cache points per stored global photon: ``gather.cache_point_count`` with
+    the automatic radius (a disc of RADIUS_FACTOR^2 k photons), CACHE_FRACTION for a
+    hand-set radius (which may be small)."""
+    if settings.global_radius > 0.0:
+        return CACHE_FRACTION
+    return min(CACHE_FRACTION, CACHE_POINTS_PER_DISC / (RADIUS_FACTOR ** 2 * settings.global_k))
 
 UNITS = {"": 1, "b": 1, "k": 1 << 10, "kib": 1 << 10, "kb": 10**3, "m": 1 << 20,
          "mib": 1 << 20, "mb": 10**6, "g": 1 << 30, "gib": 1 << 30, "gb": 10**9,
@@ -182,7 +202,8 @@ def estimate(scene: Scene, settings: RenderSettings) -> MemoryEstimate:
     n_caustic = 0.0
     if st.caustics and st.caustic_photons and _has_specular(scene):
         n_caustic = float(st.caustic_photons)  # at most one store per photon
-    per_global = BYTES_PER_STORED_PHOTON if gather else BYTES_PER_STORED_PHOTON_NO_CACHE
+    per_global = (BYTES_PER_STORED_PHOTON + BYTES_PER_CACHE_POINT * cache_fraction(st)
+                  if gather else BYTES_PER_STORED_PHOTON_NO_CACHE)
     in_flight = BYTES_PER_PHOTON_IN_FLIGHT * min(max(st.global_photons, st.caustic_photons),
                                                   CHUNK)
     # The global map is built before the caustic map, which is traced while it is kept.

@@ -19,18 +19,19 @@ DEFAULT_QUALITY = "preview"
 """The preset RenderSettings' defaults equal (new Blender scenes start on it)."""
 
 PRESETS: dict[str, dict] = {
-    "draft": dict(samples=4, global_photons=50_000, caustic_photons=50_000, global_k=30,
-                  caustic_k=30, global_radius=0.0, caustic_radius=0.0, final_gather_rays=16,
-                  indirect_mode="final_gather"),
-    "preview": dict(samples=16, global_photons=200_000, caustic_photons=100_000, global_k=50,
-                    caustic_k=50, global_radius=0.0, caustic_radius=0.0, final_gather_rays=64,
-                    indirect_mode="final_gather"),
-    "final": dict(samples=32, global_photons=500_000, caustic_photons=500_000, global_k=100,
-                  caustic_k=100, global_radius=0.0, caustic_radius=0.0, final_gather_rays=256,
-                  indirect_mode="final_gather"),
-    "converged": dict(samples=64, global_photons=1_000_000, caustic_photons=1_000_000,
-                      global_k=150, caustic_k=150, global_radius=0.0, caustic_radius=0.0,
-                      final_gather_rays=512, indirect_mode="final_gather"),
+    "draft": dict(samples=16, adaptive_threshold=0.1, global_photons=50_000,
+                  caustic_photons=50_000, global_k=30, caustic_k=30, global_radius=0.0,
+                  caustic_radius=0.0, final_gather_rays=64, indirect_mode="final_gather"),
+    "preview": dict(samples=64, adaptive_threshold=0.1, global_photons=200_000,
+                    caustic_photons=100_000, global_k=50, caustic_k=50, global_radius=0.0,
+                    caustic_radius=0.0, final_gather_rays=256, indirect_mode="final_gather"),
+    "final": dict(samples=256, adaptive_threshold=0.05, global_photons=500_000,
+                  caustic_photons=500_000, global_k=100, caustic_k=100, global_radius=0.0,
+                  caustic_radius=0.0, final_gather_rays=1024, indirect_mode="final_gather"),
+    "converged": dict(samples=512, adaptive_threshold=0.025, global_photons=1_000_000,
+                      caustic_photons=1_000_000, global_k=150, caustic_k=150,
+                      global_radius=0.0, caustic_radius=0.0, final_gather_rays=2048,
+                      indirect_mode="final_gather"),
 }
 """name -> the RenderSettings values the preset sets (every preset sets the same keys)."""
 

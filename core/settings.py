@@ -52,10 +52,10 @@ MAX_TIME_BUDGET = 1e7
 
 @dataclass(frozen=True)
 class RenderSettings:
-    samples: int = 16
+    samples: int = 64
     """Camera samples per pixel (jittered within the pixel); with adaptive sampling the
     most a pixel takes."""
-    adaptive_threshold: float = 0.0
+    adaptive_threshold: float = 0.1
     """Adaptive sampling's noise threshold (core/integrators/adaptive.py): a pixel stops
     taking samples once its relative standard error is below it; 0 = off (every pixel
     takes ``samples``)."""
@@ -112,8 +112,10 @@ class RenderSettings:
     """Render the caustics term (builds the caustic map when a surface is specular)."""
     indirect_mode: str = "final_gather"
     """Indirect diffuse light: one of INDIRECT_MODES."""
-    final_gather_rays: int = 64
-    """Final-gather rays per pixel at the first diffuse hit (shared among its samples)."""
+    final_gather_rays: int = 256
+    """Final-gather rays per pixel at the first diffuse hit, at most: ``final_gather_rays
+    // samples`` (at least 1) per camera sample, so a pixel that adaptive sampling stops
+    at a quarter of its samples takes a quarter of them."""
 
     # Photon debug pass (core/integrators/debug_overlay.py).
     photon_debug_pass: bool = False

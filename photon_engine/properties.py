@@ -59,12 +59,15 @@ INTEGRATOR_ITEMS = [
 
 def preset_summary(values) -> str:
     """A preset's cost in words, for its tooltip: "200k global + 100k caustic photons,
-    k 50, 16 samples, 64 gather rays"."""
+    k 50, up to 64 samples (noise threshold 0.1), 256 gather rays"."""
     def count(n):
         return f"{n / 1e6:g}M" if n >= 1_000_000 else f"{n / 1e3:g}k" if n >= 1000 else str(n)
 
+    samples = (f"up to {values['samples']} samples (noise threshold "
+               f"{values['adaptive_threshold']:g})" if values.get("adaptive_threshold")
+               else f"{values['samples']} samples")
     text = (f"{count(values['global_photons'])} global + {count(values['caustic_photons'])} "
-            f"caustic photons, k {values['global_k']}, {values['samples']} samples")
+            f"caustic photons, k {values['global_k']}, {samples}")
     if values.get("indirect_mode", "final_gather") == "final_gather":
         text += f", {values['final_gather_rays']} gather rays"
     return text
@@ -286,8 +289,9 @@ class PhotonMapRenderSettings(bpy.types.PropertyGroup):
     final_gather_rays: IntProperty(
         name="Final Gather Rays",
         description="Gather rays per pixel at the first diffuse hit, shared among the "
-                    "pixel's samples (at least one per sample); more rays, less noise",
-        min=1, max=1 << 16, soft_max=1024, default=64,
+                    "pixel's samples (at least one per sample; a pixel that adaptive "
+                    "sampling stops early takes its samples' share); more rays, less noise",
+        min=1, max=1 << 16, soft_max=4096, default=RenderSettings.final_gather_rays,
     )
 
     # Photon debug pass and viewport display (core/integrators/debug_overlay.py, overlay.py).

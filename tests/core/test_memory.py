@@ -181,3 +181,22 @@ def test_the_estimate_holds_direct_lights_slots(points, light_samples):
     assert est[64].total - est[1].total == memory.BYTES_PER_SHADE_SLOT * (
         memory.shade_slots(wide, RenderSettings(light_samples=64), tile)
         - memory.shade_slots(wide, RenderSettings(light_samples=1), tile)) > 0
+
+
+def test_the_cache_fraction_is_the_caches_point_count():
+    """memory.cache_fraction mirrors gather.cache_point_count (memory.py does not import
+    the integrators): with the automatic radius, for several k; the cap for a small
+    hand-set radius."""
+    from core.integrators import gather
+    from core.photons import estimate
+
+    assert memory.CACHE_FRACTION == gather.CACHE_FRACTION
+    assert memory.CACHE_POINTS_PER_DISC == gather.CACHE_POINTS_PER_DISC
+    assert memory.RADIUS_FACTOR == estimate.RADIUS_FACTOR
+    area, stored = 7.0, 400_000
+    for k in (10, 50, 100, 150):
+        r = estimate.auto_radius(area, k, stored)
+        want = gather.cache_point_count(stored, area, r) / stored
+        got = memory.cache_fraction(RenderSettings(global_k=k))
+        assert got == pytest.approx(want, abs=2 / stored), k
+    assert memory.cache_fraction(RenderSettings(global_radius=1e-3)) == gather.CACHE_FRACTION

@@ -37,7 +37,7 @@ def test_relative_error_of_constant_and_single_samples():
 
 
 def test_min_samples():
-    assert adaptive.min_samples(RenderSettings(samples=64)) == 64  # off: all of them
+    assert adaptive.min_samples(RenderSettings(samples=64, adaptive_threshold=0.0)) == 64
     on = RenderSettings(samples=64, adaptive_threshold=0.05)
     assert adaptive.min_samples(on) == 16
     assert adaptive.min_samples(on.with_values(samples=8)) == 4

@@ -388,8 +388,8 @@ def test_volume_direct_beside_a_spot_lights_apex_matches_the_facing_disk_integra
     scene = Scene(mesh, Materials.from_list([{"diffuse": [0, 0, 0]}]), lights,
                   shapes.pinhole(eye, target, 1, 1, 1e-6),
                   media=_fog([sa] * 3, [ss] * 3, g)).validate()
-    st = RenderSettings(samples=1 << 17, light_samples=2, volume_light_samples=2, caustics=False,
-                        indirect_mode="off", threads=2)
+    st = RenderSettings(samples=1 << 17, adaptive_threshold=0.0, light_samples=2,
+                        volume_light_samples=2, caustics=False, indirect_mode="off", threads=2)
     got = photon_mapping.render(scene, st).passes["volume_direct"][0, 0].astype(np.float64)
     d = (target - eye) / np.linalg.norm(target - eye)
     want = _facing_disk_inscatter(eye, d, centre, r, power, np.cos(half), blend, ss, sa + ss, g)

@@ -48,7 +48,8 @@ def expected_radiance(irradiance_fn):
 
 
 def render(scene, **kw):
-    return integrator.render(scene, RenderSettings(**{"samples": 16, **kw}))
+    return integrator.render(scene, RenderSettings(**{"samples": 16, "adaptive_threshold": 0.0,
+                                                      **kw}))
 
 
 def point_irradiance(pos, power):

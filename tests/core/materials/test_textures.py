@@ -308,8 +308,9 @@ def test_cutout_with_photon_terms_matches_the_blend_in_sppm_and_final_gathering(
     pass); the plane's underside sees the floor. Final gathering and SPPM agree on the
     full image within noise (two independent estimators of the same transport)."""
     scene = _cutout_scene(res=12)
-    fg = integrator.render(scene, RenderSettings(samples=16, seed=2, global_photons=100_000,
-                                                 caustics=False, final_gather_rays=32))
+    fg = integrator.render(scene, RenderSettings(samples=16, adaptive_threshold=0.0, seed=2,
+                                                 global_photons=100_000, caustics=False,
+                                                 final_gather_rays=32))
     sp = sppm.render(scene, RenderSettings(seed=2, progressive_passes=24, photons_per_pass=50_000))
     a = fg.passes["combined"][:, 4:8].mean(axis=(0, 1))
     b = sp.passes["combined"][:, 4:8].mean(axis=(0, 1))

@@ -127,8 +127,8 @@ def test_direct_light_of_a_linear_texture_matches_the_integral():
     """The floor's direct radiance under the linear emitter: 0.8 / pi x the irradiance,
     a brute-force midpoint integral over the quad (200 x 200) averaged over each pixel
     (6 x 6), at every pixel the quad does not cover."""
-    st = RenderSettings(samples=64, light_samples=4, global_photons=0, caustic_photons=0,
-                        final_gather_rays=1, threads=2)
+    st = RenderSettings(samples=64, adaptive_threshold=0.0, light_samples=4, global_photons=0,
+                        caustic_photons=0, final_gather_rays=1, threads=2)
     img = photon_mapping.render(emitter_scene(emission_program("linear")), st).passes["direct"]
     size = 3.0 / RES
     sub = (np.arange(6) + 0.5) / 6 - 0.5  # each pixel's mean over a 6 x 6 grid
