@@ -475,7 +475,8 @@ def to_core_settings(props):
     """
     return RenderSettings().with_values(
         samples=props.samples,
-        adaptive_threshold=float(props.adaptive_threshold),
+        # a float32 property: 0.1 reads 0.10000000149; 6 digits give the core's value back
+        adaptive_threshold=float(f"{props.adaptive_threshold:.6g}"),
         adaptive_min_samples=props.adaptive_min_samples,
         max_specular_depth=props.max_specular_depth,
         light_samples=props.light_samples,

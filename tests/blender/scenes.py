@@ -164,7 +164,13 @@ def add_light(kind='POINT', location=(0.0, 0.0, 2.0), power=100.0, color=(1.0, 1
 
 
 def use_photon_map(scene=None, **settings):
-    """Select the Photon Map engine (registering it if needed) and set ``scene.photon_map`` values."""
+    """Select the Photon Map engine (registering it if needed) and set ``scene.photon_map`` values.
+
+    Adaptive sampling is off unless ``adaptive_threshold`` is given: the tests compare the
+    physics with every pixel at ``samples`` (adaptive sampling stops a pixel whose samples
+    have not met a rare bright path: docs/photon_rendering.md, "Adaptive sampling"), and
+    its own tests set it."""
+    settings.setdefault("adaptive_threshold", 0.0)
     photon_map()
     scene = scene or bpy.context.scene
     scene.render.engine = 'PHOTON_MAP'

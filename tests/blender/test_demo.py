@@ -26,7 +26,7 @@ def test_demo_writes_the_exr_and_png_with_the_preset_and_overrides(tmp_path):
     # Draft's photons, the hand-set samples: the dial reads Custom.
     assert "rendered demo 40x30 at 2 samples/pixel (quality custom)" in done.stdout
     assert "global map: 50,000 photons for final gathering" in done.stdout, done.stdout[-3000:]
-    assert "8 rays per camera sample" in done.stdout  # Draft's 16 gather rays over 2 samples
+    assert "32 rays per camera sample" in done.stdout  # Draft's 64 gather rays over 2 samples
     passes = scenes.read_multilayer_exr(tmp_path / "demo.exr")
     assert {"Combined", "Direct", "Specular", "Caustics", "Indirect"} <= set(passes)
     combined = passes["Combined"]
