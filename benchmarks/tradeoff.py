@@ -816,6 +816,7 @@ def main(argv=None) -> list | None:
                  f"{float(ref['cycles_mean_ratio']):.3f}"
                  if "cycles_vs_sppm" in ref else "") + check_text(ref))
     if args.json:
+        pathlib.Path(args.json).parent.mkdir(parents=True, exist_ok=True)
         pathlib.Path(args.json).write_text(json.dumps(
             [{k: v for k, v in r.items() if k != "image"} for r in rows], indent=1))
     if args.write_docs or args.pictures:
