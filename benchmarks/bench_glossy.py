@@ -100,8 +100,9 @@ def glossy_room(size: int) -> Scene:
 
 def after_glossy(size: int, samples: int) -> None:
     scene = glossy_room(size)
-    st = RenderSettings(samples=samples, global_photons=100_000, caustic_photons=100_000,
-                        final_gather_rays=32, max_specular_depth=4, seed=1)
+    st = RenderSettings(samples=samples, adaptive_threshold=0.0, global_photons=100_000,
+                        caustic_photons=100_000, final_gather_rays=32, max_specular_depth=4,
+                        seed=1)
     photon_mapping.GLOBAL_AFTER_GLOSSY = False
     ref = photon_mapping.render(scene, st.with_values(samples=4 * samples, seed=7))
     rows = []

@@ -82,7 +82,8 @@ def main() -> None:
                     help="global photons of the cost measurement (caustic: a fifth)")
     ap.add_argument("--scenes", default="behind,next", help="behind, next or both")
     args = ap.parse_args()
-    base = RenderSettings(samples=2, final_gather_rays=32, threads=2, seed=0)
+    base = RenderSettings(samples=2, adaptive_threshold=0.0, final_gather_rays=32, threads=2,
+                          seed=0)
     wanted = args.scenes.split(",")
     for key, (name, scene) in zip(("behind", "next"), scenes().items()):
         if key not in wanted:

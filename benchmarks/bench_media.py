@@ -122,7 +122,8 @@ def fog(photons: int):
     clear = caustic_scene(width=32, height=32)
     foggy = dataclasses.replace(clear, media=Media.from_list([
         {"sigma_a": [0.02] * 3, "sigma_s": [0.15] * 3, "anisotropy": 0.2, "name": "Fog"}]))
-    st = RenderSettings(samples=4, global_photons=photons, caustic_photons=photons,
+    st = RenderSettings(samples=4, adaptive_threshold=0.0, global_photons=photons,
+                        caustic_photons=photons,
                         indirect_mode="preview", threads=0, seed=3)
     photon_mapping.render(clear, st.with_values(global_photons=2000, caustic_photons=2000))
     photon_mapping.render(foggy, st.with_values(global_photons=2000, caustic_photons=2000))

@@ -180,7 +180,9 @@ def program_means(program, points=100_000, seed=0) -> list[dict]:
 
 
 def render_benchmark(args) -> None:
-    settings = RenderSettings(samples=args.samples, global_photons=args.photons,
+    # fixed samples and gather rays: the two renders compared take the same samples
+    settings = RenderSettings(samples=args.samples, adaptive_threshold=0.0,
+                              final_gather_rays=64, global_photons=args.photons,
                               caustic_photons=args.photons)
     prog, nodes = wood_program()
     means = program_means(prog)

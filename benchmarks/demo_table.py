@@ -55,7 +55,8 @@ def main(argv=None):
 
     def render(photons, k):
         st = settings_mod.RenderSettings(
-            samples=args.samples, global_photons=photons, caustic_photons=photons // 2,
+            samples=args.samples, adaptive_threshold=0.0, global_photons=photons,
+            caustic_photons=photons // 2,
             global_k=k, caustic_k=k, final_gather_rays=GATHER_RAYS)
         return integrator.render(exported, st).stats
 
