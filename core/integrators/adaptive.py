@@ -56,6 +56,33 @@ class Moments:
         self.count[rows] += per_pixel
 
 
+NEIGHBOURS = 2
+"""A pixel keeps sampling while a pixel up to this many columns or rows away (within its
+tile) does (Cycles filters its convergence the same way): a rare bright path (the light
+through glass) that a pixel's first samples missed is likely met by one of its
+neighbours', so the pixel does not stop dark."""
+
+
+def unconverged(moments: Moments, pixels: np.ndarray, width: int, threshold: float):
+    """(P,) bool: the pixels ``pixels`` (P,) int64 (frame indices y * width + x, increasing)
+    whose ``relative_error`` is above ``threshold``, or who have such a pixel of the same
+    tile within NEIGHBOURS columns and rows."""
+    noisy = relative_error(moments) > threshold
+    if noisy.all() or not noisy.any():
+        return noisy
+    lo = int(pixels[0])
+    dense = np.zeros(int(pixels[-1]) - lo + 1, bool)
+    dense[pixels - lo] = noisy
+    x = pixels % width
+    out = noisy.copy()
+    for dy in range(-NEIGHBOURS, NEIGHBOURS + 1):
+        for dx in range(-NEIGHBOURS, NEIGHBOURS + 1):
+            q = pixels - lo + dy * width + dx
+            ok = (q >= 0) & (q < dense.shape[0]) & (x + dx >= 0) & (x + dx < width)
+            out[ok] |= dense[q[ok]]
+    return out
+
+
 def relative_error(moments: Moments) -> np.ndarray:
     """(P,) float64: sqrt(mean over channels of var(mean) / (mean^2 + EPSILON)), the
     variance from the samples (unbiased, n - 1); inf for a pixel of one sample."""

@@ -220,8 +220,9 @@ def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> tuple[dict[str, np.ndarra
 
     Without adaptive sampling every pixel takes ``settings.samples``. With it
     (``settings.adaptive_threshold`` > 0) every pixel first takes ``adaptive.min_samples``,
-    then the pixels whose ``adaptive.relative_error`` is still above the threshold double
-    their samples, round after round, up to ``settings.samples``. A sample is the same
+    then the pixels whose ``adaptive.relative_error`` is still above the threshold, and
+    their neighbours in the tile (``adaptive.unconverged``), double their samples, round
+    after round, up to ``settings.samples``. A sample is the same
     whichever round takes it: its random numbers are those of its index in the pixel's
     set of ``settings.samples``, whose first 2^b indices are themselves stratified
     (``sampling.stratified2``)."""
@@ -239,7 +240,8 @@ def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> tuple[dict[str, np.ndarra
     moments.add(np.arange(pix.shape[0]), _combined(values, ctx.outputs), first)
     lo = first
     while lo < st.samples:
-        active = np.flatnonzero(adaptive.relative_error(moments) > st.adaptive_threshold)
+        active = np.flatnonzero(adaptive.unconverged(moments, pix, ctx.prepared.scene.camera.width,
+                                                     st.adaptive_threshold))
         if active.size == 0:
             break
         hi = min(2 * lo, st.samples)

@@ -75,7 +75,8 @@ def test_a_sample_is_the_same_in_whichever_round_it_is_taken(renders):
 
 
 def test_samples_go_where_the_image_is_noisy(renders):
-    """Black background pixels (no variance) stop at the minimum; the glass sphere's pixels
+    """Black background pixels (no variance) away from the lit ones stop at the minimum;
+    the glass sphere's pixels
     (a random Fresnel choice, the floor's caustic through it) take more samples than the
     floor's, and the image keeps its brightness."""
     whole, adaptive_out = renders[0.0], renders[0.02]
@@ -85,7 +86,14 @@ def test_samples_go_where_the_image_is_noisy(renders):
     glass = whole.passes["specular"][..., :3].max(axis=2) > 0
     floor = ~black & ~glass
     assert black.any() and glass.sum() > 20 and floor.sum() > 100
-    assert np.all(taken[black] == 4)
+    lit_near = np.zeros_like(black)  # a lit pixel within NEIGHBOURS columns and rows
+    r = adaptive.NEIGHBOURS
+    padded = np.pad(~black, r)
+    for dy in range(-r, r + 1):
+        for dx in range(-r, r + 1):
+            lit_near |= padded[r + dy:r + dy + black.shape[0], r + dx:r + dx + black.shape[1]]
+    alone = black & ~lit_near
+    assert alone.sum() > 20 and np.all(taken[alone] == 4)
     assert taken[glass].mean() > taken[floor].mean() + 2, (taken[glass].mean(),
                                                            taken[floor].mean())
     assert adaptive_out.stats["samples_mean"] < 16
@@ -93,3 +101,25 @@ def test_samples_go_where_the_image_is_noisy(renders):
     b = whole.passes["combined"][..., :3].astype(np.float64)
     assert np.isfinite(a).all() and a.min() >= 0
     np.testing.assert_allclose(a.mean(axis=(0, 1)), b.mean(axis=(0, 1)), rtol=0.03)
+
+
+def test_a_pixel_keeps_sampling_beside_a_noisy_neighbour():
+    """Frame 10 x 3, a tile of rows 0-1: one noisy pixel at (x 5, row 0) keeps every
+    pixel within NEIGHBOURS columns and rows of it sampling, and no other."""
+    width = 10
+    pixels = np.arange(20, dtype=np.int64)
+    m = adaptive.Moments(20)
+    quiet = np.full((20 * 4, 3), 0.5)
+    quiet[5 * 4:5 * 4 + 4] = [[0.0] * 3, [2.0] * 3, [0.0] * 3, [2.0] * 3]
+    m.add(np.arange(20), quiet, 4)
+    got = adaptive.unconverged(m, pixels, width, 0.1)
+    x, y = pixels % width, pixels // width
+    near = (np.abs(x - 5) <= adaptive.NEIGHBOURS) & (np.abs(y - 0) <= adaptive.NEIGHBOURS)
+    assert np.array_equal(got, near)
+    # A pixel at the row's end does not wrap to the next row's start.
+    m2 = adaptive.Moments(20)
+    edge = np.full((20 * 4, 3), 0.5)
+    edge[9 * 4:9 * 4 + 4] = [[0.0] * 3, [2.0] * 3, [0.0] * 3, [2.0] * 3]
+    m2.add(np.arange(20), edge, 4)
+    got = adaptive.unconverged(m2, pixels, width, 0.1)
+    assert not got[10] and got[19] and got[7] and not got[6]
