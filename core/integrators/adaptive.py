@@ -57,16 +57,17 @@ class Moments:
 
 
 NEIGHBOURS = 2
-"""A pixel keeps sampling while a pixel up to this many columns or rows away (within its
-tile) does (Cycles filters its convergence the same way): a rare bright path (the light
-through glass) that a pixel's first samples missed is likely met by one of its
-neighbours', so the pixel does not stop dark."""
+"""A pixel keeps sampling while a pixel of its row up to this many columns away does
+(Cycles filters its convergence the same way, in both directions): a rare bright path (the
+light through glass) that a pixel's first samples missed is likely met by one of its
+neighbours', so the pixel does not stop dark. Rows only: the camera pass's tiles are whole
+rows when it samples adaptively, so the image does not depend on the tiling."""
 
 
 def unconverged(moments: Moments, pixels: np.ndarray, width: int, threshold: float):
-    """(P,) bool: the pixels ``pixels`` (P,) int64 (frame indices y * width + x, increasing)
-    whose ``relative_error`` is above ``threshold``, or who have such a pixel of the same
-    tile within NEIGHBOURS columns and rows."""
+    """(P,) bool: the pixels ``pixels`` (P,) int64 (frame indices y * width + x, increasing,
+    whole rows) whose ``relative_error`` is above ``threshold``, or who have such a pixel
+    within NEIGHBOURS columns in their row."""
     noisy = relative_error(moments) > threshold
     if noisy.all() or not noisy.any():
         return noisy
@@ -75,11 +76,10 @@ def unconverged(moments: Moments, pixels: np.ndarray, width: int, threshold: flo
     dense[pixels - lo] = noisy
     x = pixels % width
     out = noisy.copy()
-    for dy in range(-NEIGHBOURS, NEIGHBOURS + 1):
-        for dx in range(-NEIGHBOURS, NEIGHBOURS + 1):
-            q = pixels - lo + dy * width + dx
-            ok = (q >= 0) & (q < dense.shape[0]) & (x + dx >= 0) & (x + dx < width)
-            out[ok] |= dense[q[ok]]
+    for dx in range(-NEIGHBOURS, NEIGHBOURS + 1):
+        q = pixels - lo + dx
+        ok = (q >= 0) & (q < dense.shape[0]) & (x + dx >= 0) & (x + dx < width)
+        out[ok] |= dense[q[ok]]
     return out
 
 

@@ -221,8 +221,8 @@ def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> tuple[dict[str, np.ndarra
     Without adaptive sampling every pixel takes ``settings.samples``. With it
     (``settings.adaptive_threshold`` > 0) every pixel first takes ``adaptive.min_samples``,
     then the pixels whose ``adaptive.relative_error`` is still above the threshold, and
-    their neighbours in the tile (``adaptive.unconverged``), double their samples, round
-    after round, up to ``settings.samples``. A sample is the same
+    their neighbours in the row (``adaptive.unconverged``; the tiles are whole rows then),
+    double their samples, round after round, up to ``settings.samples``. A sample is the same
     whichever round takes it: its random numbers are those of its index in the pixel's
     set of ``settings.samples``, whose first 2^b indices are themselves stratified
     (``sampling.stratified2``)."""
@@ -539,6 +539,13 @@ def render(scene: Scene, settings: RenderSettings | None = None,
     done = 0
     # Start small (the first tile also pays for loading the kernels), then adapt.
     per_tile = max(1, TARGET_SAMPLES_PER_TILE // 8 // settings.samples)
+    # Adaptive sampling's neighbour rule reads a pixel's row: tiles of whole rows keep the
+    # image independent of the tiling.
+    adaptive_rows = adaptive.min_samples(settings) < settings.samples
+
+    def row_multiple(count):
+        return max(w, count // w * w) if adaptive_rows else count
+
     max_tile = max(1, 4 * TARGET_SAMPLES_PER_TILE // settings.samples)
     tiles = 0
     share = PHOTON_SHARE if photon_stats.get("traced") else 0.0
@@ -547,7 +554,7 @@ def render(scene: Scene, settings: RenderSettings | None = None,
     try:
         while done < n_pix and not cancelled:
             t0 = time.perf_counter()
-            rows = np.arange(done, min(n_pix, done + per_tile), dtype=np.int64)
+            rows = np.arange(done, min(n_pix, done + row_multiple(per_tile)), dtype=np.int64)
             result, taken = _render_tile(ctx, frame_pixels[rows])
             for name in (*ctx.outputs, *features):
                 images[name][rows] = result[name]
@@ -561,7 +568,7 @@ def render(scene: Scene, settings: RenderSettings | None = None,
             elif took < TILE_SECONDS / 2:
                 per_tile = min(per_tile * 2, max_tile)
             if on_progress is not None and done < n_pix:
-                left = -(-(n_pix - done) // per_tile)
+                left = -(-(n_pix - done) // row_multiple(per_tile))
                 fraction = share + (1.0 - share) * done / n_pix
                 on_progress(fraction, f"{'Gathering' if ctx.terms.active else 'Rendering'}: "
                                       f"tile {tiles} of {tiles + left} ({done}/{n_pix} pixels)")
