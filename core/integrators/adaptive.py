@@ -13,8 +13,11 @@ The error of a pixel is the one the benchmarks measure (benchmarks/tradeoff.py's
 the estimated variance of its mean over (its mean^2 + 0.01), averaged over the channels,
 square-rooted, so the threshold is a relative standard error (0.05: 5 % of the pixel's
 value, or of 0.1 in the dark). Stopping on an estimate is slightly biased (a pixel whose
-samples have not yet met a rare bright path looks converged); ``min_samples`` is there to
-meet them first.
+samples have not yet met a rare bright path looks converged and stops dark): the
+neighbour rule (``NEIGHBOURS``: a pixel keeps sampling while a pixel near it in its row
+does) is the main guard, ``min_samples`` the second (the glass sphere under an area light,
+against Cycles at threshold 0.1: -2.7 % with the minimum alone, -0.89 % with the rule;
+docs/photon_rendering.md, "Adaptive sampling").
 """
 
 from __future__ import annotations

@@ -229,15 +229,12 @@ def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> tuple[dict[str, np.ndarra
     st = ctx.settings
     pix = pix.astype(np.int64)
     first = adaptive.min_samples(st)
-    values, features = _trace_samples(ctx, pix, 0, first)
+    moments = adaptive.Moments(pix.shape[0]) if first < st.samples else None
+    means = _trace_means(ctx, pix, 0, first, moments, np.arange(pix.shape[0]))
     count = np.full(pix.shape[0], first, np.int64)
-    if first == st.samples:  # every sample in one round: their means, in sample order
-        return {**{name: consecutive_mean(v, first) for name, v in values.items()},
-                **features}, count
-    sums = {name: consecutive_mean(v, first) * first for name, v in values.items()}
-    sums.update({name: v * first for name, v in features.items()})
-    moments = adaptive.Moments(pix.shape[0])
-    moments.add(np.arange(pix.shape[0]), _combined(values, ctx.outputs), first)
+    if first == st.samples:  # every sample in one round
+        return means, count
+    sums = {name: v * first for name, v in means.items()}
     lo = first
     while lo < st.samples:
         active = np.flatnonzero(adaptive.unconverged(moments, pix, ctx.prepared.scene.camera.width,
@@ -245,16 +242,47 @@ def _render_tile(ctx: _CameraPass, pix: np.ndarray) -> tuple[dict[str, np.ndarra
         if active.size == 0:
             break
         hi = min(2 * lo, st.samples)
-        k = hi - lo
-        values, features = _trace_samples(ctx, pix[active], lo, hi)
-        for name, v in values.items():
-            sums[name][active] += consecutive_mean(v, k) * k
-        for name, v in features.items():
-            sums[name][active] += v * k
-        moments.add(active, _combined(values, ctx.outputs), k)
+        for name, v in _trace_means(ctx, pix[active], lo, hi, moments, active).items():
+            sums[name][active] += v * (hi - lo)
         count[active] = hi
         lo = hi
     return {name: v / count[:, None] for name, v in sums.items()}, count
+
+
+def _trace_means(ctx: _CameraPass, pix: np.ndarray, lo: int, hi: int,
+                 moments: adaptive.Moments | None, rows: np.ndarray) -> dict[str, np.ndarray]:
+    """Per-pixel means (P, 3) float64 of every pass and denoising feature over samples
+    lo ... hi - 1 of the pixels ``pix`` (P,) int64, whose combined values go into
+    ``moments`` (when sampling adaptively) at ``rows`` (P,) int64.
+
+    Traced in batches of at most 4 x TARGET_SAMPLES_PER_TILE samples (memory.py's
+    SAMPLES_PER_TILE, what the memory estimate allows in flight): an adaptive tile is whole
+    rows, whose rounds can be wider than that. A sample's values do not depend on its
+    batch, and a pixel's samples are summed in order within a batch of its samples, so the
+    batching changes nothing below that size."""
+    cap = 4 * TARGET_SAMPLES_PER_TILE
+    k = hi - lo
+    if k > cap:  # one pixel's samples exceed a batch: sums of sub-ranges
+        out = None
+        for a in range(lo, hi, cap):
+            b = min(a + cap, hi)
+            part = _trace_means(ctx, pix, a, b, moments, rows)
+            out = ({n: v * (b - a) for n, v in part.items()} if out is None
+                   else {n: out[n] + v * (b - a) for n, v in part.items()})
+        return {n: v / k for n, v in out.items()}
+    per_batch = max(1, cap // k)
+    out = {}
+    for start in range(0, pix.shape[0], per_batch):
+        part = slice(start, start + per_batch)
+        values, features = _trace_samples(ctx, pix[part], lo, hi)
+        if moments is not None:
+            moments.add(rows[part], _combined(values, ctx.outputs), k)
+        for name, v in (*((n, consecutive_mean(v, k)) for n, v in values.items()),
+                        *features.items()):
+            if name not in out:
+                out[name] = np.empty((pix.shape[0], 3))
+            out[name][part] = v
+    return out
 
 
 def _combined(values: dict[str, np.ndarray], outputs: tuple) -> np.ndarray:

@@ -123,3 +123,28 @@ def test_a_pixel_keeps_sampling_beside_a_noisy_neighbour():
     m2.add(np.arange(20), edge, 4)
     got = adaptive.unconverged(m2, pixels, width, 0.1)
     assert not got[10] and not got[19] and got[7] and got[8] and not got[6]
+
+
+def test_a_wide_round_is_traced_in_batches_the_memory_estimate_allows(renders, monkeypatch):
+    """An adaptive tile is whole rows, so a round can hold more samples than the memory
+    estimate's SAMPLES_PER_TILE (4 x TARGET_SAMPLES_PER_TILE): it is traced in batches of at
+    most that many, with the same image (a sample does not depend on its batch) and the
+    same samples per pixel."""
+    calls = []
+    trace = integrator._trace_samples
+
+    def counted(ctx, pix, lo, hi):
+        calls.append(pix.shape[0] * (hi - lo))
+        return trace(ctx, pix, lo, hi)
+
+    monkeypatch.setattr(integrator, "TARGET_SAMPLES_PER_TILE", 5)  # batches of 20 samples
+    monkeypatch.setattr(integrator, "_trace_samples", counted)
+    scene = caustic_scene(width=24, height=24)
+    settings = RenderSettings(samples=16, seed=2, adaptive_threshold=0.02, **LIGHT)
+    out = integrator.render(scene, settings)
+    assert max(calls) <= 20
+    assert max(calls) > 4  # the cap, not one sample a call
+    ref = renders[0.02]
+    assert np.array_equal(out.stats["samples_per_pixel"], ref.stats["samples_per_pixel"])
+    for name, image in ref.passes.items():
+        assert np.array_equal(out.passes[name], image), name
