@@ -39,6 +39,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .color import LUMINANCE
+from .scene.closures import CLOSURE_DIFFUSE, CLOSURE_SHEEN, CLOSURE_TRANSLUCENT
 from .scene.contract import Scene
 from .settings import RenderSettings, SettingsError
 
@@ -161,8 +162,14 @@ def stored_per_emitted(scene: Scene, max_bounces: int, first_stored: bool = True
     return max(0.0, series - (0.0 if first_stored else 1.0))
 
 
-def _has_specular(scene: Scene) -> bool:
+def has_specular(scene: Scene) -> bool:
+    """A material with a glossy, mirror or glass lobe (the caustic map is built): the legacy
+    lobes' specular or transmission, or a closure other than Diffuse, Translucent and Sheen (a
+    Principled BSDF's specular layer counts, core/integrators/photon_terms.py)."""
     mats = scene.materials
+    if mats.closure_kind is not None and np.any(~np.isin(
+            np.asarray(mats.closure_kind), (CLOSURE_DIFFUSE, CLOSURE_TRANSLUCENT, CLOSURE_SHEEN))):
+        return True
     return bool(np.any(np.asarray(mats.specular) > 0) or np.any(np.asarray(mats.transmission) > 0))
 
 
@@ -200,7 +207,7 @@ def estimate(scene: Scene, settings: RenderSettings) -> MemoryEstimate:
         n_global = st.global_photons * stored_per_emitted(scene, st.photon_max_bounces,
                                                           first_stored=gather)
     n_caustic = 0.0
-    if st.caustics and st.caustic_photons and _has_specular(scene):
+    if st.caustics and st.caustic_photons and has_specular(scene):
         n_caustic = float(st.caustic_photons)  # at most one store per photon
     per_global = (BYTES_PER_STORED_PHOTON + BYTES_PER_CACHE_POINT * cache_fraction(st)
                   if gather else BYTES_PER_STORED_PHOTON_NO_CACHE)

@@ -47,7 +47,9 @@ def run(prepared: PreparedScene, settings: RenderSettings, maps,
     """
     st = settings
     used = prepared.used_materials
-    specular = bool(np.any(used & (prepared.has_delta | prepared.sampled_only)))
+    # Glossy-on-diffuse materials (a Principled wall's specular layer) count: the light
+    # their glossy lobe reflects from the lights onto diffuse surfaces is the caustic map's.
+    specular = bool(np.any(used & prepared.specular_material))
     diffuse_area = prepared.diffuse_area
     skipped = {}
     if not st.caustics:

@@ -1057,6 +1057,34 @@ def eval_bsdf(tab, m, c0, c1, c2, wox, woy, woz, wix, wiy, wiz, nsx, nsy, nsz,
 
 
 @njit(cache=True, error_model="numpy", inline="always")
+def adjoint_weight(buffer, tab, m, c0, c1, c2, wox, woy, woz, wix, wiy, wiz, nsx, nsy, nsz,
+                   ngx, ngy, ngz, tx, ty, tz, entering, pdf, lam):
+    """A photon's weight for a reflection it sampled with ``sample_bsdf_into`` (wo toward
+    where it came from, wi where it goes, the sample's solid-angle pdf > 0):
+    f(wi, wo) |cos(ns, wi)| / pdf, the BSDF with the viewer on the photon's outgoing side,
+    (RGB; 0, 0, 0 where wi is below the surface). Cycles' BSDFs are not reciprocal: a
+    Principled layer scales the lobes below by 1 - its albedo toward the VIEWER, and the
+    multiscatter GGX compensation is a function of the viewer's angle too, so the light a
+    surface sends toward wi is f(wi, wo), not the f(wo, wi) the sampler weighs (the
+    camera's). ``buffer``: a ``lobe_buffer``."""
+    ux, uy, uz, bx, by, bz, nx, ny, nz = _local(nsx, nsy, nsz, ngx, ngy, ngz, tx, ty, tz,
+                                                wix, wiy, wiz)
+    liz = wix * nx + wiy * ny + wiz * nz
+    if liz <= 0.0:
+        return 0.0, 0.0, 0.0
+    lix, liy = wix * ux + wiy * uy + wiz * uz, wix * bx + wiy * by + wiz * bz
+    lox, loy, loz = wox * ux + woy * uy + woz * uz, wox * bx + woy * by + woz * bz, \
+        wox * nx + woy * ny + woz * nz
+    if loz <= 0.0:
+        return 0.0, 0.0, 0.0
+    L = buffer[:_lobes_into(buffer, tab, m, c0, c1, c2, lix, liy, liz, entering, lam, ux, uy,
+                            uz, bx, by, bz, nx, ny, nz)]
+    f0, f1, f2, _ = lobes_eval(L, lix, liy, liz, lox, loy, loz)
+    q = liz / (loz * pdf)  # f |cos wo| -> f |cos wi| / pdf
+    return f0 * q, f1 * q, f2 * q
+
+
+@njit(cache=True, error_model="numpy", inline="always")
 def hit_lobes(tab, m, c0, c1, c2, wox, woy, woz, nsx, nsy, nsz, ngx, ngy, ngz, tx, ty, tz,
               entering, lam=0.0):
     """Material m's lobe rows at one hit and its shading frame, to evaluate many wi at the
@@ -1347,6 +1375,28 @@ def eval_many(tab: ClosureTable, m: int, wo, wi, ns, ng, t, entering: bool) -> n
     out = np.empty((wi.shape[0], 4))
     _vec_eval(tab, int(m), np.asarray(wo, np.float64), wi,
               *(np.asarray(v, np.float64) for v in (ns, ng, t)), bool(entering), out)
+    return out
+
+
+@njit(cache=True, error_model="numpy")
+def _vec_adjoint(tab, m, wo, wi, pdf, ns, ng, t, entering, out):
+    buffer = lobe_buffer(tab)
+    for i in range(wi.shape[0]):
+        r = adjoint_weight(buffer, tab, m, 1.0, 1.0, 1.0, wo[0], wo[1], wo[2], wi[i, 0],
+                           wi[i, 1], wi[i, 2], ns[0], ns[1], ns[2], ng[0], ng[1], ng[2],
+                           t[0], t[1], t[2], entering, pdf[i], 0.0)
+        out[i, 0], out[i, 1], out[i, 2] = r[0], r[1], r[2]
+
+
+def adjoint_many(tab: ClosureTable, m: int, wo, wi, pdf, ns, ng, t,
+                 entering: bool) -> np.ndarray:
+    """``adjoint_weight`` for sampled reflections wi (N, 3) with pdfs (N,) at one hit
+    (texel colour 1, RGB path): (N, 3) float64."""
+    wi = np.ascontiguousarray(wi, np.float64).reshape(-1, 3)
+    out = np.empty((wi.shape[0], 3))
+    _vec_adjoint(tab, int(m), np.asarray(wo, np.float64), wi,
+                 np.ascontiguousarray(pdf, np.float64).reshape(-1),
+                 *(np.asarray(v, np.float64) for v in (ns, ng, t)), bool(entering), out)
     return out
 
 

@@ -12,7 +12,10 @@ import pytest
 
 from core import memory, progressive, render
 from core.integrators import direct, distributed
+from core.prepared import prepare
+from core.scene import contract
 from core.settings import RenderSettings, SettingsError
+from tests.core.scenes import caustic_scene
 from tests.core.test_extremes import closed_box_scene
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
@@ -200,3 +203,21 @@ def test_the_cache_fraction_is_the_caches_point_count():
         got = memory.cache_fraction(RenderSettings(global_k=k))
         assert got == pytest.approx(want, abs=2 / stored), k
     assert memory.cache_fraction(RenderSettings(global_radius=1e-3)) == gather.CACHE_FRACTION
+
+
+@pytest.mark.parametrize("rows", [
+    [dict(kind=0, params=dict(color=0.8))],                            # Diffuse
+    [dict(kind=5, params=dict(color=0.8, roughness=0.5))],             # Sheen
+    [dict(kind=7)],                                                    # default Principled
+    [dict(kind=0, params=dict(color=0.8)), dict(kind=1, weight=0.3)],  # Diffuse + Glossy
+])
+def test_the_estimate_counts_the_caustic_map_where_the_render_builds_one(rows):
+    """memory.py (which reads the scene contract only) and the renderer
+    (photon_terms: a material with a glossy, mirror or glass lobe, ``specular_material``)
+    agree on whether a caustic map is built: a Principled wall's specular layer counts."""
+    base = caustic_scene()
+    mats = contract.Materials.from_list([{"closures": rows}] * base.materials.count)
+    scene = contract.Scene(base.mesh, mats, base.lights, base.camera).validate()
+    with prepare(scene) as prepared:
+        built = bool(np.any(prepared.used_materials & prepared.specular_material))
+    assert memory.has_specular(scene) == built
