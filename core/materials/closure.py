@@ -526,13 +526,19 @@ def lobe_buffer(tab):
     return np.empty((most * MAX_LOBES, NL))
 
 
+@njit(cache=True, error_model="numpy", inline="always")
+def _material_buffer(tab, m):
+    """Room for material m's lobe rows: (MAX_LOBES x its closure count, NL) float64."""
+    return np.empty((max(tab.count[m], 1) * MAX_LOBES, NL))
+
+
 @njit(cache=True, error_model="numpy")
 def _lobes(tab, m, c0, c1, c2, wox, woy, woz, entering, lam=0.0, ux=1.0, uy=0.0, uz=0.0,
            bx=0.0, by=1.0, bz=0.0, nx=0.0, ny=0.0, nz=1.0):
     """The lobe rows (n, NL) of material m for wo (local frame, wo.z > 0); lam the path's
     wavelength in nm (0: RGB, the transmission lobes at their IOR); u, b, n: the local
     frame's axes in world space (a world-space Coat Normal is taken into it)."""
-    L = np.empty((max(tab.count[m], 1) * MAX_LOBES, NL))
+    L = _material_buffer(tab, m)
     n = _lobes_into(L, tab, m, c0, c1, c2, wox, woy, woz, entering, lam, ux, uy, uz,
                     bx, by, bz, nx, ny, nz)
     return L[:n]
@@ -1097,7 +1103,7 @@ def hit_lobes(tab, m, c0, c1, c2, wox, woy, woz, nsx, nsy, nsz, ngx, ngy, ngz, t
     Inlined into its callers (``inline="always"``), as ``parts_at``, ``lobes_eval_parts``
     and ``lobe_eval``: numba increfs and decrefs every array a function takes at each call
     it cannot prune, and these run per hit and per light sample (issue 13)."""
-    L = np.empty((max(tab.count[m], 1) * MAX_LOBES, NL))
+    L = _material_buffer(tab, m)
     F = np.empty(12)
     n = hit_lobes_into(L, F, tab, m, c0, c1, c2, wox, woy, woz, nsx, nsy, nsz, ngx, ngy, ngz,
                        tx, ty, tz, entering, lam)
@@ -1162,7 +1168,7 @@ def sample_bsdf(tab, m, c0, c1, c2, wox, woy, woz, nsx, nsy, nsz, ngx, ngy, ngz,
     picks the lobe (and, rescaled, a dielectric's reflection vs refraction). lam: the
     path's wavelength in nm, 0 for an RGB path (``transmission_ior``). A kernel over many
     hits builds the lobes in a ``lobe_buffer`` of its own (``sample_bsdf_into``)."""
-    L = np.empty((max(tab.count[m], 1) * MAX_LOBES, NL))
+    L = _material_buffer(tab, m)
     return sample_bsdf_into(L, tab, m, c0, c1, c2, wox, woy, woz, nsx, nsy, nsz, ngx, ngy,
                             ngz, tx, ty, tz, entering, u_lobe, u1, u2, lam)
 
