@@ -84,7 +84,7 @@ BYTES_PER_PASS_PHOTON = 120
 CHUNK = 1 << 18
 """Photons traced together (core/photons/tracing.py CHUNK)."""
 SAMPLES_PER_TILE = 4 << 16
-"""Most camera samples of a tile (photon_mapping: 4 x TARGET_SAMPLES_PER_TILE)."""
+"""Most camera samples of a tile (photon_mapping: TILE_GROWTH x TARGET_SAMPLES_PER_TILE)."""
 GATHER_BATCH = 1 << 20
 """Most final-gather rays traced together (core/integrators/gather.py GATHER_BATCH)."""
 SHADE_SLOTS = 1 << 20

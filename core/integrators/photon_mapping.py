@@ -73,6 +73,9 @@ from . import (adaptive, camera_paths, debug_overlay, denoise_features, direct, 
 # while they take less than TILE_SECONDS and shrink when longer, so that progress (and
 # cancelling) is never far away.
 TARGET_SAMPLES_PER_TILE = 1 << 16
+TILE_GROWTH = 4
+"""A tile grows to at most TILE_GROWTH x TARGET_SAMPLES_PER_TILE samples (memory.py's
+SAMPLES_PER_TILE: what the memory estimate allows in flight)."""
 TILE_SECONDS = 0.25
 PHOTON_SHARE = 0.2
 """Fraction of the progress bar given to the photon pass when photons are traced."""
@@ -255,12 +258,12 @@ def _trace_means(ctx: _CameraPass, pix: np.ndarray, lo: int, hi: int,
     lo ... hi - 1 of the pixels ``pix`` (P,) int64, whose combined values go into
     ``moments`` (when sampling adaptively) at ``rows`` (P,) int64.
 
-    Traced in batches of at most 4 x TARGET_SAMPLES_PER_TILE samples (memory.py's
-    SAMPLES_PER_TILE, what the memory estimate allows in flight): an adaptive tile is whole
+    Traced in batches of at most TILE_GROWTH x TARGET_SAMPLES_PER_TILE samples (the
+    most a tile holds): an adaptive tile is whole
     rows, whose rounds can be wider than that. A sample's values do not depend on its
     batch, and a pixel's samples are summed in order within a batch of its samples, so the
     batching changes nothing below that size."""
-    cap = 4 * TARGET_SAMPLES_PER_TILE
+    cap = TILE_GROWTH * TARGET_SAMPLES_PER_TILE
     k = hi - lo
     if k > cap:  # one pixel's samples exceed a batch: sums of sub-ranges
         out = None
@@ -574,7 +577,7 @@ def render(scene: Scene, settings: RenderSettings | None = None,
     def row_multiple(count):
         return max(w, count // w * w) if adaptive_rows else count
 
-    max_tile = max(1, 4 * TARGET_SAMPLES_PER_TILE // settings.samples)
+    max_tile = max(1, TILE_GROWTH * TARGET_SAMPLES_PER_TILE // settings.samples)
     tiles = 0
     share = PHOTON_SHARE if photon_stats.get("traced") else 0.0
     cancelled = photons_cancelled

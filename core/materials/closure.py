@@ -18,8 +18,8 @@ argument:
 
 Conventions: wo points to the viewer (or where the photon came from), wi to the light (or
 where the photon goes; a photon's weight is then ``adjoint_weight``'s, the BSDF seen from
-wi, Cycles' BSDFs not being reciprocal); every vector unit, world space. ns, ng: shading and geometric
-normals, ng flipped to wo's side (ns is flipped to ng's side here if it is not; where wo is
+wi, Cycles' BSDFs not being reciprocal); every vector unit, world space. ns, ng: shading
+and geometric normals, ng flipped to wo's side (ns is flipped to ng's side here if it is not; where wo is
 below ns the geometric normal shades); t: a unit tangent (``DEFAULT_TANGENT`` when the mesh
 has none; it is made orthogonal to ns here). ``entering``: wo is on the front of the mesh's
 geometric normal, so a dielectric's eta is its IOR (else 1 / IOR). c0..c2: the texel colour

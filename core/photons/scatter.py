@@ -143,6 +143,9 @@ def _scatter_range(tri_v, tri_n, tri_mat, extent, tab, has_diffuse, has_specular
             tx, ty, tz, entering, u_lobe, u1, u2, li)
         if flags == 0:
             continue  # absorbed: no direction
+        if flags & closure.LOBE_DIFFUSE:
+            if mode == MODE_CAUSTIC:
+                continue  # a diffuse bounce ends the caustic path
         if has_specular[m] and not flags & (closure.LOBE_DELTA | closure.LOBE_TRANSMIT):
             # A glossy or layered material's reflection: the light it sends on is its BSDF
             # with the viewer on the outgoing side (closure.adjoint_weight; Lambert and
@@ -150,9 +153,6 @@ def _scatter_range(tri_v, tri_n, tri_mat, extent, tab, has_diffuse, has_specular
             w0, w1, w2 = closure.adjoint_weight(
                 lobes, tab, row, c0, c1, c2, -dx, -dy, -dz, ox, oy, oz, sx, sy, sz, gx, gy,
                 gz, tx, ty, tz, entering, pdf, li)
-        if flags & closure.LOBE_DIFFUSE:
-            if mode == MODE_CAUSTIC:
-                continue  # a diffuse bounce ends the caustic path
         # Russian roulette on the sampled weight: survive with p = min(1, max w), the flux
         # times w / p (a grey surface of albedo a keeps the flux, absorbs with 1 - a).
         p = min(1.0, _max3(w0, w1, w2))

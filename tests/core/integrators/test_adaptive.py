@@ -127,9 +127,9 @@ def test_a_pixel_keeps_sampling_beside_a_noisy_neighbour():
 
 def test_a_wide_round_is_traced_in_batches_the_memory_estimate_allows(renders, monkeypatch):
     """An adaptive tile is whole rows, so a round can hold more samples than the memory
-    estimate's SAMPLES_PER_TILE (4 x TARGET_SAMPLES_PER_TILE): it is traced in batches of at
-    most that many, with the same image (a sample does not depend on its batch) and the
-    same samples per pixel."""
+    estimate's SAMPLES_PER_TILE (TILE_GROWTH x TARGET_SAMPLES_PER_TILE): it is traced in
+    batches of at most that many, with the same image (a sample does not depend on its
+    batch) and the same samples per pixel."""
     calls = []
     trace = integrator._trace_samples
 
@@ -148,3 +148,30 @@ def test_a_wide_round_is_traced_in_batches_the_memory_estimate_allows(renders, m
     assert np.array_equal(out.stats["samples_per_pixel"], ref.stats["samples_per_pixel"])
     for name, image in ref.passes.items():
         assert np.array_equal(out.passes[name], image), name
+
+
+def test_one_pixels_samples_above_a_batch_are_traced_in_sub_ranges(monkeypatch):
+    """When one pixel's samples alone exceed the batch (TILE_GROWTH x
+    TARGET_SAMPLES_PER_TILE), they are traced in sub-ranges whose means are weighted by
+    their sizes: the image equals the one traced in one range (to rounding), adaptive or
+    not."""
+    scene = caustic_scene(width=6, height=5)
+    for threshold in (0.0, 0.02):
+        settings = RenderSettings(samples=16, seed=3, adaptive_threshold=threshold, **LIGHT)
+        ref = integrator.render(scene, settings)
+        calls = []
+        trace = integrator._trace_samples
+
+        def counted(ctx, pix, lo, hi):
+            calls.append(pix.shape[0] * (hi - lo))
+            return trace(ctx, pix, lo, hi)
+
+        with monkeypatch.context() as patch:
+            patch.setattr(integrator, "TARGET_SAMPLES_PER_TILE", 1)  # batches of 4 samples
+            patch.setattr(integrator, "_trace_samples", counted)
+            out = integrator.render(scene, settings)
+        assert max(calls) <= integrator.TILE_GROWTH
+        assert np.array_equal(out.stats["samples_per_pixel"], ref.stats["samples_per_pixel"])
+        for name, image in ref.passes.items():
+            np.testing.assert_allclose(out.passes[name], image, rtol=1e-12, atol=1e-15,
+                                       err_msg=name)
