@@ -25,7 +25,9 @@ light of radius 0.1 m) and ``fog_caustic`` (the same with a glass sphere under t
 volumetric caustic), tests/blender/cycles_media_reference.py's scenes as they are (issue
 16), and ``fog_spot_1m``, ``fog_caustic_1m``: the same with the spot light's radius 1 m,
 where Cycles converges on the caustic (at 0.1 m it does not: an index-matched sphere darkens
-its image by 13 %, that module's docstring).
+its image by 13 %, that module's docstring); ``fog_box_caustic_1m``: the glass sphere in a
+fog box under the 1 m light raised so that its sphere holds no fog (where Cycles' light hits
+lose nothing, docs/volumes.md "Cycles' loss inside a wide light").
 
 Resolutions: RESOLUTIONS (64 x 48, the caustic 96 x 72), or --resolution / --quick (48 x 36).
 References (cached in benchmarks/references/<scene>_<W>x<H>.npz with the command that
@@ -91,7 +93,8 @@ DOCS = ROOT / "docs"
 RESOLUTIONS = {"demo": (64, 48), "caustic": (96, 72), "interior": (64, 48), "mirror": (64, 48),
                "artist": (64, 48), "fog_spot_1m": media_ref.RESOLUTION,
                "fog_caustic_1m": media_ref.RESOLUTION, "fog_spot": media_ref.RESOLUTION,
-               "fog_caustic": media_ref.RESOLUTION}
+               "fog_caustic": media_ref.RESOLUTION,
+               "fog_box_caustic_1m": media_ref.RESOLUTION}
 """Pixels per scene: small, so a full run fits ~30 min on 2 shared cores (the caustic is
 larger: its reference is SPPM, whose cost does not grow with the pixel count)."""
 QUICK_RESOLUTION = (48, 36)
@@ -292,11 +295,18 @@ def fog_caustic_small_scene(resolution):
     return media_ref.fog_spot_scene(resolution, sphere=True)
 
 
+def fog_box_caustic_scene(resolution):
+    """cycles_media_reference's fog_box_caustic_1m: the glass sphere in a fog box under the
+    1 m spot light, whose own sphere holds no fog (Cycles' reference sound there)."""
+    return media_ref.fog_box_scene(resolution)
+
+
 SCENES = {"demo": demo_scene, "caustic": caustic_scene, "interior": interior_scene,
           "mirror": mirror_scene, "artist": artist_scene, "fog_spot_1m": fog_spot_scene,
           "fog_caustic_1m": fog_caustic_scene, "fog_spot": fog_spot_small_scene,
-          "fog_caustic": fog_caustic_small_scene}
-MEDIA_SCENES = ("fog_spot_1m", "fog_caustic_1m", "fog_spot", "fog_caustic")
+          "fog_caustic": fog_caustic_small_scene, "fog_box_caustic_1m": fog_box_caustic_scene}
+MEDIA_SCENES = ("fog_spot_1m", "fog_caustic_1m", "fog_spot", "fog_caustic",
+                "fog_box_caustic_1m")
 """Scenes whose Cycles renders use cycles_media_reference.configure_cycles_media (volume
 bounces too), at that module's resolution only; their reference is that module's cached
 Cycles render of the same name, except for SPPM_REFERENCES' (fog_caustic)."""

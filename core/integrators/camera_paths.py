@@ -523,7 +523,8 @@ def _walk(prepared: PreparedScene, seed: int, k: int, max_depth: int, direct, fe
         if media is not None:  # the segments' media: their light, then their transmittance
             thr = volume.add_segments(
                 media, origins, dirs, np.where(hits.prim >= 0, hits.t, np.inf), thr, rows,
-                pixel, sample, depth, seen_media, seen_media, seen_media, stats, n_inside)
+                pixel, sample, depth, seen_media, seen_media, seen_media, stats, n_inside,
+                volume.surface_bounds(prepared, hits.prim, dirs))
         weigh = start is not None and local == 0  # MIS against the vertex's light samples
         hit, miss, shown, light_l = lights_along(prepared, first, transmitted, origins, dirs, hits,
                                                  prev_pdf if weigh else None, k_light,

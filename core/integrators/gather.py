@@ -427,20 +427,21 @@ def final_gather(terms: PhotonTerms, prepared: PreparedScene, settings: RenderSe
     return out
 
 
-def _through_medium(terms: PhotonTerms, o, d, hits, thr, radiance, rows) -> np.ndarray:
+def _through_medium(terms: PhotonTerms, prepared: PreparedScene, o, d, hits, thr, radiance,
+                    rows) -> np.ndarray:
     """Final-gather segments through the scene's media: radiance[rows] += thr x the beam
     estimate of every volume photon along their homogeneous stretches (single scattering
     included, as the global map of final gathering holds direct photons) and the media's
     emission along them; returns thr x their transmittance. thr (M, 3) or None (all 1)."""
     seg = np.where(hits.prim >= 0, hits.t.astype(np.float64), np.inf)
-    st = terms.medium.stretches(o, d, seg)
+    st = terms.medium.stretches(o, d, seg, volume.surface_bounds(prepared, hits.prim, d))
     vmap = terms.volume_gather_map
     scat = np.flatnonzero(np.any(st.sigma_s > 0, axis=1))
     if vmap is not None and len(vmap) and scat.size:
         ray = st.ray[scat]
         s_o = np.asarray(o, np.float64)[ray] + st.t0[scat, None] * np.asarray(d, np.float64)[ray]
         est = volume.beam_estimate(vmap, s_o, np.asarray(d, np.float64)[ray], st.length[scat],
-                                   st.sigma_t[scat], st.g[scat])
+                                   st.sigma_t[scat], st.g[scat], volume.stretch_bounds(st)[scat])
         np.add.at(radiance, rows[ray], _times(thr, ray, st.before[scat]) * est)
     if terms.medium.emits:
         # No shadow ray samples an emissive medium: its direct light at the gathering
@@ -569,7 +570,7 @@ def _final_gather_batch(terms, prepared, settings, pos, ngf, nsf, eps, pixel, sa
                                                          layer))
         terms.stats["rays_gather"] += o.shape[0]
         if terms.medium is not None:
-            thr = _through_medium(terms, o, d, hits, thr, radiance, ray_ids)
+            thr = _through_medium(terms, prepared, o, d, hits, thr, radiance, ray_ids)
         # Escaping rays and light sources count nothing (direct light holds them).
         hit = None if np.all(hits.prim >= 0) else np.flatnonzero(hits.prim >= 0)
         rows, d, lam = _take(rows, hit), _take(d, hit), _take(lam, hit)

@@ -380,7 +380,7 @@ def _trace_samples(ctx: _CameraPass, pix: np.ndarray, lo: int, hi: int):
                 ctx.volume, origins, dirs, np.where(hits.prim >= 0, hits.t, np.inf), thr,
                 rows, pixel, sample, depth, acc["volume_direct"] if first else acc["specular"],
                 acc["volume_indirect"] if first else acc["specular"], emit_target, ctx.stats,
-                n_inside)
+                n_inside, volume.surface_bounds(pr, hits.prim, dirs))
 
         # Lights seen along the rays (lights are not occluders), weighed against light
         # sampling after a rough lobe

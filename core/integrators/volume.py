@@ -19,7 +19,9 @@ stretch adds the terms below, weighted by the transmittance from o to its start:
   emissive triangles' single scattering comes from the volume photon map
   (core/photons/tracing.py stores their first collisions);
 - Volume Indirect: the beam radiance estimate (core/photons/beam.py, Jarosz et al. 2008)
-  of the volume photon map and of the volumetric caustic map along the segment;
+  of the volume photon map and of the volumetric caustic map along the segment, corrected
+  where the segment meets a plane the scattering ends at (a medium's boundary with none
+  beyond, the opaque surface the segment ends on: ``surface_bounds``);
 - the medium's own emission, integral of exp(-sigma_t s) emission ds, to the Emission pass.
 Radiance in W/(m^2 sr), segment lengths in metres.
 """
@@ -35,6 +37,7 @@ from numba import njit, prange
 from .. import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
 from .. import sampling
 from ..lights import kernels as light_kernels
+from ..materials import closure
 from ..media import equiangular, regions, tracking
 from ..media.phase import hg_eval
 from ..photons.beam import VolumePhotonMap
@@ -213,15 +216,40 @@ def _single_scattering(vt: VolumeTerms, origins, dirs, seg_t, thr, sigma_s, sigm
     return out
 
 
+def surface_bounds(prepared: PreparedScene, prim, dirs) -> np.ndarray:
+    """(N,) float64 |cos| between N rays (unit dirs (N, 3)) and the triangles prim (N,)
+    (-1: missed) they end on, where the triangle's material transmits nothing (the medium
+    ends there for the beam estimate, ``regions.Medium.stretches``' end_cos); NaN where a
+    ray misses or its surface lets light through (glass, translucent: the medium may go on
+    behind it)."""
+    prim = np.asarray(prim)
+    out = np.full(prim.shape[0], np.nan)
+    hit = np.flatnonzero(prim >= 0)
+    if hit.size == 0:
+        return out
+    mat = prepared.tri_material[prim[hit]]
+    opaque = ~closure.lobe_masks(prepared.closures)["transmits"][mat]
+    keep = hit[opaque]
+    v = prepared.tri_vertices[prim[keep]].astype(np.float64)
+    n = np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0])
+    length = np.linalg.norm(n, axis=1)
+    cos = np.abs(np.einsum("ij,ij->i", n, np.asarray(dirs, np.float64)[keep]))
+    out[keep] = np.where(length > 0, np.minimum(cos / np.where(length > 0, length, 1.0), 1.0),
+                         np.nan)
+    return out
+
+
 def add_segments(vt: VolumeTerms, origins, dirs, seg_t, thr, rows, pixel, sample, depth,
                  direct_target, indirect_target, emission_target, stats,
-                 n_inside=None) -> np.ndarray:
+                 n_inside=None, end_cos=None) -> np.ndarray:
     """Add the volume terms of N camera segments (origins, unit dirs (N, 3), lengths
     seg_t (N,) metres, inf for escaping rays; path weights thr (N, 3)) to the targets' rows
     (N,) (per-sample accumulators (R, 3) float64), and return thr times the segments'
     transmittance, the weight of what lies behind them.
 
     n_inside (N,): the refractive index of the dielectric each segment lies in (None: 1).
+    end_cos (N,): ``surface_bounds`` of the surfaces the segments end on (None: none bounds
+    the medium; its boundaries still do).
     The camera paths' refractions do not scale radiance by eta^2 (Cycles' convention), but
     the beam estimate is the physical radiance there, n^2 times what the convention
     carries: it is divided by n^2 (a smoke-filled glass sphere).
@@ -234,7 +262,7 @@ def add_segments(vt: VolumeTerms, origins, dirs, seg_t, thr, rows, pixel, sample
     pixel, sample (R,) int64 key the random numbers (with depth, the bounce)."""
     m = vt.medium
     seg_t = np.ascontiguousarray(seg_t, np.float64)
-    st = m.stretches(origins, dirs, seg_t)
+    st = m.stretches(origins, dirs, seg_t, end_cos)
     ray = st.ray
     # Each stretch as a segment of its own: its start, its length, the weight reaching it
     s_o = np.ascontiguousarray(np.asarray(origins, np.float64)[ray]
@@ -244,11 +272,12 @@ def add_segments(vt: VolumeTerms, origins, dirs, seg_t, thr, rows, pixel, sample
     s_thr = np.ascontiguousarray(thr[ray] * st.before)
     s_ray = ray
     sig_s, sig_t, g, em = st.sigma_s, np.ascontiguousarray(st.sigma_t), st.g, st.emission
+    s_bounds = stretch_bounds(st)
     fld = het_s = None
     if st.field is not None and np.any(st.field >= 0):
         (s_o, s_d, s_len, s_thr, s_ray, sig_s, sig_t, g, em, fld,
-         het_s) = _split_heterogeneous(vt, st, s_o, s_d, s_len, s_thr, pixel[rows], sample[rows],
-                                       depth)
+         het_s, s_bounds) = _split_heterogeneous(vt, st, s_o, s_d, s_len, s_thr, pixel[rows],
+                                                 sample[rows], depth)
     s_rows = rows[s_ray]
     s_photon = s_thr
     if n_inside is not None and np.any(n_inside != 1.0):
@@ -278,7 +307,7 @@ def add_segments(vt: VolumeTerms, origins, dirs, seg_t, thr, rows, pixel, sample
         for vmap in (vt.volume_map, vt.caustic_map):
             if vmap is not None and len(vmap):
                 est = beam_estimate(vmap, s_o[scat], s_d[scat], s_len[scat], sig_t[scat],
-                                    g[scat])
+                                    g[scat], s_bounds[scat])
                 np.add.at(indirect_target, s_rows[scat], s_photon[scat] * est)
         stats["time_volume_beam"] = stats.get("time_volume_beam", 0.0) + time.perf_counter() - t0
     if m.emits:
@@ -293,7 +322,8 @@ def _split_heterogeneous(vt: VolumeTerms, st, s_o, s_d, s_len, s_thr, pixel, sam
     them): the pieces replace the stretch, each with its start, length, weight times the
     running product, and the stretch's homogeneous part as coefficients. Returns the new
     (s_o, s_d, s_len, s_thr, ray, sigma_s, sigma_t, g, emission, field (P,) int64 (-1:
-    homogeneous), het_s (P, 3)): for a piece of a heterogeneous stretch sigma_s is the
+    homogeneous), het_s (P, 3), bounds (P, 4) (``stretch_bounds``, each piece's distances
+    to its stretch's planes)): for a piece of a heterogeneous stretch sigma_s is the
     homogeneous part, to which rho(x) het_s adds where Volume Direct scatters. pixel,
     sample (N,) per segment key the walks."""
     m = vt.medium
@@ -325,16 +355,32 @@ def _split_heterogeneous(vt: VolumeTerms, st, s_o, s_d, s_len, s_thr, pixel, sam
     w[at + 1] = T
     out_o = s_o[src] + a[:, None] * s_d[src]
     fld = st.field[src]
+    bounds = stretch_bounds(st)[src]
+    bounds[:, 1] = a
+    short = b < s_len[src]  # an escaping stretch's last piece: inf - inf, left 0
+    bounds[:, 3] = 0.0
+    bounds[short, 3] = s_len[src][short] - b[short]
     return (np.ascontiguousarray(out_o), np.ascontiguousarray(s_d[src]), b - a,
             np.ascontiguousarray(s_thr[src] * w), st.ray[src], st.sigma_s[src],
             np.ascontiguousarray(st.sigma_t[src]), st.g[src], st.emission[src], fld,
-            np.where((fld >= 0)[:, None], st.het_s[src], 0.0))
+            np.where((fld >= 0)[:, None], st.het_s[src], 0.0), bounds)
 
 
-def beam_estimate(vmap: VolumePhotonMap, origins, dirs, length, sigma_t, g) -> np.ndarray:
+def stretch_bounds(st: regions.Stretches) -> np.ndarray:
+    """(S, 4) float64 the beam estimate's planes of each stretch (``VolumePhotonMap.radiance``'s
+    bounds): (bound0, 0, bound1, 0), the planes at the stretch's own ends."""
+    out = np.zeros((st.t0.shape[0], 4))
+    out[:, 0] = st.bound0
+    out[:, 2] = st.bound1
+    return out
+
+
+def beam_estimate(vmap: VolumePhotonMap, origins, dirs, length, sigma_t, g,
+                  bounds=None) -> np.ndarray:
     """The beam radiance estimate (N, 3) float64 W/(m^2 sr) of N homogeneous stretches
     (origins, unit dirs (N, 3), length (N,) metres, inf allowed; sigma_t (N, 3) 1/m, g
-    (N,)): one query per distinct medium, since the map's query takes one."""
+    (N,); bounds (N, 4) their planes, ``stretch_bounds``, or None): one query per distinct
+    medium, since the map's query takes one."""
     out = np.zeros((origins.shape[0], 3))
     coef = np.concatenate([sigma_t, np.asarray(g, np.float64)[:, None]], axis=1)
     keys, inv = np.unique(coef, axis=0, return_inverse=True)
@@ -342,5 +388,6 @@ def beam_estimate(vmap: VolumePhotonMap, origins, dirs, length, sigma_t, g) -> n
     for j in range(keys.shape[0]):
         sel = np.flatnonzero(inv == j) if keys.shape[0] > 1 else slice(None)
         out[sel] = vmap.radiance(origins[sel], dirs[sel], np.minimum(length[sel], SEGMENT_FAR),
-                                 keys[j, :3], float(keys[j, 3]))
+                                 keys[j, :3], float(keys[j, 3]),
+                                 None if bounds is None else bounds[sel])
     return out

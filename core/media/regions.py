@@ -52,6 +52,11 @@ MAX_MESH_MEDIA = 62
 WORLD_BOX_BIT = MAX_MESH_MEDIA
 """The mask bit of the stretches inside the box of a World volume of varying density."""
 
+COINCIDENT = 1e-5
+"""A crossing within this fraction of (t_end + the scene's extent) past a segment's end is
+the surface that ends it (a glass sphere holding smoke is one mesh: its crossing and its
+hit differ by rounding)."""
+
 MAX_CROSSINGS = 256
 """Boundary crossings a walk follows along one ray before it raises (a mesh made of more
 layers along one line than this is not a closed medium boundary the renderer expects)."""
@@ -69,8 +74,13 @@ class Stretches(NamedTuple):
     Heterogeneous media (docs/volumes.md): sigma_a, sigma_s above are the stretch's
     homogeneous part; field (S,) int64 the heterogeneous medium row active there (-1 none,
     at most one), het_a, het_s (S, 3) its coefficients at density 1, majorant (S,) its
-    density's bound on the stretch (the largest majorant-grid cell it crosses); before and through then include ratio-tracking estimates (unbiased,
-    not exact) of its transmittance.
+    density's bound on the stretch (the largest majorant-grid cell it crosses); before and
+    through then include ratio-tracking estimates (unbiased, not exact) of its
+    transmittance.
+    bound0, bound1: (S,) float64 |cos| between the ray and the plane where the scattering
+    ends at the stretch's start / end (a medium boundary with no scattering medium beyond,
+    or the opaque surface that ends the segment: ``stretches``' end_cos), NaN where the
+    scattering goes on (the beam estimate's boundary correction, photons/beam.py).
     """
 
     ray: np.ndarray
@@ -87,6 +97,8 @@ class Stretches(NamedTuple):
     het_a: np.ndarray | None = None
     het_s: np.ndarray | None = None
     majorant: np.ndarray | None = None
+    bound0: np.ndarray | None = None
+    bound1: np.ndarray | None = None
 
     @property
     def sigma_t(self) -> np.ndarray:
@@ -148,6 +160,8 @@ class Medium:
         e1 = tri[:, 1].astype(np.float64) - tri[:, 0]
         e2 = tri[:, 2].astype(np.float64) - tri[:, 0]
         self.tri_normal = np.ascontiguousarray(np.cross(e1, e2))
+        length = np.linalg.norm(self.tri_normal, axis=1)
+        self.tri_normal_length = np.where(length > 0, length, 1.0)
         self.accel = Accelerator(tri, threads=threads) if tri.shape[0] else None
         self.scatters = bool(np.any(self.sigma_s > 0))
         self.emits = bool(np.any(self.emission > 0))
@@ -175,11 +189,13 @@ class Medium:
 
     def _crossings(self, o, d):
         """Every boundary crossing of N rays from o along unit d to infinity: (N, C)
-        float64 distances (inf padded), (N, C) int64 medium bits, (N, C) bool front face."""
+        float64 distances (inf padded), (N, C) int64 medium bits, (N, C) bool front face,
+        (N, C) float64 |cos| between the ray and the crossed triangle's plane."""
         n = o.shape[0]
-        ts, bits, fronts = [], [], []
+        ts, bits, fronts, coss = [], [], [], []
         if self.accel is None or n == 0:
-            return np.full((n, 0), np.inf), np.zeros((n, 0), np.int64), np.zeros((n, 0), bool)
+            return (np.full((n, 0), np.inf), np.zeros((n, 0), np.int64), np.zeros((n, 0), bool),
+                    np.zeros((n, 0)))
         o64 = np.asarray(o, np.float64)
         d64 = np.asarray(d, np.float64)
         t_acc = np.zeros(n)
@@ -196,22 +212,26 @@ class Medium:
             col_t = np.full(n, np.inf)
             col_b = np.zeros(n, np.int64)
             col_f = np.zeros(n, bool)
+            col_c = np.zeros(n)
             idx = active[hit]
             prim = hits.prim[hit]
             t_acc[idx] += hits.t[hit].astype(np.float64)
             col_t[idx] = t_acc[idx]
             col_b[idx] = self.tri_bit[prim]
-            col_f[idx] = np.einsum("ij,ij->i", self.tri_normal[prim], d64[idx]) < 0.0
+            cos = np.einsum("ij,ij->i", self.tri_normal[prim], d64[idx])
+            col_f[idx] = cos < 0.0
+            col_c[idx] = np.minimum(np.abs(cos) / self.tri_normal_length[prim], 1.0)
             ts.append(col_t)
             bits.append(col_b)
             fronts.append(col_f)
+            coss.append(col_c)
             # Go on from just past the crossing (the offset scales with the scene).
             p = o64[idx] + t_acc[idx, None] * d64[idx]
             eps = geometry.OFFSET_SCALE * (np.abs(p).max(axis=1) + self.extent)
             t_acc[idx] += eps
             cur[idx] = o64[idx] + t_acc[idx, None] * d64[idx]
             active = idx
-        return np.stack(ts, 1), np.stack(bits, 1), np.stack(fronts, 1)
+        return np.stack(ts, 1), np.stack(bits, 1), np.stack(fronts, 1), np.stack(coss, 1)
 
     def holds(self, row: int, origins, directions) -> np.ndarray:
         """(N,) bool: does mesh medium ``row`` hold each origin (N, 3) metres, by the
@@ -221,21 +241,23 @@ class Medium:
         bit = int(self.bit_of[row]) if 0 <= row < self.bit_of.shape[0] else -1
         if bit < 0 or o.shape[0] == 0:
             return np.zeros(o.shape[0], bool)
-        ct, cb, cf = self._crossings(o, np.ascontiguousarray(directions, np.float64).reshape(-1, 3))
+        ct, cb, cf, _ = self._crossings(o, np.ascontiguousarray(directions, np.float64).reshape(-1, 3))
         mine = (cb == bit) & np.isfinite(ct)
         first = np.argmax(mine, axis=1)
         return mine.any(axis=1) & ~cf[np.arange(o.shape[0]), first]
 
-    def stretches(self, origins, directions, t_end) -> Stretches:
+    def stretches(self, origins, directions, t_end, end_cos=None) -> Stretches:
         """The homogeneous stretches of N segments (Stretches): origins, unit directions
-        (N, 3) metres, t_end (N,) metres (inf: the ray escapes)."""
+        (N, 3) metres, t_end (N,) metres (inf: the ray escapes); end_cos (N,) float64 |cos|
+        between the ray and the surface that ends it where that surface bounds the medium
+        (opaque), NaN where not, or None: none does (``surface_bounds``)."""
         o = np.ascontiguousarray(origins, np.float64).reshape(-1, 3)
         d = np.ascontiguousarray(directions, np.float64).reshape(-1, 3)
         n = o.shape[0]
         t_end = np.ascontiguousarray(np.broadcast_to(np.asarray(t_end, np.float64), (n,)))
-        ct, cb, cf = self._crossings(o, d)
+        ct, cb, cf, cc = self._crossings(o, d)
         if self.world_box is not None:
-            ct, cb, cf = _with_box_crossings(ct, cb, cf, o, d, *self.world_box)
+            ct, cb, cf, cc = _with_box_crossings(ct, cb, cf, cc, o, d, *self.world_box)
         count = np.empty(n, np.int64)
         _count_kernel(ct, t_end, count)
         start = np.zeros(n + 1, np.int64)
@@ -243,8 +265,11 @@ class Medium:
         s = int(start[-1])
         ray, t0, t1, mask = (np.empty(s, np.int64), np.empty(s), np.empty(s),
                              np.empty(s, np.int64))
-        _stretch_kernel(ct, cb, cf, t_end, start, ray, t0, t1, mask)
+        c0, c1, beyond = np.empty(s), np.empty(s), np.empty(s, np.int64)
+        _stretch_kernel(ct, cb, cf, cc, t_end, COINCIDENT * (t_end + self.extent), start, ray,
+                        t0, t1, mask, c0, c1, beyond)
         sa, ss, em, g, fld, ha, hs, maj = self._coefficients(mask)
+        bound0, bound1 = self._bounds(start, ss, hs, c0, c1, beyond, end_cos)
         before = np.empty((s, 3))
         through = np.ones((n, 3))
         _before_kernel(start, t0, t1, sa + ss, before, through)
@@ -270,7 +295,34 @@ class Medium:
                 factor = np.ones((s, 3))
                 factor[het] = T
                 _het_before_kernel(start, factor, before, through)
-        return Stretches(ray, start, t0, t1, sa, ss, em, g, before, through, fld, ha, hs, maj)
+        return Stretches(ray, start, t0, t1, sa, ss, em, g, before, through, fld, ha, hs, maj,
+                         bound0, bound1)
+
+    def _bounds(self, start, ss, hs, c0, c1, beyond, end_cos):
+        """``Stretches.bound0`` / ``bound1`` from the kernel's crossing cosines c0, c1 (S,)
+        (NaN: the stretch starts / ends elsewhere than at a crossing) and masks ``beyond``
+        (S,) (-1: none): a crossing bounds the scattering where the medium on its other
+        side scatters nothing; the segment's last stretch takes ``end_cos`` where no
+        crossing ends it."""
+        scatters = np.any(ss > 0, axis=1) | np.any(hs > 0, axis=1)
+        bound0 = c0.copy()
+        first = start[:-1][start[:-1] < start[1:]]
+        after = np.ones(c0.shape[0], bool)
+        after[first] = False  # a segment's first stretch: no stretch before it
+        prev = np.flatnonzero(after)
+        bound0[prev[scatters[prev - 1]]] = np.nan
+        bound1 = c1.copy()
+        has = np.flatnonzero(beyond >= 0)
+        if has.size:
+            _, b_ss, _, _, _, _, b_hs, _ = self._coefficients(beyond[has])
+            far = np.any(b_ss > 0, axis=1) | np.any(b_hs > 0, axis=1)
+            bound1[has[far]] = np.nan
+        if end_cos is not None:
+            last = start[1:][start[:-1] < start[1:]] - 1
+            seg = np.flatnonzero(start[:-1] < start[1:])
+            open_end = np.isnan(bound1[last])
+            bound1[last[open_end]] = np.asarray(end_cos, np.float64)[seg[open_end]]
+        return bound0, bound1
 
     def _coefficients(self, mask):
         """Summed coefficients of the World's medium and the mesh media of each mask."""
@@ -352,9 +404,12 @@ def _count_kernel(ct, t_end, count):
 
 
 @njit(cache=True, error_model="numpy")
-def _stretch_kernel(ct, cb, cf, t_end, start, ray, t0, t1, mask):
+def _stretch_kernel(ct, cb, cf, cc, t_end, tol, start, ray, t0, t1, mask, c0, c1, beyond):
     """The stretches' rays, bounds and masks (module doc: first crossing at a back face =
-    inside at the origin; every crossing toggles)."""
+    inside at the origin; every crossing toggles); c0 / c1 the cosine cc of the crossing
+    that starts / ends each stretch (NaN: none) and beyond the mask past its end crossing
+    (-1: none). A segment's last stretch ends at a crossing too where one lies within
+    tol (N,) metres past t_end (a surface that is also a medium's boundary)."""
     for i in range(ct.shape[0]):
         seen = np.int64(0)
         m = np.int64(0)
@@ -368,6 +423,7 @@ def _stretch_kernel(ct, cb, cf, t_end, start, ray, t0, t1, mask):
                     m |= bit
         k = start[i]
         a = 0.0
+        c_start = np.nan
         for j in range(ct.shape[1] + 1):
             b = ct[i, j] if j < ct.shape[1] else np.inf
             last = not (b < t_end[i])
@@ -375,14 +431,20 @@ def _stretch_kernel(ct, cb, cf, t_end, start, ray, t0, t1, mask):
             t0[k] = a
             t1[k] = t_end[i] if last else b
             mask[k] = m
-            k += 1
-            if last:
+            c0[k] = c_start
+            c1[k] = np.nan
+            beyond[k] = -1
+            if last and not (b - t_end[i] <= tol[i]):
                 break
             bit = np.int64(1) << cb[i, j]
-            if cf[i, j]:
-                m |= bit
-            else:
-                m &= ~bit
+            after = (m | bit) if cf[i, j] else (m & ~bit)
+            c1[k] = cc[i, j]
+            beyond[k] = after
+            if last:
+                break
+            k += 1
+            m = after
+            c_start = cc[i, j]
             a = b
 
 
@@ -430,10 +492,11 @@ def _het_before_kernel(start, factor, before, through):
         through[i, 2] *= c2
 
 
-def _with_box_crossings(ct, cb, cf, o, d, lo, hi):
-    """``Medium._crossings``' (N, C) distances, bits and front flags with the crossings of
-    the box [lo, hi] (3,) metres added (bit WORLD_BOX_BIT; entering: a front face), each row
-    in order of distance (inf padded): the slab test of the rays o + t d, t > 0."""
+def _with_box_crossings(ct, cb, cf, cc, o, d, lo, hi):
+    """``Medium._crossings``' (N, C) distances, bits, front flags and cosines with the
+    crossings of the box [lo, hi] (3,) metres added (bit WORLD_BOX_BIT; entering: a front
+    face; cosine NaN: the box is no boundary of the beam estimate), each row in order of
+    distance (inf padded): the slab test of the rays o + t d, t > 0."""
     inside = (o >= lo) & (o <= hi)
     with np.errstate(divide="ignore", invalid="ignore"):
         ta, tb = (lo - o) / d, (hi - o) / d
@@ -447,9 +510,10 @@ def _with_box_crossings(ct, cb, cf, o, d, lo, hi):
     ct = np.concatenate([ct, t_in[:, None], t_out[:, None]], axis=1)
     cb = np.concatenate([cb, np.full((n, 2), WORLD_BOX_BIT, np.int64)], axis=1)
     cf = np.concatenate([cf, np.ones((n, 1), bool), np.zeros((n, 1), bool)], axis=1)
+    cc = np.concatenate([cc, np.full((n, 2), np.nan)], axis=1)
     order = np.argsort(ct, axis=1, kind="stable")
     return (np.take_along_axis(ct, order, 1), np.take_along_axis(cb, order, 1),
-            np.take_along_axis(cf, order, 1))
+            np.take_along_axis(cf, order, 1), np.take_along_axis(cc, order, 1))
 
 
 def _walk_keys(o, d, stretch) -> np.ndarray:

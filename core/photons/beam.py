@@ -16,6 +16,18 @@ integrated along the ray in closed form, with a constant kernel over each photon
 The result is the radiance (W/(m^2 sr)) scattered into the ray by all the stored light
 (multiple scattering and volumetric caustics), to be attenuated no further.
 
+Boundaries. Photons lie only where the medium scatters, so near a plane where it ends (the
+face of a fog box, a floor in the fog) part of each disc around the ray falls where there
+are none, and the estimate reads low: half the density on the plane, over a layer as thick
+as the radii (the top of a fog box seen at a grazing angle read 10-30 % dark against
+Cycles). Where a stretch starts or ends at such a plane (``regions.Stretches.bound0`` /
+``bound1``: |cos| c between ray and plane), a photon met at t counts 1 / (the share of the
+disc of radius r_i around the ray's point at t, perpendicular to the ray, that lies inside
+the medium): the plane cuts that disc at l = (distance to the plane along the ray) x c /
+sqrt(1 - c^2) from its centre, and the share is 1 - (acos(l / r) - (l / r) sqrt(1 -
+(l / r)^2)) / pi (``disc_inside``). For a uniform density up to the plane the estimate is
+then exact at every depth (docs/volumes.md, "Boundaries of the beam estimate").
+
 The query reuses the photon kd-tree's order (kdtree.balance_kernel: left-balanced, heap
 order, split planes through the photons), with a bounding box per inner node: the box of its
 subtree's photon spheres (position -+ radius, rounded outward to float32). A ray descends
@@ -147,13 +159,19 @@ class VolumePhotonMap:
         """(tree, flux, directions, radii, inner nodes' boxes (n // 2, 6)) for kernels."""
         return self.tree, self.flux, self.directions, self.radii, self.boxes
 
-    def radiance(self, origins, directions, t_max, sigma_t, g: float) -> np.ndarray:
+    def radiance(self, origins, directions, t_max, sigma_t, g: float,
+                 bounds=None) -> np.ndarray:
         """The beam radiance estimate (M, 3) float64, W/(m^2 sr), of M rays: origins,
         unit directions (M, 3) metres, t_max (M,) or scalar metres, in one homogeneous
-        medium of extinction sigma_t (3,) 1/m and anisotropy g."""
+        medium of extinction sigma_t (3,) 1/m and anisotropy g. bounds (M, 4) float64:
+        per ray (c0, a0, c1, a1), the |cos| of the plane where the scattering ends a
+        distance a0 before the ray's start and a1 past its end (the module doc; c NaN:
+        no plane there), or None: no planes."""
         o = np.ascontiguousarray(origins, np.float64).reshape(-1, 3)
         d = np.ascontiguousarray(directions, np.float64).reshape(-1, 3)
         tm = np.ascontiguousarray(np.broadcast_to(np.asarray(t_max, np.float64), (o.shape[0],)))
+        bd = np.full((o.shape[0], 4), np.nan) if bounds is None else \
+            np.asarray(bounds, np.float64).reshape(-1, 4)
         out = np.zeros((o.shape[0], 3))
         if len(self):
             # Rays of similar directions one after another (a Morton order of d): they walk
@@ -163,7 +181,8 @@ class VolumePhotonMap:
             part = np.empty_like(out)
             beam_rays(*self.kernel_arrays(), np.ascontiguousarray(o[order]),
                       np.ascontiguousarray(d[order]), np.ascontiguousarray(tm[order]),
-                      np.asarray(sigma_t, np.float64), float(g), part)
+                      np.ascontiguousarray(bd[order]), np.asarray(sigma_t, np.float64),
+                      float(g), part)
             out[order] = part
         return out
 
@@ -194,12 +213,35 @@ def _segment_hits_box(ox, oy, oz, ix, iy, iz, t_max, boxes, node):
     return True
 
 
+@njit(cache=True, error_model="numpy", inline="always")
+def _plane_slope(c):
+    """c / sqrt(1 - c^2) of a plane at |cos| c to the ray (the distance from the ray's
+    point to the plane's line in the disc per unit distance along the ray), inf for a
+    plane across the ray, NaN for none."""
+    if c != c:
+        return c
+    s2 = 1.0 - c * c
+    return c / math.sqrt(s2) if s2 > 0.0 else math.inf
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def disc_inside(l, r):
+    """The share of a disc of radius r on one side of a line at distance l >= 0 from its
+    centre, the centre's side: 1 - (acos(x) - x sqrt(1 - x^2)) / pi, x = l / r (1 for x
+    >= 1, 1/2 at x = 0)."""
+    x = l / r
+    if not x < 1.0:
+        return 1.0
+    return 1.0 - (math.acos(x) - x * math.sqrt(1.0 - x * x)) / math.pi
+
+
 @njit(cache=True, error_model="numpy")
-def beam_radiance(tree, flux, directions, radii, boxes, ox, oy, oz, dx, dy, dz, t_max, s0, s1,
-                  s2, g, stack):
-    """The beam radiance estimate (L0, L1, L2) of one ray (module docstring); stack
-    (STACK,) int64 scratch. Depth first, a node's photon before its subtrees, the right
-    subtree before the left (the order fixes the float sum)."""
+def beam_radiance(tree, flux, directions, radii, boxes, ox, oy, oz, dx, dy, dz, t_max, b0c, b0a,
+                  b1c, b1a, s0, s1, s2, g, stack):
+    """The beam radiance estimate (L0, L1, L2) of one ray (module docstring); b0c, b0a,
+    b1c, b1a its planes (``VolumePhotonMap.radiance``'s bounds); stack (STACK,) int64
+    scratch. Depth first, a node's photon before its subtrees, the right subtree before
+    the left (the order fixes the float sum)."""
     n = tree.shape[0]
     inner = boxes.shape[0]
     L0 = 0.0
@@ -209,6 +251,8 @@ def beam_radiance(tree, flux, directions, radii, boxes, ox, oy, oz, dx, dy, dz, 
     iy = 1.0 / dy if dy != 0.0 else math.inf
     iz = 1.0 / dz if dz != 0.0 else math.inf
     grey = s0 == s1 and s1 == s2  # one exp for the three channels (the same value)
+    k0 = _plane_slope(b0c)  # NaN: no plane (every comparison with it is False)
+    k1 = _plane_slope(b1c)
     top = -1
     if n and (inner == 0 or _segment_hits_box(ox, oy, oz, ix, iy, iz, t_max, boxes, 0)):
         top = 0
@@ -227,7 +271,12 @@ def beam_radiance(tree, flux, directions, radii, boxes, ox, oy, oz, dx, dy, dz, 
             if d2 <= r * r:
                 cos = -(directions[node, 0] * dx + directions[node, 1] * dy
                         + directions[node, 2] * dz)
-                k = hg_eval(g, cos) / (math.pi * r * r)
+                share = 1.0
+                if k0 == k0:
+                    share *= disc_inside((t + b0a) * k0, r)
+                if k1 == k1:
+                    share *= disc_inside((t_max - t + b1a) * k1, r)
+                k = hg_eval(g, cos) / (math.pi * r * r * share)
                 e0 = math.exp(-s0 * t)
                 e1 = e0 if grey else math.exp(-s1 * t)
                 e2 = e0 if grey else math.exp(-s2 * t)
@@ -243,8 +292,9 @@ def beam_radiance(tree, flux, directions, radii, boxes, ox, oy, oz, dx, dy, dz, 
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
-def beam_rays(tree, flux, directions, radii, boxes, origins, dirs, t_max, sigma_t, g, out):
-    """beam_radiance for M rays -> out (M, 3)."""
+def beam_rays(tree, flux, directions, radii, boxes, origins, dirs, t_max, bounds, sigma_t, g,
+              out):
+    """beam_radiance for M rays -> out (M, 3); bounds (M, 4) their planes."""
     m = origins.shape[0]
     blocks = (m + 63) // 64
     for b in prange(blocks):
@@ -252,5 +302,6 @@ def beam_rays(tree, flux, directions, radii, boxes, origins, dirs, t_max, sigma_
         for i in range(b * 64, min(m, (b + 1) * 64)):
             out[i, 0], out[i, 1], out[i, 2] = beam_radiance(
                 tree, flux, directions, radii, boxes, origins[i, 0], origins[i, 1],
-                origins[i, 2], dirs[i, 0], dirs[i, 1], dirs[i, 2], t_max[i], sigma_t[0],
-                sigma_t[1], sigma_t[2], g, stack)
+                origins[i, 2], dirs[i, 0], dirs[i, 1], dirs[i, 2], t_max[i], bounds[i, 0],
+                bounds[i, 1], bounds[i, 2], bounds[i, 3], sigma_t[0], sigma_t[1], sigma_t[2],
+                g, stack)

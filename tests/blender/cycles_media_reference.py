@@ -10,6 +10,11 @@
 - ``fog_spot_1m``, ``fog_caustic_1m``: fog_spot and fog_caustic with the spot light's radius
   1 m (WIDE_LIGHT), where Cycles converges on the caustic (WIDE_RUNS: 8 seeds of 1024
   samples); benchmarks/tradeoff.py's fog scenes.
+- ``fog_box_caustic_1m``: the glass sphere in a fog box (the same fog inside a closed mesh,
+  4.2 x 4.2 m, 1.95 m high) under the 1 m spot light raised to 3 m (450 W), so that no fog
+  lies inside the light's sphere: there Cycles with the light's MIS on loses light
+  scattered inside it (docs/volumes.md, "Cycles' loss inside a wide light"), here its
+  MIS on and off agree.
 
 Cycles renders full transport with BOUNCES bounces of every kind (volume bounces
 included, caustics on, no clamping, the 1-pixel box filter of
@@ -108,10 +113,47 @@ def wide_light(build):
     return make
 
 
+def fog_box_scene(resolution=RESOLUTION):
+    """``fog_box_caustic_1m`` (module doc): no World, the fog a Principled Volume on a box
+    whose floor lies under the floor plane, the light's 1 m sphere 5 cm above its top."""
+    scene = scenes.reset()
+    scenes.set_resolution(*resolution)
+    scenes.add_plane(size=4.0, material=scenes.diffuse_material("Floor", (0.6, 0.6, 0.6)))
+    scenes.add_light('SPOT', location=(0.0, 0.0, 3.0), power=450.0, spot_size=math.radians(50.0),
+                     spot_blend=0.2, shadow_soft_size=WIDE_LIGHT, name="Spot")
+    fog = bpy.data.materials.new("Fog")
+    tree = scenes.ensure_node_tree(fog)
+    for node in list(tree.nodes):
+        if node.type != 'OUTPUT_MATERIAL':
+            tree.nodes.remove(node)
+    out = next(n for n in tree.nodes if n.type == 'OUTPUT_MATERIAL')
+    volume = tree.nodes.new('ShaderNodeVolumePrincipled')
+    for key, value in FOG.items():
+        volume.inputs[key].default_value = value
+    tree.links.new(volume.outputs[0], out.inputs["Volume"])
+    bpy.ops.mesh.primitive_cube_add(size=1.0, location=(0.0, 0.0, 0.925))
+    box = bpy.context.active_object
+    box.name = "FogBox"
+    box.scale = (4.2, 4.2, 1.95)
+    box.data.materials.append(fog)
+    glass = bpy.data.materials.new("Glass")
+    tree = scenes.ensure_node_tree(glass)
+    bsdf = tree.nodes.new('ShaderNodeBsdfGlass')
+    bsdf.inputs["Roughness"].default_value = 0.0
+    bsdf.inputs["IOR"].default_value = 1.5
+    out = next(n for n in tree.nodes if n.type == 'OUTPUT_MATERIAL')
+    tree.links.new(bsdf.outputs[0], out.inputs["Surface"])
+    scenes.add_sphere(radius=0.25, location=(0.0, 0.0, 1.2), material=glass, name="Ball",
+                      segments=48)
+    scenes.add_camera(location=(0.0, -4.5, 1.2), look_at=(0.0, 0.0, 0.8), lens=30.0)
+    return scene
+
+
 SCENES = {"fog_spot": lambda: fog_spot_scene(),
           "fog_caustic": lambda: fog_spot_scene(sphere=True),
           "fog_spot_1m": wide_light(lambda: fog_spot_scene()),
-          "fog_caustic_1m": wide_light(lambda: fog_spot_scene(sphere=True))}
+          "fog_caustic_1m": wide_light(lambda: fog_spot_scene(sphere=True)),
+          "fog_box_caustic_1m": lambda: fog_box_scene()}
 
 
 def configure_cycles_media(scene, samples, seed=0):
@@ -124,6 +166,9 @@ def configure_cycles_media(scene, samples, seed=0):
 
 
 def fingerprint(name: str = "fog_spot") -> str:
+    if name.startswith("fog_box"):
+        return ref.code_fingerprint([fog_box_scene, configure_cycles_media,
+                                     (RESOLUTION, BOUNCES, FOG, WIDE_LIGHT)])
     parts = [fog_world, fog_spot_scene, configure_cycles_media, (RESOLUTION, BOUNCES, FOG)]
     if name.endswith("_1m"):
         parts.append(inspect.getsource(wide_light) + repr(WIDE_LIGHT))

@@ -1,6 +1,7 @@
 """Photon Map's World fog against Cycles in the same bpy process (cached references:
 tests/blender/cycles_media_reference.py, the scenes and the command that re-renders them):
-a fog lit by a spot light, and a glass sphere in that fog (the volumetric caustic).
+a fog lit by a spot light, and a glass sphere in that fog (the volumetric caustic), also in
+a fog box under a wide light.
 Per-channel image means within 3 %, 8 x 8 block means within 10 % (blocks darker than 2 %
 of the image mean are not counted)."""
 
@@ -97,7 +98,12 @@ def test_volumetric_caustic_channel_means_match_cycles(fog_caustic_1m):
     assert np.all(np.abs(f["channel"]) < 0.03), f["channel"]
 
 
-@pytest.mark.xfail(reason="measured: worst 8 x 8 block 15.1 / 11.7 / 11.6 / 12.9 % (seeds "
+@pytest.mark.xfail(reason="Cycles' reference loses light scattered inside the 1 m light's "
+                          "sphere, which this scene's World fog fills (a fog box around "
+                          "the sphere: MIS on reads 1.7 % below MIS off, a box under it: "
+                          "equal; docs/volumes.md, \"Cycles' loss inside a wide light\"); "
+                          "fog_box_caustic_1m is the block test with a sound reference. "
+                          "Before that was known: worst 8 x 8 block 15.1 / 11.7 / 11.6 / 12.9 % (seeds "
                           "1-4); a block and its mirror differ by up to 15 % in one render "
                           "(the volume photons' noise at 100k global photons), and the top "
                           "row, symmetrised, reads +3 to +9 % high in both seeds 3 and 4 "
@@ -118,4 +124,31 @@ def test_volumetric_caustic_channel_means_match_cycles(fog_caustic_1m):
                    strict=False)
 def test_volumetric_caustic_block_means_match_cycles(fog_caustic_1m):
     f = _figures("fog_caustic_1m", fog_caustic_1m)
+    assert f["worst_block"] < 0.10, f["blocks"]
+
+
+BOX_CAUSTIC_SETTINGS = dict(CAUSTIC_1M_SETTINGS, global_photons=2_000_000)
+"""fog_box_caustic_1m's overrides of PHOTON_MAP_SETTINGS, a 16 s render. The dim top
+corners' blocks carry the volume photons' noise: worst block at 400k global photons 8.8 /
+6.2 / 6.4 / 13.3 % (seeds 1-4; seed 4's at 256 spp still 12.9 %: not the camera's), at 1M
+8.6 / 3.7 / 4.4 / 6.2 / 5.6 % (seeds 1-5), at 2M 4.3 / 5.3 % (seeds 1, 4; the render against
+its own mirror 2.9 / 2.0 %); channel means within 0.3 % at every count (2026-12-06)."""
+
+
+@pytest.fixture(scope="module")
+def fog_box_caustic():
+    """The volumetric caustic in a fog box under the 1 m light, whose sphere holds no fog:
+    Cycles' reference loses nothing there (its light's MIS on and off agree within 0.03 %
+    in Volume Indirect; with the box grown around the light's sphere MIS on reads 1.7 %
+    low), so the blocks have a reference."""
+    return media.render_photon_map(media.SCENES["fog_box_caustic_1m"](), **BOX_CAUSTIC_SETTINGS)
+
+
+def test_volumetric_caustic_in_a_fog_box_matches_cycles(fog_box_caustic):
+    """Channel means within 3 % and 8 x 8 blocks within 10 %: the top row sees the fog
+    just under the box's lit top face at a grazing angle, where the beam estimate's discs
+    reach out of the medium (-10 to -31 % before its boundary correction, photons/beam.py)."""
+    f = _figures("fog_box_caustic_1m", fog_box_caustic)
+    assert fog_box_caustic["Volume Indirect"].mean() > 0
+    assert np.all(np.abs(f["channel"]) < 0.03), f["channel"]
     assert f["worst_block"] < 0.10, f["blocks"]

@@ -221,3 +221,35 @@ def test_a_light_seen_through_fog_is_attenuated_to_the_light(where):
     radiance = power / (np.pi * size * size)
     np.testing.assert_allclose(out["emission"], np.broadcast_to(radiance * np.exp(-sigma * d),
                                                                 (8, 8, 3)), rtol=1e-5)
+
+
+def test_stretches_know_where_the_scattering_ends():
+    """bound0 / bound1: |cos| of the plane where a scattering medium ends at a stretch's
+    start / end (a box face with nothing beyond, or the opaque surface end_cos names), NaN
+    where a scattering medium goes on (World fog around the box) or nothing is given."""
+    box = Media.from_list([{"sigma_s": [1.0, 1.0, 1.0], "bounds": 0, "name": "Box",
+                            "boundary": shapes.box([-1, -1, -1], [1, 1, 1]).corners}])
+    m = regions.renderable(box.validate(1), 4.0)
+    slant = np.array([0.6, 0.0, 0.8])  # leaves through z = 1 at |cos| 0.8
+    o = np.array([[-5.0, 0.1, 0.2], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]])
+    d = np.array([[1.0, 0.0, 0.0], slant, [0.0, 0.0, -1.0]])
+    st = m.stretches(o, d, np.array([10.0, np.inf, 0.5]), np.array([0.3, 0.3, 0.7]))
+    assert list(st.start) == [0, 3, 5, 6]
+    # through the box: it scatters on the middle stretch, bounded by the faces x = -1, 1
+    np.testing.assert_allclose([st.bound0[1], st.bound1[1]], 1.0)
+    assert np.isnan(st.bound0[0])  # the segment's start: nothing known
+    np.testing.assert_allclose(st.bound1[2], 0.3)  # the opaque end past the box
+    # from inside, out through the top face at |cos| 0.8, escaping after it
+    assert np.isnan(st.bound0[3])
+    np.testing.assert_allclose(st.bound1[3], 0.8, rtol=1e-6)
+    # ending on an opaque surface inside the box
+    np.testing.assert_allclose(st.bound1[5], 0.7)
+    m.close()
+    world = Media.from_list([
+        {"sigma_s": [0.1, 0.1, 0.1], "name": "Fog"},
+        {"sigma_s": [1.0, 1.0, 1.0], "bounds": 0, "name": "Box",
+         "boundary": shapes.box([-1, -1, -1], [1, 1, 1]).corners}]).validate(1)
+    m = regions.renderable(world, 4.0)
+    st = m.stretches(o[:1], d[:1], np.array([10.0]))
+    assert np.all(np.isnan(st.bound0)) and np.all(np.isnan(st.bound1))  # fog goes on
+    m.close()
