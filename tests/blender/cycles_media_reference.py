@@ -136,6 +136,8 @@ def fog_box_scene(resolution=RESOLUTION):
     box.name = "FogBox"
     box.scale = (4.2, 4.2, 1.95)
     box.data.materials.append(fog)
+    # The glass and camera as fog_spot_scene's, written again: that function's source is
+    # in its cached references' fingerprints.
     glass = bpy.data.materials.new("Glass")
     tree = scenes.ensure_node_tree(glass)
     bsdf = tree.nodes.new('ShaderNodeBsdfGlass')
