@@ -378,7 +378,9 @@ class VisiblePoints:
     None when no program reads it; closures, rows: the points' closures as the walk
     shaded them (``HitShader.merge`` of its ``shade`` batches; rows (V,) int32 into the
     ClosureTable closures), or None when no point has a program (then the prepared
-    table and material are their closures)."""
+    table and material are their closures); ior (V,) float64 the IOR of the dielectric
+    the point lies in (1: none; its photon estimate is physical radiance, ior^2 times
+    what the weight carries there), None for no point."""
 
     pixel: np.ndarray
     position: np.ndarray
@@ -398,6 +400,7 @@ class VisiblePoints:
     path: np.ndarray | None = None
     closures: closure.ClosureTable | None = None
     rows: np.ndarray | None = None
+    ior: np.ndarray | None = None
 
 
 @dataclass
@@ -499,9 +502,12 @@ def _walk(prepared: PreparedScene, seed: int, k: int, max_depth: int, direct, fe
     # transmissions among them counted.
     lp_read = prepared.hit_shader.reads_light_path
     last_delta, n_trans = np.full(n, start is None), np.zeros(n)
+    # The IOR of the dielectric each path is in (volume.add_segments, VisiblePoints.ior)
+    n_inside = np.ones(n)
+    refracts = closure.refracting(prepared.closures)
+    iors = []
     if media is not None:
         seen_media = np.zeros((n, 3))  # per row of pixel: the media's light
-        n_inside = np.ones(n)  # the dielectric each path is in (volume.add_segments)
         stats = {} if stats is None else stats
     for local in range(max_depth + 1):
         if rows.shape[0] == 0:
@@ -546,8 +552,7 @@ def _walk(prepared: PreparedScene, seed: int, k: int, max_depth: int, direct, fe
             path = path[h]
             path[:, light_path.RAY_LENGTH] = hits.t[h]
             last_delta, n_trans = last_delta[h], n_trans[h]
-        if media is not None:
-            n_inside = n_inside[h]
+        n_inside = n_inside[h]
         sp = geometry.surface_points(prepared.tri_vertices, prepared.tri_normals,
                                      prepared.tri_material, hits.prim[h], hits.u[h], hits.v[h],
                                      d, prepared.extent)
@@ -602,12 +607,14 @@ def _walk(prepared: PreparedScene, seed: int, k: int, max_depth: int, direct, fe
                         albedo[s], sp.eps[s], texel[s], hits.prim[h][s], hits.u[h][s],
                         hits.v[h][s], lam[s], front[s]) + ((path[s],) if lp_read else ()))
             shaded.append((tab, crow[s]))
+            iors.append(n_inside[s])
         if local == max_depth:
             break
         g = np.flatnonzero(go_on)
-        if media is not None:  # entering a dielectric at its front face, leaving at its back
-            n_inside = np.where(new_tr[g] & front[g], mats["ior"][sp.material[g]],
-                                np.where(new_tr[g] & ~front[g], 1.0, n_inside[g]))
+        # entering a dielectric at its front face, leaving at its back (not a thin wall)
+        refracted = new_tr[g] & refracts[sp.material[g]]
+        n_inside = np.where(refracted & front[g], mats["ior"][sp.material[g]],
+                            np.where(refracted & ~front[g], 1.0, n_inside[g]))
         rows, origins, dirs, lam = rows[g], new_o[g], new_d[g], lam[g]
         thr, transmitted, tmax = new_thr[g], new_tr[g], None
         if lp_read:  # a delta lobe, unless the material's only glossy lobes are rough
@@ -623,6 +630,7 @@ def _walk(prepared: PreparedScene, seed: int, k: int, max_depth: int, direct, fe
                              np.zeros(0, np.float32), np.zeros(0), np.zeros(0, bool))
     cols = [np.concatenate(c) for c in zip(*out)]
     vps = VisiblePoints(*[np.ascontiguousarray(c) for c in cols])
+    vps.ior = np.concatenate(iors)
     if any(tab is not prepared.hit_shader.table for tab, _ in shaded):
         vps.closures, vps.rows = prepared.hit_shader.merge(shaded)
     return vps

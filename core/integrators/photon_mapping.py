@@ -103,6 +103,8 @@ class _CameraPass:
     """Some material emits (a constant or a program's emission): else the hits add none."""
     terms: gather.PhotonTerms | None = None
     volume: volume.VolumeTerms | None = None
+    refracts: np.ndarray | None = None
+    """(M,) bool, closure.refracting: a path transmitted by the material is inside it."""
 
 
 def _camera_pass(prepared: PreparedScene, settings: RenderSettings) -> _CameraPass:
@@ -117,7 +119,7 @@ def _camera_pass(prepared: PreparedScene, settings: RenderSettings) -> _CameraPa
     return _CameraPass(prepared=prepared, settings=settings,
                        direct=direct.prepare(settings, prepared, settings.samples, stats,
                                              None if media is None else media.medium),
-                       stats=stats, volume=media,
+                       stats=stats, volume=media, refracts=closure.refracting(prepared.closures),
                        outputs=passes + ((REST,) if len(passes) < len(terms) else ()),
                        emits=bool(np.any(prepared.materials["emission"] != 0.0)
                                   or prepared.hit_shader.emission_programmed.any()))
@@ -456,9 +458,16 @@ def _trace_samples(ctx: _CameraPass, pix: np.ndarray, lo: int, hi: int):
             direct.shade(ctx.direct, points, pixel[r], sample[r], depth,
                          acc["direct"] if first else acc["specular"])
 
-        # Caustics and indirect light at the hits' diffuse lobes
+        # Caustics and indirect light at the hits' diffuse lobes. Inside a dielectric
+        # they are physical radiance, n^2 times what camera paths carry there (they do
+        # not scale radiance by eta^2 at a refraction, Cycles' convention; see n_inside).
         if ctx.terms is not None and ctx.terms.active:
-            _photon_terms(ctx, rows, pos, ngf, nsf, eps, mat, thr, pixel, sample, depth,
+            inside = np.flatnonzero(n_inside != 1.0)
+            thr_photons = thr
+            if inside.size:
+                thr_photons = np.array(thr)
+                thr_photons[inside] /= (n_inside[inside] ** 2)[:, None]
+            _photon_terms(ctx, rows, pos, ngf, nsf, eps, mat, thr_photons, pixel, sample, depth,
                           acc["caustics"] if first else acc["specular"],
                           acc["indirect"] if first else acc["specular"], albedo, glossy, d,
                           texel, front, tab, crow, tangent, lam)
@@ -488,13 +497,11 @@ def _trace_samples(ctx: _CameraPass, pix: np.ndarray, lo: int, hi: int):
         if lp_read:
             last_delta = was_delta
             n_trans = n_trans[sd][keep] + transmitted
-        if ctx.volume is not None:  # entering a dielectric at its front face, leaving at its back
-            entered = transmitted & front[sd][keep]
-            left = transmitted & ~front[sd][keep]
-            n_inside = np.where(entered, mats["ior"][mat[sd][keep]],
-                                np.where(left, 1.0, n_inside[sd][keep]))
-        else:
-            n_inside = n_inside[sd][keep]
+        # Entering a dielectric at its front face, leaving at its back (a thin wall or
+        # a Translucent lobe leaves the path where it was)
+        refracted = transmitted & ctx.refracts[mat[sd][keep]]
+        n_inside = np.where(refracted & front[sd][keep], mats["ior"][mat[sd][keep]],
+                            np.where(refracted & ~front[sd][keep], 1.0, n_inside[sd][keep]))
         rows = rs[keep]
         tmax = None
         ctx.stats["time_shading"] += time.perf_counter() - t0

@@ -552,7 +552,11 @@ class PassRenderer:
                                             prepared.materials, v.albedo, p.hits,
                                             self.bsdf_points, v.lam, p.split)
                 s = np.flatnonzero(count > 0)
-                image[v.pixel[s]] += v.weight[s] * phi[s] / (np.pi * r * r)
+                # inside a dielectric the photons' estimate is physical radiance, ior^2
+                # times what the camera path's weight carries (Cycles' convention)
+                inv = np.pi * r * r if v.ior is None or np.all(v.ior[s] == 1.0) else \
+                    (np.pi * r * r * v.ior[s] ** 2)[:, None]
+                image[v.pixel[s]] += v.weight[s] * phi[s] / inv
             stored = int(pos.shape[0])
             st["photon_bytes_max"] = max(st["photon_bytes_max"],
                                          pos.nbytes + flux.nbytes + wdir.nbytes)

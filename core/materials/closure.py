@@ -719,6 +719,24 @@ def _transmits_kernel(tab, rows, out):
         out[i] = transmits(tab, rows[i])
 
 
+def refracting(tab: ClosureTable) -> np.ndarray:
+    """(M,) bool per material row of ``tab``: it has a dielectric lobe (Glass, Refraction,
+    a Principled BSDF's transmission), so a path it transmits is inside the material's
+    IOR after a front face (not a thin wall's straight-through transmission)."""
+    out = np.zeros(tab.first.shape[0], bool)
+    _refracts_kernel(tab, out)
+    return out
+
+
+@njit(cache=True, error_model="numpy")
+def _refracts_kernel(tab, out):
+    for m in range(out.shape[0]):
+        L = _lobes(tab, m, 1.0, 1.0, 1.0, 0.0, 0.0, 1.0, True)
+        for k in range(L.shape[0]):
+            if int(L[k, T]) == L_DIELECTRIC:
+                out[m] = True
+
+
 def transmitting(tab: ClosureTable, rows) -> np.ndarray:
     """``transmits`` at N hits: (N,) bool for the material rows (N,) int32 of ``tab``."""
     rows = np.ascontiguousarray(rows, np.int32)
@@ -1066,14 +1084,25 @@ def eval_bsdf(tab, m, c0, c1, c2, wox, woy, woz, wix, wiy, wiz, nsx, nsy, nsz,
 @njit(cache=True, error_model="numpy", inline="always")
 def adjoint_weight(buffer, tab, m, c0, c1, c2, wox, woy, woz, wix, wiy, wiz, nsx, nsy, nsz,
                    ngx, ngy, ngz, tx, ty, tz, entering, pdf, lam):
-    """A photon's weight for a reflection it sampled with ``sample_bsdf_into`` (wo toward
+    """A photon's weight for a direction it sampled with ``sample_bsdf_into`` (wo toward
     where it came from, wi where it goes, the sample's solid-angle pdf > 0):
-    f(wi, wo) |cos(ns, wi)| / pdf, the BSDF with the viewer on the photon's outgoing side,
-    (RGB; 0, 0, 0 where wi is below the surface). Cycles' BSDFs are not reciprocal: a
-    Principled layer scales the lobes below by 1 - its albedo toward the VIEWER, and the
-    multiscatter GGX compensation is a function of the viewer's angle too, so the light a
-    surface sends toward wi is f(wi, wo), not the f(wo, wi) the sampler weighs (the
-    camera's). ``buffer``: a ``lobe_buffer``."""
+    f(wi, wo) |cos(ns, wi)| / pdf, the BSDF with the viewer on the photon's outgoing side
+    (RGB; 0, 0, 0 where wi or wo lies on the wrong side of the shading normal). Cycles'
+    BSDFs are not reciprocal: a Principled layer scales the lobes below by 1 - its albedo
+    toward the VIEWER, and the multiscatter GGX compensation is a function of the viewer's
+    angle (and, through a dielectric, of its side's eta) too, so the light a surface sends
+    toward wi is f(wi, wo), not the f(wo, wi) the sampler weighs (the camera's).
+
+    A transmission (wi on the far side of ng): the viewer's side is wi's, so the mesh's
+    other side (``entering`` flips, a dielectric's eta inverts). A rough dielectric's
+    BTDF seen from the other side is the same microfacet term over eta_wi^2 (eta_wi = its
+    eta from wi's side; camera paths drop the eta^2 of radiance, Cycles' convention, and
+    a photon's flux carries none): its rows are divided by eta_wi^2, so that without
+    multiscatter compensation the weight is the sampler's. ``buffer``: a ``lobe_buffer``."""
+    transmit = (wix * ngx + wiy * ngy + wiz * ngz) * (wox * ngx + woy * ngy + woz * ngz) < 0.0
+    if transmit:  # the frame and the dielectric's side of the viewer, wi
+        nsx, nsy, nsz, ngx, ngy, ngz = -nsx, -nsy, -nsz, -ngx, -ngy, -ngz
+        entering = not entering
     ux, uy, uz, bx, by, bz, nx, ny, nz = _local(nsx, nsy, nsz, ngx, ngy, ngz, tx, ty, tz,
                                                 wix, wiy, wiz)
     liz = wix * nx + wiy * ny + wiz * nz
@@ -1082,12 +1111,20 @@ def adjoint_weight(buffer, tab, m, c0, c1, c2, wox, woy, woz, wix, wiy, wiz, nsx
     lix, liy = wix * ux + wiy * uy + wiz * uz, wix * bx + wiy * by + wiz * bz
     lox, loy, loz = wox * ux + woy * uy + woz * uz, wox * bx + woy * by + woz * bz, \
         wox * nx + woy * ny + woz * nz
-    if loz <= 0.0:
+    if (loz >= 0.0) if transmit else (loz <= 0.0):
         return 0.0, 0.0, 0.0
-    L = buffer[:_lobes_into(buffer, tab, m, c0, c1, c2, lix, liy, liz, entering, lam, ux, uy,
-                            uz, bx, by, bz, nx, ny, nz)]
+    n = _lobes_into(buffer, tab, m, c0, c1, c2, lix, liy, liz, entering, lam, ux, uy, uz, bx,
+                    by, bz, nx, ny, nz)
+    L = buffer[:n]
+    if transmit:
+        for k in range(n):
+            if int(L[k, T]) == L_DIELECTRIC:
+                e2 = L[k, ETA] * L[k, ETA]
+                L[k, W] /= e2
+                L[k, W + 1] /= e2
+                L[k, W + 2] /= e2
     f0, f1, f2, _ = lobes_eval(L, lix, liy, liz, lox, loy, loz)
-    q = liz / (loz * pdf)  # f |cos wo| -> f |cos wi| / pdf
+    q = liz / (abs(loz) * pdf)  # f |cos wo| -> f |cos wi| / pdf
     return f0 * q, f1 * q, f2 * q
 
 
@@ -1397,7 +1434,7 @@ def _vec_adjoint(tab, m, wo, wi, pdf, ns, ng, t, entering, out):
 
 def adjoint_many(tab: ClosureTable, m: int, wo, wi, pdf, ns, ng, t,
                  entering: bool) -> np.ndarray:
-    """``adjoint_weight`` for sampled reflections wi (N, 3) with pdfs (N,) at one hit
+    """``adjoint_weight`` for sampled directions wi (N, 3) with pdfs (N,) at one hit
     (texel colour 1, RGB path): (N, 3) float64."""
     wi = np.ascontiguousarray(wi, np.float64).reshape(-1, 3)
     out = np.empty((wi.shape[0], 3))

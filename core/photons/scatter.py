@@ -146,10 +146,10 @@ def _scatter_range(tri_v, tri_n, tri_mat, extent, tab, has_diffuse, has_specular
         if flags & closure.LOBE_DIFFUSE:
             if mode == MODE_CAUSTIC:
                 continue  # a diffuse bounce ends the caustic path
-        if has_specular[m] and not flags & (closure.LOBE_DELTA | closure.LOBE_TRANSMIT):
-            # A glossy or layered material's reflection: the light it sends on is its BSDF
-            # with the viewer on the outgoing side (closure.adjoint_weight; Lambert and
-            # delta lobes are reciprocal).
+        if has_specular[m] and not flags & closure.LOBE_DELTA:
+            # A glossy, rough-glass or layered material's reflection or transmission: the
+            # light it sends on is its BSDF with the viewer on the outgoing side
+            # (closure.adjoint_weight; Lambert and delta lobes are reciprocal).
             w0, w1, w2 = closure.adjoint_weight(
                 lobes, tab, row, c0, c1, c2, -dx, -dy, -dz, ox, oy, oz, sx, sy, sz, gx, gy,
                 gz, tx, ty, tz, entering, pdf, li)

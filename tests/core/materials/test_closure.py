@@ -621,3 +621,29 @@ def test_photon_reflection_weight_is_the_adjoint_bsdf(tab, name):
         if name == "principled_default" and theta == 80.0:
             forward = np.where(refl[:, None], s[:, 3:6], 0.0).mean(axis=0)
             assert np.all(np.abs(forward / expected - 1) > 0.02), (forward, expected)
+
+
+@pytest.mark.parametrize("entering", [True, False])
+def test_photon_transmission_weight_is_the_adjoint_bsdf(entering):
+    """Through a rough dielectric the adjoint weight sees the BTDF from the photon's
+    outgoing side (the mesh's other side: eta inverted) over eta_out^2. Without
+    multiscatter compensation that is the sampler's weight to rounding (the microfacet
+    BTDF without radiance's eta^2 is what flux carries); with it the weights differ, as
+    Cycles' compensation depends on the viewer's side: from outside the adjoint sends more
+    light in than the sampler (the inside view's albedo is the lower one)."""
+    wo = _wo(40.0)
+    u = np.random.default_rng(8).random((100_000, 3))
+    means = {}
+    for dist in (cl.DISTRIBUTION_GGX, cl.DISTRIBUTION_MULTI_GGX):
+        t = closure.table(contract.Materials.from_list([{"closures": [dict(
+            kind=cl.CLOSURE_GLASS, params=dict(color=1.0, roughness=0.5, ior=1.5,
+                                               distribution=dist))]}]))
+        s = closure.sample_many(t, 0, wo, N_UP, N_UP, TANGENT, entering, u)
+        through = (s[:, 7] > 0) & (s[:, 6] > 0) & (s[:, 2] < 0)
+        w = closure.adjoint_many(t, 0, wo, s[through, :3], s[through, 6], N_UP, N_UP, TANGENT,
+                                 entering)
+        if dist == cl.DISTRIBUTION_GGX:
+            np.testing.assert_allclose(w, s[through, 3:6], rtol=1e-9)
+        means[dist] = (w[:, 0].sum() / u.shape[0], s[through, 3].sum() / u.shape[0])
+    adjoint, sampler = means[cl.DISTRIBUTION_MULTI_GGX]
+    assert (adjoint > 1.03 * sampler) if entering else (adjoint < 0.97 * sampler), means
