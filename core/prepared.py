@@ -37,6 +37,7 @@ render's thread count (numba and Embree) and builds:
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from functools import cached_property
 
 import numpy as np
 
@@ -164,6 +165,18 @@ class PreparedScene:
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+    @cached_property
+    def refracts(self) -> np.ndarray:
+        """(M,) bool, ``closure.refracting``: a path the material transmits is inside it
+        (its IOR) after a front face. Computed once a render."""
+        return closure.refracting(self.closures)
+
+    @cached_property
+    def opaque(self) -> np.ndarray:
+        """(M,) bool: the material transmits nothing (``closure.lobe_masks``' "transmits"
+        off). Computed once a render."""
+        return ~closure.lobe_masks(self.closures)["transmits"]
 
     @property
     def used_materials(self) -> np.ndarray:

@@ -504,7 +504,6 @@ def _walk(prepared: PreparedScene, seed: int, k: int, max_depth: int, direct, fe
     last_delta, n_trans = np.full(n, start is None), np.zeros(n)
     # The IOR of the dielectric each path is in (volume.add_segments, VisiblePoints.ior)
     n_inside = np.ones(n)
-    refracts = closure.refracting(prepared.closures)
     iors = []
     if media is not None:
         seen_media = np.zeros((n, 3))  # per row of pixel: the media's light
@@ -611,10 +610,7 @@ def _walk(prepared: PreparedScene, seed: int, k: int, max_depth: int, direct, fe
         if local == max_depth:
             break
         g = np.flatnonzero(go_on)
-        # entering a dielectric at its front face, leaving at its back (not a thin wall)
-        refracted = new_tr[g] & refracts[sp.material[g]]
-        n_inside = np.where(refracted & front[g], mats["ior"][sp.material[g]],
-                            np.where(refracted & ~front[g], 1.0, n_inside[g]))
+        n_inside = index_after(prepared, n_inside[g], new_tr[g], front[g], sp.material[g])
         rows, origins, dirs, lam = rows[g], new_o[g], new_d[g], lam[g]
         thr, transmitted, tmax = new_thr[g], new_tr[g], None
         if lp_read:  # a delta lobe, unless the material's only glossy lobes are rough
@@ -636,6 +632,17 @@ def _walk(prepared: PreparedScene, seed: int, k: int, max_depth: int, direct, fe
     return vps
 
 
+
+
+def index_after(prepared: PreparedScene, n_inside, transmitted, front, material) -> np.ndarray:
+    """(N,) float64 the IOR each of N camera paths is in after its bounce: the material's
+    IOR where it was transmitted through a front face into a dielectric
+    (``PreparedScene.refracts``), 1 where it left one by a back face, else n_inside (a
+    thin wall's or a Translucent lobe's transmission leaves it where it was). n_inside
+    (N,) float64, transmitted, front (N,) bool, material (N,) int."""
+    refracted = transmitted & prepared.refracts[material]
+    return np.where(refracted & front, prepared.materials["ior"][material],
+                    np.where(refracted & ~front, 1.0, n_inside))
 
 
 def importance_prepass(prepared: PreparedScene, seed: int, max_depth: int) -> VisibleView:

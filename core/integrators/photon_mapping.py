@@ -103,8 +103,6 @@ class _CameraPass:
     """Some material emits (a constant or a program's emission): else the hits add none."""
     terms: gather.PhotonTerms | None = None
     volume: volume.VolumeTerms | None = None
-    refracts: np.ndarray | None = None
-    """(M,) bool, closure.refracting: a path transmitted by the material is inside it."""
 
 
 def _camera_pass(prepared: PreparedScene, settings: RenderSettings) -> _CameraPass:
@@ -119,7 +117,7 @@ def _camera_pass(prepared: PreparedScene, settings: RenderSettings) -> _CameraPa
     return _CameraPass(prepared=prepared, settings=settings,
                        direct=direct.prepare(settings, prepared, settings.samples, stats,
                                              None if media is None else media.medium),
-                       stats=stats, volume=media, refracts=closure.refracting(prepared.closures),
+                       stats=stats, volume=media,
                        outputs=passes + ((REST,) if len(passes) < len(terms) else ()),
                        emits=bool(np.any(prepared.materials["emission"] != 0.0)
                                   or prepared.hit_shader.emission_programmed.any()))
@@ -497,11 +495,8 @@ def _trace_samples(ctx: _CameraPass, pix: np.ndarray, lo: int, hi: int):
         if lp_read:
             last_delta = was_delta
             n_trans = n_trans[sd][keep] + transmitted
-        # Entering a dielectric at its front face, leaving at its back (a thin wall or
-        # a Translucent lobe leaves the path where it was)
-        refracted = transmitted & ctx.refracts[mat[sd][keep]]
-        n_inside = np.where(refracted & front[sd][keep], mats["ior"][mat[sd][keep]],
-                            np.where(refracted & ~front[sd][keep], 1.0, n_inside[sd][keep]))
+        n_inside = camera_paths.index_after(pr, n_inside[sd][keep], transmitted,
+                                            front[sd][keep], mat[sd][keep])
         rows = rs[keep]
         tmax = None
         ctx.stats["time_shading"] += time.perf_counter() - t0

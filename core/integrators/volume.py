@@ -37,7 +37,6 @@ from numba import njit, prange
 from .. import _numba_cache  # noqa: F401  (per-package numba cache, before any @njit)
 from .. import sampling
 from ..lights import kernels as light_kernels
-from ..materials import closure
 from ..media import equiangular, regions, tracking
 from ..media.phase import hg_eval
 from ..photons.beam import VolumePhotonMap
@@ -227,9 +226,7 @@ def surface_bounds(prepared: PreparedScene, prim, dirs) -> np.ndarray:
     hit = np.flatnonzero(prim >= 0)
     if hit.size == 0:
         return out
-    mat = prepared.tri_material[prim[hit]]
-    opaque = ~closure.lobe_masks(prepared.closures)["transmits"][mat]
-    keep = hit[opaque]
+    keep = hit[prepared.opaque[prepared.tri_material[prim[hit]]]]
     v = prepared.tri_vertices[prim[keep]].astype(np.float64)
     n = np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0])
     length = np.linalg.norm(n, axis=1)
