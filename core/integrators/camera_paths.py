@@ -44,6 +44,8 @@ DIM_JITTER = sampling.stream(sampling.PIXEL_JITTER, sampling.PROGRESSIVE)
 """The random dimension of the progressive camera rays' pixel jitter."""
 DIM_LENS = sampling.stream(sampling.PIXEL_JITTER, sampling.PROGRESSIVE + 1)
 """The random dimension of the progressive camera rays' point on the lens (depth of field)."""
+CONTINUE_BLOCK = 256
+"""Hits a parallel task of ``_continue_kernel`` continues with one lobe buffer."""
 
 
 def dim_lobe(depth: int) -> int:
@@ -172,48 +174,62 @@ def _continue_kernel(tab, pos, ngf, nsf, tan, d, front, mat, eps, texel, thr, la
     part of f |cos| (``closure.eval_parts``: the rough microfacet lobes), the diffuse-like
     lobes' light being held by the photon maps and the shadow rays at this hit; it goes on
     with probability ``direct.continue_probability`` (Russian roulette on the glossy
-    share), and new_pdf is the sampling pdf times that probability (for MIS)."""
-    for i in prange(pos.shape[0]):
-        ok[i] = False
-        delta[i] = False
-        transmitted[i] = False
-        new_pdf[i] = 0.0
-        m = mat[i]
-        wox, woy, woz = -d[i, 0], -d[i, 1], -d[i, 2]
-        li = lam[i]
-        ix, iy, iz, w0, w1, w2, pdf, flags = closure.sample_bsdf(
-            tab, m, texel[i, 0], texel[i, 1], texel[i, 2], wox, woy, woz,
-            nsf[i, 0], nsf[i, 1], nsf[i, 2], ngf[i, 0], ngf[i, 1], ngf[i, 2],
-            tan[i, 0], tan[i, 1], tan[i, 2], front[i],
-            u_lobe[i], u1[i], u2[i], li)
-        if flags == 0:
-            continue
-        if flags & closure.LOBE_DELTA:
-            delta[i] = True
-        else:
-            f0, f1, f2 = w0 * pdf, w1 * pdf, w2 * pdf
-            _, _, _, g0, g1, g2, _ = closure.eval_parts(
-                tab, m, texel[i, 0], texel[i, 1], texel[i, 2], wox, woy, woz, ix, iy, iz,
-                nsf[i, 0], nsf[i, 1], nsf[i, 2], ngf[i, 0], ngf[i, 1], ngf[i, 2],
-                tan[i, 0], tan[i, 1], tan[i, 2], front[i], False, li)
-            q = direct.continue_probability(f0, f1, f2, g0, g1, g2)
-            if not u_rr[i] < q:
-                continue
-            k = 1.0 / (pdf * q)
-            w0, w1, w2 = g0 * k, g1 * k, g2 * k
-            new_pdf[i] = pdf * q
-        t0, t1, t2 = thr[i, 0] * w0, thr[i, 1] * w1, thr[i, 2] * w2
-        if not (t0 > 0.0 or t1 > 0.0 or t2 > 0.0):
-            continue
-        below = ix * ngf[i, 0] + iy * ngf[i, 1] + iz * ngf[i, 2] < 0.0
-        side = -eps[i] if below else eps[i]
-        new_o[i, 0] = pos[i, 0] + side * ngf[i, 0]
-        new_o[i, 1] = pos[i, 1] + side * ngf[i, 1]
-        new_o[i, 2] = pos[i, 2] + side * ngf[i, 2]
-        new_d[i, 0], new_d[i, 1], new_d[i, 2] = ix, iy, iz
-        new_thr[i, 0], new_thr[i, 1], new_thr[i, 2] = t0, t1, t2
-        transmitted[i] = below
-        ok[i] = True
+    share), and new_pdf is the sampling pdf times that probability (for MIS). The hit's
+    lobes are built once (``closure.hit_lobes_into``) for the sample and the glossy part."""
+    n_points = pos.shape[0]
+    for block in prange((n_points + CONTINUE_BLOCK - 1) // CONTINUE_BLOCK):
+        lobes = closure.lobe_buffer(tab)  # the block's scratch: no allocation per hit
+        F = np.empty(12)
+        for i in range(block * CONTINUE_BLOCK, min(n_points, (block + 1) * CONTINUE_BLOCK)):
+            _continue_one(tab, lobes, F, pos, ngf, nsf, tan, d, front, mat, eps, texel, thr,
+                          lam, u_lobe, u1, u2, u_rr, new_o, new_d, new_thr, new_pdf,
+                          transmitted, delta, ok, i)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _continue_one(tab, lobes, F, pos, ngf, nsf, tan, d, front, mat, eps, texel, thr, lam,
+                  u_lobe, u1, u2, u_rr, new_o, new_d, new_thr, new_pdf, transmitted, delta,
+                  ok, i):
+    """``_continue_kernel`` at hit i, its lobes built in ``lobes`` and F."""
+    ok[i] = False
+    delta[i] = False
+    transmitted[i] = False
+    new_pdf[i] = 0.0
+    m = mat[i]
+    wox, woy, woz = -d[i, 0], -d[i, 1], -d[i, 2]
+    n = closure.hit_lobes_into(lobes, F, tab, m, texel[i, 0], texel[i, 1], texel[i, 2],
+                               wox, woy, woz, nsf[i, 0], nsf[i, 1], nsf[i, 2], ngf[i, 0],
+                               ngf[i, 1], ngf[i, 2], tan[i, 0], tan[i, 1], tan[i, 2],
+                               front[i], lam[i])
+    L = lobes[:n]
+    ix, iy, iz, w0, w1, w2, pdf, flags = closure.sample_lobes(
+        L, F, ngf[i, 0], ngf[i, 1], ngf[i, 2], u_lobe[i], u1[i], u2[i])
+    if flags == 0:
+        return
+    if flags & closure.LOBE_DELTA:
+        delta[i] = True
+    else:
+        f0, f1, f2 = w0 * pdf, w1 * pdf, w2 * pdf
+        _, _, _, g0, g1, g2, _ = closure.parts_at(L, F, ix, iy, iz, ngf[i, 0], ngf[i, 1],
+                                                  ngf[i, 2], False, True)
+        q = direct.continue_probability(f0, f1, f2, g0, g1, g2)
+        if not u_rr[i] < q:
+            return
+        k = 1.0 / (pdf * q)
+        w0, w1, w2 = g0 * k, g1 * k, g2 * k
+        new_pdf[i] = pdf * q
+    t0, t1, t2 = thr[i, 0] * w0, thr[i, 1] * w1, thr[i, 2] * w2
+    if not (t0 > 0.0 or t1 > 0.0 or t2 > 0.0):
+        return
+    below = ix * ngf[i, 0] + iy * ngf[i, 1] + iz * ngf[i, 2] < 0.0
+    side = -eps[i] if below else eps[i]
+    new_o[i, 0] = pos[i, 0] + side * ngf[i, 0]
+    new_o[i, 1] = pos[i, 1] + side * ngf[i, 1]
+    new_o[i, 2] = pos[i, 2] + side * ngf[i, 2]
+    new_d[i, 0], new_d[i, 1], new_d[i, 2] = ix, iy, iz
+    new_thr[i, 0], new_thr[i, 1], new_thr[i, 2] = t0, t1, t2
+    transmitted[i] = below
+    ok[i] = True
 
 
 @njit(cache=True, parallel=True, error_model="numpy")

@@ -137,6 +137,8 @@ OWN, CN = 25, 26
 NL = 29
 MAX_LOBES = 8  # per closure (Principled: sheen, coat, metal, 2 transmission, specular, 2 base)
 FR_NONE, FR_DIELECTRIC, FR_SCHLICK, FR_F82, FR_CONDUCTOR = range(5)
+ALBEDO_BLOCK = 256
+"""Hits a parallel task of ``diffuse_albedo``'s kernel shades with one lobe buffer."""
 
 
 @njit(cache=True, error_model="numpy")
@@ -1223,6 +1225,24 @@ def sample_bsdf_into(buffer, tab, m, c0, c1, c2, wox, woy, woz, nsx, nsy, nsz, n
         return 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0
     L = buffer[:_lobes_into(buffer, tab, m, c0, c1, c2, lox, loy, loz, entering, lam, ux, uy,
                             uz, bx, by, bz, nx, ny, nz)]
+    return _sample_built(L, ux, uy, uz, bx, by, bz, nx, ny, nz, lox, loy, loz, ngx, ngy, ngz,
+                         u_lobe, u1, u2)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def sample_lobes(L, F, ngx, ngy, ngz, u_lobe, u1, u2):
+    """``sample_bsdf`` from the lobes L and frame F that ``hit_lobes_into`` built at the
+    hit (the same rows ``sample_bsdf`` would build), so that a kernel which then evaluates
+    the sampled direction (``parts_at``) builds them once."""
+    return _sample_built(L, F[0], F[1], F[2], F[3], F[4], F[5], F[6], F[7], F[8], F[9], F[10],
+                         F[11], ngx, ngy, ngz, u_lobe, u1, u2)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _sample_built(L, ux, uy, uz, bx, by, bz, nx, ny, nz, lox, loy, loz, ngx, ngy, ngz, u_lobe,
+                  u1, u2):
+    """The sampling half of ``sample_bsdf_into``: pick a lobe of L (rows built in the frame
+    u, b, n with wo's local coordinates lo) by the sample weights and sample it."""
     total = 0.0
     for k in range(L.shape[0]):
         total += L[k, SW]
@@ -1327,7 +1347,16 @@ def sample_delta(tab, m, c0, c1, c2, wox, woy, woz, nsx, nsy, nsz, ngx, ngy, ngz
 def albedo(tab, m, c0, c1, c2, wox, woy, woz, nsx, nsy, nsz):
     """Directional albedo at wo: (d0, d1, d2, a0, a1, a2): the diffuse-like lobes' part
     (Lambert, Oren-Nayar, translucent, sheen; 0 when material m has none: no photon is
-    stored there) and the whole material's (RGB, estimates from the albedo tables)."""
+    stored there) and the whole material's (RGB, estimates from the albedo tables). A
+    kernel over many hits builds the lobes in a ``lobe_buffer`` of its own
+    (``albedo_into``)."""
+    return albedo_into(_material_buffer(tab, m), tab, m, c0, c1, c2, wox, woy, woz, nsx,
+                       nsy, nsz)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def albedo_into(buffer, tab, m, c0, c1, c2, wox, woy, woz, nsx, nsy, nsz):
+    """``albedo`` with material m's lobes built in ``buffer`` (a ``lobe_buffer``)."""
     cz = nsx * wox + nsy * woy + nsz * woz
     if cz < 0.0:
         nsx, nsy, nsz = -nsx, -nsy, -nsz
@@ -1335,8 +1364,8 @@ def albedo(tab, m, c0, c1, c2, wox, woy, woz, nsx, nsy, nsz):
     ux, uy, uz, bx, by, bz = frame(nsx, nsy, nsz, 1.0, 0.0, 0.0)
     lox = wox * ux + woy * uy + woz * uz
     loy = wox * bx + woy * by + woz * bz
-    L = _lobes(tab, m, c0, c1, c2, lox, loy, max(cz, 1e-7), True, 0.0, ux, uy, uz,
-               bx, by, bz, nsx, nsy, nsz)
+    L = buffer[:_lobes_into(buffer, tab, m, c0, c1, c2, lox, loy, max(cz, 1e-7), True, 0.0,
+                            ux, uy, uz, bx, by, bz, nsx, nsy, nsz)]
     d0 = d1 = d2 = a0 = a1 = a2 = 0.0
     for k in range(L.shape[0]):
         e = L[k, EST]
@@ -1360,10 +1389,14 @@ def albedo(tab, m, c0, c1, c2, wox, woy, woz, nsx, nsy, nsz):
 
 @njit(cache=True, parallel=True, error_model="numpy")
 def _diffuse_albedo_kernel(tab, rows, texel, d, ns, out):
-    for i in prange(rows.shape[0]):
-        a0, a1, a2, _, _, _ = albedo(tab, rows[i], texel[i, 0], texel[i, 1], texel[i, 2],
-                                     -d[i, 0], -d[i, 1], -d[i, 2], ns[i, 0], ns[i, 1], ns[i, 2])
-        out[i, 0], out[i, 1], out[i, 2] = a0, a1, a2
+    n = rows.shape[0]
+    for block in prange((n + ALBEDO_BLOCK - 1) // ALBEDO_BLOCK):
+        lobes = lobe_buffer(tab)  # the block's scratch: no allocation per hit
+        for i in range(block * ALBEDO_BLOCK, min(n, (block + 1) * ALBEDO_BLOCK)):
+            a0, a1, a2, _, _, _ = albedo_into(lobes, tab, rows[i], texel[i, 0], texel[i, 1],
+                                              texel[i, 2], -d[i, 0], -d[i, 1], -d[i, 2],
+                                              ns[i, 0], ns[i, 1], ns[i, 2])
+            out[i, 0], out[i, 1], out[i, 2] = a0, a1, a2
 
 
 def diffuse_albedo(tab: ClosureTable, rows, texel, d, ns) -> np.ndarray:
