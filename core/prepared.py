@@ -754,16 +754,15 @@ class HitShader:
         materials' hits (``layered``) replaced by their closures' diffuse albedo
         (``closure.diffuse_albedo``: what the photon maps continue there); (tab, rows)
         from ``closures_at``, texel (N, 3), d (N, 3) the arriving directions, ns (N, 3)
-        the shading normals (at layered hits taken on the viewer's side). ``albedo``
+        the shading normals (either side: the viewer's is taken). ``albedo``
         itself when no hit is programmed or layered."""
         layered = self.layered[mat]
         redo = layered if rows is mat else (rows != mat) | layered
         if not redo.any():
             return albedo
         shaded = np.flatnonzero(redo)
+        # (closure.albedo takes ns on the viewer's side itself)
         d, ns = np.asarray(d)[shaded], np.asarray(ns, np.float64)[shaded]
-        away = layered[shaded] & (np.einsum("ij,ij->i", d, ns) > 0)
-        ns = np.where(away[:, None], -ns, ns)
         out = np.array(albedo, np.float64, copy=True)
         out[shaded] = closure.diffuse_albedo(tab, rows[shaded], texel[shaded], d, ns)
         return out
