@@ -122,14 +122,22 @@ def _delta_kernel(tab, pos, ngf, nsf, tan, d, front, mat, eps, texel, thr, lam, 
             tan[i, 0], tan[i, 1], tan[i, 2], front[i], u_lobe[i], u_pick[i], u_pick[i], lam[i])
         t0, t1, t2 = thr[i, 0] * w0, thr[i, 1] * w1, thr[i, 2] * w2
         ok[i] = flags != 0 and (t0 > 0.0 or t1 > 0.0 or t2 > 0.0)
-        tr = ox * ngf[i, 0] + oy * ngf[i, 1] + oz * ngf[i, 2] < 0.0
-        side = -eps[i] if tr else eps[i]
-        new_o[i, 0] = pos[i, 0] + side * ngf[i, 0]
-        new_o[i, 1] = pos[i, 1] + side * ngf[i, 1]
-        new_o[i, 2] = pos[i, 2] + side * ngf[i, 2]
-        new_d[i, 0], new_d[i, 1], new_d[i, 2] = ox, oy, oz
-        new_thr[i, 0], new_thr[i, 1], new_thr[i, 2] = t0, t1, t2
-        transmitted[i] = tr
+        transmitted[i] = _next_ray(pos, ngf, eps, i, ox, oy, oz, t0, t1, t2, new_o, new_d,
+                                   new_thr)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _next_ray(pos, ngf, eps, i, ox, oy, oz, t0, t1, t2, new_o, new_d, new_thr):
+    """Write hit i's next ray (origin offset by eps[i] along the geometric normal to the
+    direction's side, direction o, throughput t); returns whether it goes through."""
+    below = ox * ngf[i, 0] + oy * ngf[i, 1] + oz * ngf[i, 2] < 0.0
+    side = -eps[i] if below else eps[i]
+    new_o[i, 0] = pos[i, 0] + side * ngf[i, 0]
+    new_o[i, 1] = pos[i, 1] + side * ngf[i, 1]
+    new_o[i, 2] = pos[i, 2] + side * ngf[i, 2]
+    new_d[i, 0], new_d[i, 1], new_d[i, 2] = ox, oy, oz
+    new_thr[i, 0], new_thr[i, 1], new_thr[i, 2] = t0, t1, t2
+    return below
 
 
 def follow_delta(prepared: PreparedScene, pos, ngf, nsf, d, front, mat, eps, texel, u_lobe,
@@ -221,14 +229,7 @@ def _continue_one(tab, lobes, F, pos, ngf, nsf, tan, d, front, mat, eps, texel, 
     t0, t1, t2 = thr[i, 0] * w0, thr[i, 1] * w1, thr[i, 2] * w2
     if not (t0 > 0.0 or t1 > 0.0 or t2 > 0.0):
         return
-    below = ix * ngf[i, 0] + iy * ngf[i, 1] + iz * ngf[i, 2] < 0.0
-    side = -eps[i] if below else eps[i]
-    new_o[i, 0] = pos[i, 0] + side * ngf[i, 0]
-    new_o[i, 1] = pos[i, 1] + side * ngf[i, 1]
-    new_o[i, 2] = pos[i, 2] + side * ngf[i, 2]
-    new_d[i, 0], new_d[i, 1], new_d[i, 2] = ix, iy, iz
-    new_thr[i, 0], new_thr[i, 1], new_thr[i, 2] = t0, t1, t2
-    transmitted[i] = below
+    transmitted[i] = _next_ray(pos, ngf, eps, i, ix, iy, iz, t0, t1, t2, new_o, new_d, new_thr)
     ok[i] = True
 
 

@@ -209,14 +209,18 @@ def test_white_furnace_rough_glass_multiscatter(entering):
         assert np.all(np.abs(mean - 1) < 0.02), (entering, theta, mean)
 
 
-def test_furnace_independent_of_the_sampler(tab):
-    """The same albedo by uniform sphere sampling of eval_bsdf (not the lobe samplers)."""
-    rng = np.random.default_rng(9)
-    n = 400_000
+def _uniform_sphere(rng, n):
+    """(n, 3) unit directions uniform over the sphere (pdf 1 / 4 pi)."""
     z = rng.uniform(-1, 1, n)
     ph = rng.uniform(0, 2 * np.pi, n)
     r = np.sqrt(1 - z * z)
-    wi = np.stack([r * np.cos(ph), r * np.sin(ph), z], -1)
+    return np.stack([r * np.cos(ph), r * np.sin(ph), z], -1)
+
+
+def test_furnace_independent_of_the_sampler(tab):
+    """The same albedo by uniform sphere sampling of eval_bsdf (not the lobe samplers)."""
+    n = 400_000
+    wi = _uniform_sphere(np.random.default_rng(9), n)
     for name in ["lambert", "oren_nayar", "glossy_multi_0.6", "glass_0.6", "principled_layers"]:
         m = NAMES.index(name)
         wo = _wo(40.0)
@@ -241,10 +245,7 @@ def test_rough_glass_eval_holds_only_what_its_sampler_reaches(entering, theta):
                                            distribution=cl.DISTRIBUTION_GGX))]}]))
     rng = np.random.default_rng(12)
     n = 600_000
-    z = rng.uniform(-1, 1, n)
-    ph = rng.uniform(0, 2 * np.pi, n)
-    r = np.sqrt(1 - z * z)
-    wi = np.stack([r * np.cos(ph), r * np.sin(ph), z], -1)
+    wi = _uniform_sphere(rng, n)
     wo = _wo(theta)
     f = closure.eval_many(t, 0, wo, wi, N_UP, N_UP, TANGENT, entering)[:, 0] * 4 * np.pi
     s = closure.sample_many(t, 0, wo, N_UP, N_UP, TANGENT, entering, rng.random((n, 3)))
