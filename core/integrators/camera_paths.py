@@ -44,8 +44,6 @@ DIM_JITTER = sampling.stream(sampling.PIXEL_JITTER, sampling.PROGRESSIVE)
 """The random dimension of the progressive camera rays' pixel jitter."""
 DIM_LENS = sampling.stream(sampling.PIXEL_JITTER, sampling.PROGRESSIVE + 1)
 """The random dimension of the progressive camera rays' point on the lens (depth of field)."""
-CONTINUE_BLOCK = 256
-"""Hits a parallel task of ``_continue_kernel`` continues with one lobe buffer."""
 
 
 def dim_lobe(depth: int) -> int:
@@ -185,10 +183,11 @@ def _continue_kernel(tab, pos, ngf, nsf, tan, d, front, mat, eps, texel, thr, la
     share), and new_pdf is the sampling pdf times that probability (for MIS). The hit's
     lobes are built once (``closure.hit_lobes_into``) for the sample and the glossy part."""
     n_points = pos.shape[0]
-    for block in prange((n_points + CONTINUE_BLOCK - 1) // CONTINUE_BLOCK):
+    size = closure.LOBE_BLOCK
+    for block in prange((n_points + size - 1) // size):
         lobes = closure.lobe_buffer(tab)  # the block's scratch: no allocation per hit
         F = np.empty(12)
-        for i in range(block * CONTINUE_BLOCK, min(n_points, (block + 1) * CONTINUE_BLOCK)):
+        for i in range(block * size, min(n_points, (block + 1) * size)):
             _continue_one(tab, lobes, F, pos, ngf, nsf, tan, d, front, mat, eps, texel, thr,
                           lam, u_lobe, u1, u2, u_rr, new_o, new_d, new_thr, new_pdf,
                           transmitted, delta, ok, i)

@@ -38,8 +38,6 @@ from ..prepared import PreparedScene
 from ..settings import RenderSettings
 
 SOURCE_LIGHT, SOURCE_TRIANGLES, SOURCE_WORLD = 0, 1, 2
-POINT_BLOCK = 256
-"""Points a parallel task of ``_shade_kernel`` shades with one lobe buffer."""
 SHADE_SLOTS = 1 << 20
 """Most (point, light sample) slots of one ``_shade_kernel`` call (~53 bytes each: its
 contribution and shadow ray): ``shade`` hands the kernel as many of its (source, light
@@ -78,10 +76,11 @@ def _shade_kernel(pair_source, pair_q, pair_dim, pair_pick_dim, pair_k, pair_dif
     fmax = 3.0e38
     scale = 1.0 / k_count
     n_points = pos.shape[0]
-    for block in prange((n_points + POINT_BLOCK - 1) // POINT_BLOCK):
+    size = closure.LOBE_BLOCK
+    for block in prange((n_points + size - 1) // size):
         lobes = closure.lobe_buffer(tab)  # the block's scratch: no allocation per point
         F = np.empty(12)
-        for i in range(block * POINT_BLOCK, min(n_points, (block + 1) * POINT_BLOCK)):
+        for i in range(block * size, min(n_points, (block + 1) * size)):
             px, py, pz = pos[i, 0], pos[i, 1], pos[i, 2]
             m = mat[i]
             wox, woy, woz = -d[i, 0], -d[i, 1], -d[i, 2]

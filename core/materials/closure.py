@@ -137,8 +137,9 @@ OWN, CN = 25, 26
 NL = 29
 MAX_LOBES = 8  # per closure (Principled: sheen, coat, metal, 2 transmission, specular, 2 base)
 FR_NONE, FR_DIELECTRIC, FR_SCHLICK, FR_F82, FR_CONDUCTOR = range(5)
-ALBEDO_BLOCK = 256
-"""Hits a parallel task of ``diffuse_albedo``'s kernel shades with one lobe buffer."""
+LOBE_BLOCK = 256
+"""Hits a parallel task of a kernel shades with one ``lobe_buffer`` (the direct-light,
+continuation and diffuse-albedo kernels: one allocation per block, not per hit)."""
 
 
 @njit(cache=True, error_model="numpy")
@@ -1390,9 +1391,9 @@ def albedo_into(buffer, tab, m, c0, c1, c2, wox, woy, woz, nsx, nsy, nsz):
 @njit(cache=True, parallel=True, error_model="numpy")
 def _diffuse_albedo_kernel(tab, rows, texel, d, ns, out):
     n = rows.shape[0]
-    for block in prange((n + ALBEDO_BLOCK - 1) // ALBEDO_BLOCK):
+    for block in prange((n + LOBE_BLOCK - 1) // LOBE_BLOCK):
         lobes = lobe_buffer(tab)  # the block's scratch: no allocation per hit
-        for i in range(block * ALBEDO_BLOCK, min(n, (block + 1) * ALBEDO_BLOCK)):
+        for i in range(block * LOBE_BLOCK, min(n, (block + 1) * LOBE_BLOCK)):
             a0, a1, a2, _, _, _ = albedo_into(lobes, tab, rows[i], texel[i, 0], texel[i, 1],
                                               texel[i, 2], -d[i, 0], -d[i, 1], -d[i, 2],
                                               ns[i, 0], ns[i, 1], ns[i, 2])
