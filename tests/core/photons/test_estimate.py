@@ -129,6 +129,32 @@ def test_radiance_albedo_and_brdf_paths_agree(rng):
     np.testing.assert_allclose(got, want, rtol=1e-5)
 
 
+def test_large_k_needs_no_neighbour_arrays(rng):
+    """k = 2048 at 4096 points: the estimate keeps O(k) scratch per thread, not (M, k)
+    neighbour arrays (100 MB here; 7.9 GB per 65,536 points at the settings' k = 10,000),
+    and still equals the brute-force sum over the k nearest."""
+    import tracemalloc
+
+    positions, flux, directions = uniform_field(rng, side=140)
+    pm = PhotonMap(positions, flux, directions)
+    points, normals = interior_points(rng, m=4096)
+    k = 2048
+    estimate.irradiance(pm, points[:8], normals[:8], k, np.inf)  # compile outside the trace
+    tracemalloc.start()
+    try:
+        got = estimate.irradiance(pm, points, normals, k, np.inf)
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert peak < 8 << 20, f"{peak / 2**20:.1f} MiB traced"
+    stored = pm.flux.astype(np.float64)
+    for i in range(4):
+        d2 = np.sum((pm.positions - points[i]) ** 2, axis=1, dtype=np.float32)
+        near = np.argsort(d2, kind="stable")[:k]
+        want = stored[near].sum(axis=0) / (math.pi * np.float64(d2[near[-1]]))
+        np.testing.assert_allclose(got[i], want, rtol=1e-5)
+
+
 def test_k_photons_on_the_point_is_an_error():
     positions = np.zeros((10, 3), np.float32)
     pm = PhotonMap(positions, np.ones((10, 3)), np.tile(UP, (10, 1)))
