@@ -141,6 +141,8 @@ def glossy(reader, node) -> Closure:
     color, tex, tint = reader.textured_color(node, "Color")
     roughness = _roughness(reader, node)
     reader.ignored_links(node, "Normal", "Tangent")
+    if getattr(node, "distribution", "GGX") == "ASHIKHMIN_SHIRLEY":
+        reader.note_node(node, 'glossy distribution "ASHIKHMIN_SHIRLEY" is rendered as GGX')
     values = dict(color=color, roughness=roughness,
                   anisotropic=reader.ranged(node, "Anisotropy", -1.0, 1.0, default=0.0),
                   anisotropic_rotation=reader.ranged(node, "Rotation", -INF, INF, default=0.0),

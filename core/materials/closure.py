@@ -31,7 +31,8 @@ What each closure becomes (Cycles 4.x/5.x, kernel/svm/closure.h):
 - Diffuse: Lambert, or Oren-Nayar (oren_nayar.py) when Roughness > 1e-5;
 - Glossy: GGX reflection (microfacet.py), anisotropic along the tangent (rotated by
   Anisotropic Rotation), no Fresnel, multiscatter compensated for Multiscatter GGX;
-  Beckmann and Ashikhmin-Shirley are rendered as GGX of the same roughness;
+  Beckmann is Beckmann (D sampled, no compensation, as Cycles); Ashikhmin-Shirley is
+  rendered as GGX of the same roughness;
 - Glass: rough dielectric, generalized Schlick "real curve" Fresnel, COLOR tinting both;
   Refraction: the transmission alone, no Fresnel; Translucent: Lambert on the far side;
 - Sheen: the Microfiber LTC (sheen.py); Metallic: GGX with F82 tint or the physical
