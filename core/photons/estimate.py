@@ -307,12 +307,12 @@ def _lambert_sum(tree, flux_codes, direction_codes, heap, c, r2, fbuf, ubuf, px,
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _gather_disc(tree, axis, depth, px, py, pz, k, search_r2, growth, max_r2, heap, fbuf,
-                 ubuf, stack_i, stack_f, prev):
-    """The k nearest photons of p within search_r2 (``kdtree.knn_search_coherent``), sorted
-    by (distance, index) in heap: (count, squared disc radius ``disc_radius2``; -1 when none
+def _gather_disc(tree, axis, depth, px, py, pz, k, max_r2, growth, heap, fbuf, ubuf, stack_i,
+                 stack_f, prev):
+    """The k nearest photons of p within max_r2 (``kdtree.knn_search_coherent``), sorted by
+    (distance, index) in heap: (count, squared disc radius ``disc_radius2``; -1 when none
     were found, 0 for k photons exactly on p)."""
-    c = kdtree.knn_search_coherent(tree, axis, depth, px, py, pz, k, search_r2, growth, heap,
+    c = kdtree.knn_search_coherent(tree, axis, depth, px, py, pz, k, max_r2, growth, heap,
                                    fbuf, ubuf, stack_i, stack_f, prev)
     if c == 0:
         return 0, -1.0
@@ -323,10 +323,9 @@ def _gather_disc(tree, axis, depth, px, py, pz, k, search_r2, growth, max_r2, he
 
 @njit(cache=True, parallel=True, error_model="numpy")
 def _estimate_kernel(tree, axis, depth, flux_codes, inv_scale, direction_codes, points, order,
-                     k, search_r2, growth, normals, albedo, max_r2, kind, k_cone,
-                     plane_fraction, out):
+                     k, max_r2, growth, normals, albedo, kind, k_cone, plane_fraction, out):
     """out[s, i] = albedo[i] / pi * E(points[i]) on the side of normals[s, i]: the k
-    nearest photons within search_r2 (``kdtree.knn_search_coherent``, queries visited in
+    nearest photons within max_r2 (``kdtree.knn_search_coherent``, queries visited in
     ``order``), sorted by (distance, index) and summed in that order, without (M, k)
     neighbour arrays. normals (S, M, 3) float64 non-zero; out (S, M, 3) float64.
     Returns the number of zero-area discs holding photons."""
@@ -339,8 +338,8 @@ def _estimate_kernel(tree, axis, depth, flux_codes, inv_scale, direction_codes, 
         for t in range(b * kdtree.QUERY_BLOCK, min(m, (b + 1) * kdtree.QUERY_BLOCK)):
             i = order[t]
             px, py, pz = points[i, 0], points[i, 1], points[i, 2]
-            c, r2 = _gather_disc(tree, axis, depth, px, py, pz, k, search_r2, growth, max_r2,
-                                 heap, fbuf, ubuf, stack_i, stack_f, prev)
+            c, r2 = _gather_disc(tree, axis, depth, px, py, pz, k, max_r2, growth, heap, fbuf,
+                                 ubuf, stack_i, stack_f, prev)
             out[:, i, :] = 0.0
             if c == 0:
                 continue
@@ -369,8 +368,8 @@ def _estimate(photon_map: PhotonMap, points, normals, albedo, k, max_radius, kin
     with numba.parallel_chunksize(1):
         return _estimate_kernel(tree, axis, depth, flux_codes, 1.0 / scale, direction_codes,
                                 points, order, k, squared_radius(max_radius),
-                                kdtree.search_growth(k), normals, albedo,
-                                squared_radius(max_radius), kind, k_cone, plane_fraction, out)
+                                kdtree.search_growth(k), normals, albedo, kind, k_cone,
+                                plane_fraction, out)
 
 
 class BsdfHits(NamedTuple):
@@ -422,8 +421,8 @@ class BsdfHits(NamedTuple):
 
 @njit(cache=True, parallel=True, error_model="numpy")
 def _bsdf_estimate_kernel(tree, axis, depth, flux_codes, inv_scale, direction_codes, points,
-                          order, k, search_r2, growth, normals, tab, mat, texel, wo, ns, tan,
-                          front, lam, max_r2, kind, k_cone, plane_fraction, out):
+                          order, k, max_r2, growth, normals, tab, mat, texel, wo, ns, tan,
+                          front, lam, kind, k_cone, plane_fraction, out):
     """out[i] = sum_p f_d(wo_i, w_p) w_p Phi_p (W/(m^2 sr)) over the gathered photons of
     both sides of normals[i] (the geometric normal facing the viewer), gathered and summed
     as ``_estimate_kernel`` does, the closures built at wavelength lam[i] nm (0: RGB);
@@ -437,8 +436,8 @@ def _bsdf_estimate_kernel(tree, axis, depth, flux_codes, inv_scale, direction_co
         for t in range(b * kdtree.QUERY_BLOCK, min(m, (b + 1) * kdtree.QUERY_BLOCK)):
             i = order[t]
             px, py, pz = points[i, 0], points[i, 1], points[i, 2]
-            c, r2 = _gather_disc(tree, axis, depth, px, py, pz, k, search_r2, growth, max_r2,
-                                 heap, fbuf, ubuf, stack_i, stack_f, prev)
+            c, r2 = _gather_disc(tree, axis, depth, px, py, pz, k, max_r2, growth, heap, fbuf,
+                                 ubuf, stack_i, stack_f, prev)
             out[i, 0] = 0.0
             out[i, 1] = 0.0
             out[i, 2] = 0.0
@@ -512,7 +511,7 @@ def radiance_estimate(photon_map: PhotonMap, points: np.ndarray, normals: np.nda
         bad = _bsdf_estimate_kernel(tree, axis, depth, flux_codes, 1.0 / scale, direction_codes,
                                     points32, order, k, r2, kdtree.search_growth(k), normals,
                                     bsdf.closures, mat, texel, wo, ns, bsdf.tangents(), front,
-                                    bsdf.wavelengths(), r2, FILTERS[filter], CONE_K,
+                                    bsdf.wavelengths(), FILTERS[filter], CONE_K,
                                     float(plane_fraction), out)
     _raise_degenerate(bad)
     return out
