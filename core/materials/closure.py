@@ -1086,6 +1086,37 @@ def eval_bsdf(tab, m, c0, c1, c2, wox, woy, woz, wix, wiy, wiz, nsx, nsy, nsz,
 
 
 @njit(cache=True, error_model="numpy", inline="always")
+def _adjoint_lobes(buffer, tab, m, c0, c1, c2, wox, woy, woz, wix, wiy, wiz, nsx, nsy, nsz,
+                   ngx, ngy, ngz, tx, ty, tz, entering, lam):
+    """Material m's lobes with the viewer at wi (``adjoint_weight``'s doc), built in
+    ``buffer``: (L, lix, liy, liz, lox, loy, loz) in their frame, L empty where wi or wo
+    lies on the wrong side of the shading normal."""
+    transmit = (wix * ngx + wiy * ngy + wiz * ngz) * (wox * ngx + woy * ngy + woz * ngz) < 0.0
+    if transmit:  # the frame and the dielectric's side of the viewer, wi
+        nsx, nsy, nsz, ngx, ngy, ngz = -nsx, -nsy, -nsz, -ngx, -ngy, -ngz
+        entering = not entering
+    ux, uy, uz, bx, by, bz, nx, ny, nz = _local(nsx, nsy, nsz, ngx, ngy, ngz, tx, ty, tz,
+                                                wix, wiy, wiz)
+    liz = wix * nx + wiy * ny + wiz * nz
+    lix, liy = wix * ux + wiy * uy + wiz * uz, wix * bx + wiy * by + wiz * bz
+    lox, loy, loz = wox * ux + woy * uy + woz * uz, wox * bx + woy * by + woz * bz, \
+        wox * nx + woy * ny + woz * nz
+    if liz <= 0.0 or ((loz >= 0.0) if transmit else (loz <= 0.0)):
+        return buffer[:0], lix, liy, liz, lox, loy, loz
+    n = _lobes_into(buffer, tab, m, c0, c1, c2, lix, liy, liz, entering, lam, ux, uy, uz, bx,
+                    by, bz, nx, ny, nz)
+    L = buffer[:n]
+    if transmit:
+        for k in range(n):
+            if int(L[k, T]) == L_DIELECTRIC:
+                e2 = L[k, ETA] * L[k, ETA]
+                L[k, W] /= e2
+                L[k, W + 1] /= e2
+                L[k, W + 2] /= e2
+    return L, lix, liy, liz, lox, loy, loz
+
+
+@njit(cache=True, error_model="numpy", inline="always")
 def adjoint_weight(buffer, tab, m, c0, c1, c2, wox, woy, woz, wix, wiy, wiz, nsx, nsy, nsz,
                    ngx, ngy, ngz, tx, ty, tz, entering, pdf, lam):
     """A photon's weight for a direction it sampled with ``sample_bsdf_into`` (wo toward
@@ -1103,33 +1134,64 @@ def adjoint_weight(buffer, tab, m, c0, c1, c2, wox, woy, woz, wix, wiy, wiz, nsx
     eta from wi's side; camera paths drop the eta^2 of radiance, Cycles' convention, and
     a photon's flux carries none): its rows are divided by eta_wi^2, so that without
     multiscatter compensation the weight is the sampler's. ``buffer``: a ``lobe_buffer``."""
-    transmit = (wix * ngx + wiy * ngy + wiz * ngz) * (wox * ngx + woy * ngy + woz * ngz) < 0.0
-    if transmit:  # the frame and the dielectric's side of the viewer, wi
-        nsx, nsy, nsz, ngx, ngy, ngz = -nsx, -nsy, -nsz, -ngx, -ngy, -ngz
-        entering = not entering
-    ux, uy, uz, bx, by, bz, nx, ny, nz = _local(nsx, nsy, nsz, ngx, ngy, ngz, tx, ty, tz,
-                                                wix, wiy, wiz)
-    liz = wix * nx + wiy * ny + wiz * nz
-    if liz <= 0.0:
+    L, lix, liy, liz, lox, loy, loz = _adjoint_lobes(
+        buffer, tab, m, c0, c1, c2, wox, woy, woz, wix, wiy, wiz, nsx, nsy, nsz, ngx, ngy,
+        ngz, tx, ty, tz, entering, lam)
+    if L.shape[0] == 0:
         return 0.0, 0.0, 0.0
-    lix, liy = wix * ux + wiy * uy + wiz * uz, wix * bx + wiy * by + wiz * bz
-    lox, loy, loz = wox * ux + woy * uy + woz * uz, wox * bx + woy * by + woz * bz, \
-        wox * nx + woy * ny + woz * nz
-    if (loz >= 0.0) if transmit else (loz <= 0.0):
-        return 0.0, 0.0, 0.0
-    n = _lobes_into(buffer, tab, m, c0, c1, c2, lix, liy, liz, entering, lam, ux, uy, uz, bx,
-                    by, bz, nx, ny, nz)
-    L = buffer[:n]
-    if transmit:
-        for k in range(n):
-            if int(L[k, T]) == L_DIELECTRIC:
-                e2 = L[k, ETA] * L[k, ETA]
-                L[k, W] /= e2
-                L[k, W + 1] /= e2
-                L[k, W + 2] /= e2
     f0, f1, f2, _ = lobes_eval(L, lix, liy, liz, lox, loy, loz)
     q = liz / (abs(loz) * pdf)  # f |cos wo| -> f |cos wi| / pdf
     return f0 * q, f1 * q, f2 * q
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def class_weight(buffer, tab, m, c0, c1, c2, wox, woy, woz, wix, wiy, wiz, nsx, nsy, nsz,
+                 ngx, ngy, ngz, tx, ty, tz, entering, diffuse, lam):
+    """A photon's weight at a material with both diffuse-like and other lobes, for a
+    direction wi it sampled from one of its non-delta lobes (``sample_bsdf_into``, wo toward
+    where it came from): f_c(wi, wo) |cos(ns, wi)| / p_c(wi), c the class of the lobe it
+    sampled (the diffuse-like lobes when ``diffuse``, else the others), f_c that class's
+    lobes with the viewer on the photon's outgoing side (``adjoint_weight``) and p_c the
+    probability density of picking a lobe of that class and sampling wi from it.
+
+    Why not ``adjoint_weight``'s f / p over all lobes: photon paths are told apart by the
+    class of their bounces (the caustic map keeps light -> glossy / specular+ -> diffuse,
+    final gathering and the preview's global map the rest), and f / p weighs a glossy-class
+    bounce with the diffuse lobes' f too. A Principled wall's glossy-class photons then carried
+    part of its diffuse reflection into the caustic map, which final gathering also counts
+    (a red coated object's caustics on the floor came out 10x Cycles' in red). Per class,
+    each map holds its own light and the two classes still sum to the whole BSDF (the class
+    picked with probability S_c, then wi from its lobes: E = the integral of f_c |cos|).
+    RGB; 0, 0, 0 where no lobe of the class reaches wi. ``buffer``: a ``lobe_buffer``."""
+    ux, uy, uz, bx, by, bz, nx, ny, nz = _local(nsx, nsy, nsz, ngx, ngy, ngz, tx, ty, tz,
+                                                wox, woy, woz)
+    lox, loy, loz = wox * ux + woy * uy + woz * uz, wox * bx + woy * by + woz * bz, \
+        wox * nx + woy * ny + woz * nz
+    if loz <= 0.0:
+        return 0.0, 0.0, 0.0
+    L = buffer[:_lobes_into(buffer, tab, m, c0, c1, c2, lox, loy, loz, entering, lam, ux, uy,
+                            uz, bx, by, bz, nx, ny, nz)]
+    lix, liy, liz = wix * ux + wiy * uy + wiz * uz, wix * bx + wiy * by + wiz * bz, \
+        wix * nx + wiy * ny + wiz * nz
+    total = 0.0
+    for k in range(L.shape[0]):
+        total += L[k, SW]
+    pdf = 0.0
+    for k in range(L.shape[0]):
+        if (_lobe_flags(L, k) == LOBE_DIFFUSE) == diffuse:
+            pdf += L[k, SW] / total * lobe_eval(L, k, lox, loy, loz, lix, liy, liz)[3]
+    if not pdf > 0.0:
+        return 0.0, 0.0, 0.0
+    L, lix, liy, liz, lox, loy, loz = _adjoint_lobes(
+        buffer, tab, m, c0, c1, c2, wox, woy, woz, wix, wiy, wiz, nsx, nsy, nsz, ngx, ngy,
+        ngz, tx, ty, tz, entering, lam)
+    if L.shape[0] == 0:
+        return 0.0, 0.0, 0.0
+    d0, d1, d2, g0, g1, g2, _ = lobes_eval_parts(L, lix, liy, liz, lox, loy, loz, True)
+    q = liz / (abs(loz) * pdf)  # f |cos wo| -> f |cos wi| / p_c
+    if diffuse:
+        return d0 * q, d1 * q, d2 * q
+    return g0 * q, g1 * q, g2 * q
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -1476,6 +1538,28 @@ def adjoint_many(tab: ClosureTable, m: int, wo, wi, pdf, ns, ng, t,
     _vec_adjoint(tab, int(m), np.asarray(wo, np.float64), wi,
                  np.ascontiguousarray(pdf, np.float64).reshape(-1),
                  *(np.asarray(v, np.float64) for v in (ns, ng, t)), bool(entering), out)
+    return out
+
+
+@njit(cache=True, error_model="numpy")
+def _vec_class(tab, m, wo, wi, ns, ng, t, entering, diffuse, out):
+    buffer = lobe_buffer(tab)
+    for i in range(wi.shape[0]):
+        r = class_weight(buffer, tab, m, 1.0, 1.0, 1.0, wo[0], wo[1], wo[2], wi[i, 0],
+                         wi[i, 1], wi[i, 2], ns[0], ns[1], ns[2], ng[0], ng[1], ng[2],
+                         t[0], t[1], t[2], entering, diffuse[i], 0.0)
+        out[i, 0], out[i, 1], out[i, 2] = r[0], r[1], r[2]
+
+
+def class_many(tab: ClosureTable, m: int, wo, wi, diffuse, ns, ng, t,
+               entering: bool) -> np.ndarray:
+    """``class_weight`` for sampled directions wi (N, 3) whose lobes' classes are
+    ``diffuse`` (N,) bool, at one hit (texel colour 1, RGB path): (N, 3) float64."""
+    wi = np.ascontiguousarray(wi, np.float64).reshape(-1, 3)
+    out = np.empty((wi.shape[0], 3))
+    _vec_class(tab, int(m), np.asarray(wo, np.float64), wi,
+               *(np.asarray(v, np.float64) for v in (ns, ng, t)), bool(entering),
+               np.ascontiguousarray(diffuse, np.bool_).reshape(-1), out)
     return out
 
 

@@ -13,7 +13,11 @@ One numba kernel handles a whole wavefront (all photons of one bounce). Per phot
    lobe is dropped.
 3. The bounce: the same sampler as camera paths (``closure.sample_bsdf``, one per lobe:
    Lambert, GGX by visible normals, mirror, smooth dielectric; photons carry flux, so no
-   eta^2 factor), giving a direction and the weight w = f |cos| / pdf.
+   eta^2 factor), giving a direction and the weight w = f |cos| / pdf, f the BSDF with the
+   viewer on the photon's outgoing side (``closure.adjoint_weight``). At a material with
+   diffuse-like lobes beside glossy ones, f and pdf are those of the sampled lobe's class
+   (``closure.class_weight``): the bounce's class decides which map the photon's light
+   belongs to (below), so a glossy-class photon must not carry the diffuse lobes' light.
 4. Russian roulette on the sampled weight: the photon survives with p = min(1, max w)
    and its flux is multiplied by w / p per channel: a grey surface of albedo a keeps the
    photon's flux unchanged and absorbs it with probability 1 - a.
@@ -149,10 +153,17 @@ def _scatter_range(tri_v, tri_n, tri_mat, extent, tab, has_diffuse, has_specular
         if has_specular[m] and not flags & closure.LOBE_DELTA:
             # A glossy, rough-glass or layered material's reflection or transmission: the
             # light it sends on is its BSDF with the viewer on the outgoing side
-            # (closure.adjoint_weight; Lambert and delta lobes are reciprocal).
-            w0, w1, w2 = closure.adjoint_weight(
-                lobes, tab, row, c0, c1, c2, -dx, -dy, -dz, ox, oy, oz, sx, sy, sz, gx, gy,
-                gz, tx, ty, tz, entering, pdf, li)
+            # (closure.adjoint_weight; Lambert and delta lobes are reciprocal). With
+            # diffuse-like lobes beside the others, only the sampled class's
+            # (closure.class_weight): the maps tell paths apart by the class of their bounces.
+            if has_diffuse[m]:
+                w0, w1, w2 = closure.class_weight(
+                    lobes, tab, row, c0, c1, c2, -dx, -dy, -dz, ox, oy, oz, sx, sy, sz, gx,
+                    gy, gz, tx, ty, tz, entering, bool(flags & closure.LOBE_DIFFUSE), li)
+            else:
+                w0, w1, w2 = closure.adjoint_weight(
+                    lobes, tab, row, c0, c1, c2, -dx, -dy, -dz, ox, oy, oz, sx, sy, sz, gx,
+                    gy, gz, tx, ty, tz, entering, pdf, li)
         # Russian roulette on the sampled weight: survive with p = min(1, max w), the flux
         # times w / p (a grey surface of albedo a keeps the flux, absorbs with 1 - a).
         p = min(1.0, _max3(w0, w1, w2))
