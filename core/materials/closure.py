@@ -1520,46 +1520,37 @@ def eval_many(tab: ClosureTable, m: int, wo, wi, ns, ng, t, entering: bool) -> n
 
 
 @njit(cache=True, error_model="numpy")
-def _vec_adjoint(tab, m, wo, wi, pdf, ns, ng, t, entering, out):
+def _vec_photon(tab, m, wo, wi, pdf, diffuse, by_class, ns, ng, t, entering, out):
     buffer = lobe_buffer(tab)
     for i in range(wi.shape[0]):
-        r = adjoint_weight(buffer, tab, m, 1.0, 1.0, 1.0, wo[0], wo[1], wo[2], wi[i, 0],
-                           wi[i, 1], wi[i, 2], ns[0], ns[1], ns[2], ng[0], ng[1], ng[2],
-                           t[0], t[1], t[2], entering, pdf[i], 0.0)
+        if by_class:
+            r = class_weight(buffer, tab, m, 1.0, 1.0, 1.0, wo[0], wo[1], wo[2], wi[i, 0],
+                             wi[i, 1], wi[i, 2], ns[0], ns[1], ns[2], ng[0], ng[1], ng[2],
+                             t[0], t[1], t[2], entering, diffuse[i], 0.0)
+        else:
+            r = adjoint_weight(buffer, tab, m, 1.0, 1.0, 1.0, wo[0], wo[1], wo[2], wi[i, 0],
+                               wi[i, 1], wi[i, 2], ns[0], ns[1], ns[2], ng[0], ng[1], ng[2],
+                               t[0], t[1], t[2], entering, pdf[i], 0.0)
         out[i, 0], out[i, 1], out[i, 2] = r[0], r[1], r[2]
 
 
-def adjoint_many(tab: ClosureTable, m: int, wo, wi, pdf, ns, ng, t,
-                 entering: bool) -> np.ndarray:
-    """``adjoint_weight`` for sampled directions wi (N, 3) with pdfs (N,) at one hit
-    (texel colour 1, RGB path): (N, 3) float64."""
+def photon_weight_many(tab: ClosureTable, m: int, wo, wi, ns, ng, t, entering: bool, *,
+                       pdf=None, diffuse=None) -> np.ndarray:
+    """A photon's weight for sampled directions wi (N, 3) at one hit (texel colour 1, RGB
+    path): ``adjoint_weight`` with the samples' pdfs ``pdf`` (N,), or ``class_weight`` with
+    ``diffuse`` (N,) bool, the classes of the lobes they were sampled from (give one of
+    the two): (N, 3) float64."""
+    if (pdf is None) == (diffuse is None):
+        raise ValueError("photon_weight_many needs exactly one of pdf= or diffuse=")
     wi = np.ascontiguousarray(wi, np.float64).reshape(-1, 3)
-    out = np.empty((wi.shape[0], 3))
-    _vec_adjoint(tab, int(m), np.asarray(wo, np.float64), wi,
-                 np.ascontiguousarray(pdf, np.float64).reshape(-1),
-                 *(np.asarray(v, np.float64) for v in (ns, ng, t)), bool(entering), out)
-    return out
-
-
-@njit(cache=True, error_model="numpy")
-def _vec_class(tab, m, wo, wi, ns, ng, t, entering, diffuse, out):
-    buffer = lobe_buffer(tab)
-    for i in range(wi.shape[0]):
-        r = class_weight(buffer, tab, m, 1.0, 1.0, 1.0, wo[0], wo[1], wo[2], wi[i, 0],
-                         wi[i, 1], wi[i, 2], ns[0], ns[1], ns[2], ng[0], ng[1], ng[2],
-                         t[0], t[1], t[2], entering, diffuse[i], 0.0)
-        out[i, 0], out[i, 1], out[i, 2] = r[0], r[1], r[2]
-
-
-def class_many(tab: ClosureTable, m: int, wo, wi, diffuse, ns, ng, t,
-               entering: bool) -> np.ndarray:
-    """``class_weight`` for sampled directions wi (N, 3) whose lobes' classes are
-    ``diffuse`` (N,) bool, at one hit (texel colour 1, RGB path): (N, 3) float64."""
-    wi = np.ascontiguousarray(wi, np.float64).reshape(-1, 3)
-    out = np.empty((wi.shape[0], 3))
-    _vec_class(tab, int(m), np.asarray(wo, np.float64), wi,
-               *(np.asarray(v, np.float64) for v in (ns, ng, t)), bool(entering),
-               np.ascontiguousarray(diffuse, np.bool_).reshape(-1), out)
+    n = wi.shape[0]
+    out = np.empty((n, 3))
+    _vec_photon(tab, int(m), np.asarray(wo, np.float64), wi,
+                np.zeros(n) if pdf is None else np.ascontiguousarray(pdf, np.float64).reshape(-1),
+                np.zeros(n, np.bool_) if diffuse is None
+                else np.ascontiguousarray(diffuse, np.bool_).reshape(-1),
+                diffuse is not None, *(np.asarray(v, np.float64) for v in (ns, ng, t)),
+                bool(entering), out)
     return out
 
 

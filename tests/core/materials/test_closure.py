@@ -643,8 +643,8 @@ def test_photon_reflection_weight_is_the_adjoint_bsdf(tab, name):
         s = _samples(tab, name, wo, True, 200_000, seed=11)
         refl = (s[:, 7] > 0) & (s[:, 6] > 0) & (s[:, 2] > 0)
         w = np.zeros((s.shape[0], 3))
-        w[refl] = closure.adjoint_many(tab, m, wo, s[refl, :3], s[refl, 6], N_UP, N_UP,
-                                       TANGENT, True)
+        w[refl] = closure.photon_weight_many(tab, m, wo, s[refl, :3], N_UP, N_UP, TANGENT,
+                                             True, pdf=s[refl, 6])
         expected = _adjoint_albedo(tab, m, wo)
         np.testing.assert_allclose(w.mean(axis=0), expected, rtol=0.01, err_msg=f"{theta}")
         if name == "principled_default" and theta == 80.0:
@@ -687,13 +687,13 @@ def test_photon_class_weights_keep_diffuse_and_glossy_light_apart(tab, name):
         diffuse = (s[:, 7].astype(np.int64) & closure.LOBE_DIFFUSE) != 0
         expected = _adjoint_parts(tab, m, wo)
         whole = np.zeros((s.shape[0], 3))
-        whole[refl] = closure.adjoint_many(tab, m, wo, s[refl, :3], s[refl, 6], N_UP, N_UP,
-                                           TANGENT, True)
+        whole[refl] = closure.photon_weight_many(tab, m, wo, s[refl, :3], N_UP, N_UP,
+                                                 TANGENT, True, pdf=s[refl, 6])
         for part, mask, want in ((0, diffuse, expected[:3]), (1, ~diffuse, expected[3:])):
             w = np.zeros((s.shape[0], 3))
             sel = refl & mask
-            w[sel] = closure.class_many(tab, m, wo, s[sel, :3], diffuse[sel], N_UP, N_UP,
-                                        TANGENT, True)
+            w[sel] = closure.photon_weight_many(tab, m, wo, s[sel, :3], N_UP, N_UP, TANGENT,
+                                                True, diffuse=diffuse[sel])
             err = w.std(axis=0) / np.sqrt(len(w))
             assert np.all(np.abs(w.mean(axis=0) - want) < 0.02 * want + 4 * err), \
                 (theta, part, w.mean(axis=0), want)
@@ -719,8 +719,8 @@ def test_photon_transmission_weight_is_the_adjoint_bsdf(entering):
                                                distribution=dist))]}]))
         s = closure.sample_many(t, 0, wo, N_UP, N_UP, TANGENT, entering, u)
         through = (s[:, 7] > 0) & (s[:, 6] > 0) & (s[:, 2] < 0)
-        w = closure.adjoint_many(t, 0, wo, s[through, :3], s[through, 6], N_UP, N_UP, TANGENT,
-                                 entering)
+        w = closure.photon_weight_many(t, 0, wo, s[through, :3], N_UP, N_UP, TANGENT,
+                                       entering, pdf=s[through, 6])
         if dist == cl.DISTRIBUTION_GGX:
             np.testing.assert_allclose(w, s[through, 3:6], rtol=1e-9)
         means[dist] = (w[:, 0].sum() / u.shape[0], s[through, 3].sum() / u.shape[0])
